@@ -1,0 +1,34 @@
+"""serial_dynamics: fast, tested dynamics of serial manipulators from URDF.
+
+    import serial_dynamics as sd
+    robot = sd.load_urdf("arm.urdf", base_link="base_link", tip_link="tool0")
+    tau = robot.inverse_dynamics(q, qd, qdd)
+
+The core library never imports rclpy; the ROS 2 nodes live in ``serial_dynamics.ros``.
+"""
+from .dissipation import Dissipation
+from .model import Model, ModelError
+from .robot import Robot
+from .robots import builtin_path, builtin_robot, default_robot
+from .urdf import HeldJointsWarning, URDFError, load_model
+
+__all__ = ["load_urdf", "Robot", "Model", "Dissipation", "URDFError", "ModelError",
+           "HeldJointsWarning", "default_robot", "builtin_robot", "builtin_path", "simulate"]
+__version__ = "0.1.0"
+
+
+def load_urdf(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81)) -> Robot:
+    """Load the chain ``base_link`` -> ``tip_link`` of a URDF (file path or XML string).
+
+    ``base_link`` defaults to the URDF root, ``tip_link`` to the end of the chain when the
+    movable joints form a single path. ``gravity`` (m/s^2) is given in the URDF root's
+    frame and carried into the base frame. Raises ``URDFError`` / ``ModelError``.
+    """
+    return Robot(load_model(source, base_link, tip_link, gravity))
+
+
+def __getattr__(name):   # the simulator loads on first use
+    if name == "simulate":
+        from .simulate import simulate
+        return simulate
+    raise AttributeError(f"module 'serial_dynamics' has no attribute {name!r}")

@@ -1,0 +1,110 @@
+"""Joint dissipation (friction) models, per joint, as functions of the joint rate qd.
+
+Dissipation function Delta(qd) and generalized dissipative torques delta = -dDelta/dqd
+(Angeles, *Fundamentals of Robotic Mechanical Systems*, Sec. 7.8):
+
+    viscous                 delta = -beta qd                     Delta = 1/2 beta qd^2
+    Coulomb                 delta = -tau_c sgn(qd)               Delta = tau_c |qd|
+    Coulomb, low-speed rise delta = -(tau_c + eps e^{-gamma|qd|}) sgn(qd)
+                            Delta = tau_c |qd| + (eps/gamma)(1 - e^{-gamma|qd|})
+
+URDF ``<dynamics damping="beta" friction="tau_c"/>`` gives the defaults. Rigid-body
+methods never include these; the simulator and the nodes add them when enabled.
+The static (breakaway) torque of a joint is tau_c + eps.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+
+@dataclass(frozen=True, eq=False)
+class Dissipation:
+    """Per-joint coefficients, arrays of length n, all >= 0 (SI: N m s/rad, N m, s/rad)."""
+
+    joint_names: tuple
+    viscous: np.ndarray          # beta
+    coulomb: np.ndarray          # tau_c
+    stribeck: np.ndarray         # eps, extra static torque at rest
+    stribeck_rate: np.ndarray    # gamma, decay rate of the low-speed rise
+
+    FIELDS = ("viscous", "coulomb", "stribeck", "stribeck_rate")
+
+    def __post_init__(self):
+        n = len(self.joint_names)
+        for name in self.FIELDS:
+            a = np.array(getattr(self, name), dtype=float).reshape(-1)
+            if a.shape != (n,):
+                raise ValueError(f"dissipation {name} has {a.size} values; give one per joint "
+                                 f"({n}: {list(self.joint_names)})")
+            bad = np.flatnonzero(~np.isfinite(a) | (a < 0))
+            if bad.size:
+                raise ValueError(f"dissipation {name} of joint {self.joint_names[bad[0]]!r} is "
+                                 f"{a[bad[0]]}; coefficients must be finite and >= 0")
+            a.setflags(write=False)
+            object.__setattr__(self, name, a)
+
+    @classmethod
+    def from_model(cls, model):
+        """Defaults from the URDF: viscous = damping, Coulomb = friction, no low-speed rise."""
+        zero = np.zeros(model.dof)
+        return cls(model.joint_names, model.damping, model.friction, zero, zero)
+
+    @classmethod
+    def none(cls, joint_names):
+        zero = np.zeros(len(joint_names))
+        return cls(tuple(joint_names), zero, zero, zero, zero)
+
+    def override(self, **per_joint) -> "Dissipation":
+        """New model with some coefficients replaced, e.g.
+        ``override(coulomb={"elbow_joint": 2.0}, viscous=0.1)`` (a scalar sets every joint)."""
+        changes = {}
+        for name, values in per_joint.items():
+            if name not in self.FIELDS:
+                raise ValueError(f"unknown dissipation coefficient {name!r}; use {self.FIELDS}")
+            a = np.array(getattr(self, name))
+            if isinstance(values, dict):
+                for joint, v in values.items():
+                    if joint not in self.joint_names:
+                        raise ValueError(f"dissipation override names joint {joint!r}, which "
+                                         f"is not in the chain {list(self.joint_names)}")
+                    a[self.joint_names.index(joint)] = v
+            else:
+                a = np.broadcast_to(np.asarray(values, dtype=float), a.shape).copy()
+            changes[name] = a
+        return replace(self, **changes)
+
+    @property
+    def enabled(self) -> bool:
+        """False when every coefficient is zero (the term then costs nothing)."""
+        return any(np.any(getattr(self, f) > 0) for f in ("viscous", "coulomb", "stribeck"))
+
+    @property
+    def static_friction(self) -> np.ndarray:
+        """Breakaway torque at rest, tau_c + eps."""
+        return self.coulomb + self.stribeck
+
+    def _kinetic(self, speed):
+        return self.coulomb + self.stribeck * np.exp(-self.stribeck_rate * speed)
+
+    def torque(self, qd):
+        """delta(qd): dissipative joint torques (they oppose the motion); sgn(0) = 0."""
+        qd = np.asarray(qd, dtype=float)
+        return -self.viscous * qd - self._kinetic(np.abs(qd)) * np.sign(qd)
+
+    def smooth_torque(self, qd, v_eps=1e-3):
+        """delta with sgn(qd) regularized to tanh(qd / v_eps): continuous, for adaptive
+        integrators. The error against ``torque`` is below tau_s e^{-2|qd|/v_eps}."""
+        qd = np.asarray(qd, dtype=float)
+        return -self.viscous * qd - self._kinetic(np.abs(qd)) * np.tanh(qd / v_eps)
+
+    def function(self, qd):
+        """Delta(qd) summed over the joints (W); delta = -dDelta/dqd. (N, n) gives (N,)."""
+        qd = np.asarray(qd, dtype=float)
+        s = np.abs(qd)
+        g = self.stribeck_rate
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rise = np.where(g > 0, self.stribeck / np.where(g > 0, g, 1.0) * -np.expm1(-g * s),
+                            self.stribeck * s)   # limit gamma -> 0: eps |qd|
+        return np.sum(0.5 * self.viscous * qd**2 + self.coulomb * s + rise, axis=-1)

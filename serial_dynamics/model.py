@@ -1,0 +1,183 @@
+"""The immutable description of a serial chain (the *model*) and its validation.
+
+A ``Model`` is data: it is built once (by ``urdf.py`` or by hand), validated once,
+and never mutated by an algorithm. Every array is read-only and contiguous so that
+the algorithms (pure NumPy or compiled) can use it directly.
+
+Frames and conventions
+----------------------
+Body ``i`` (0-based, ``i = 0 .. n-1``) is the link moved by joint ``i``; its frame is
+the child frame of that joint in the URDF. The placement of joint ``i`` in body
+``i-1`` (body ``-1`` is the fixed base) is the rotation ``R_parent[i]`` and the
+translation ``p_parent[i]``, so that, with ``E(q)`` the joint motion,
+
+    X_{i-1 <- i}(q) = (R_parent[i], p_parent[i]) * E_i(q)
+
+    revolute:  E = (Rot(axis[i], q), 0)      prismatic: E = (1, axis[i] * q)
+
+``axis[i]`` is a unit vector in body ``i``'s frame (equal in the joint frame, since the
+joint motion leaves its axis fixed). Inertia of body ``i``: ``mass[i]``, center of mass
+``com[i]`` in body ``i``'s frame and the 3x3 rotational inertia ``inertia[i]`` about the
+center of mass, in body ``i``'s axes. ``gravity`` is in the base frame.
+``tip_R, tip_p`` place the tip frame (where a tip wrench acts) in the last body.
+``frames`` maps every named link of the model to ``(body, R, p)``: its placement in
+body ``body`` (``-1``: the base).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+REVOLUTE, PRISMATIC = 0, 1
+
+
+class ModelError(ValueError):
+    """The chain is not a valid dynamic model (bad inertia, singular mass matrix, ...)."""
+
+
+def _frozen(a, shape=None, dtype=float):
+    a = np.ascontiguousarray(np.array(a, dtype=dtype))
+    if shape is not None and a.shape != shape:
+        raise ModelError(f"expected an array of shape {shape}, got {a.shape}")
+    a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class Model:
+    """Immutable serial-chain model; see the module docstring for the conventions."""
+
+    name: str
+    joint_names: tuple
+    joint_types: tuple          # 'revolute' | 'continuous' | 'prismatic' (as in the URDF)
+    link_names: tuple           # body i's link name
+    base_link: str
+    tip_link: str
+    R_parent: np.ndarray        # (n, 3, 3)
+    p_parent: np.ndarray        # (n, 3)
+    axis: np.ndarray            # (n, 3) unit
+    kind: np.ndarray            # (n,) int: REVOLUTE or PRISMATIC
+    mass: np.ndarray            # (n,)
+    com: np.ndarray             # (n, 3)
+    inertia: np.ndarray         # (n, 3, 3) about the center of mass
+    gravity: np.ndarray         # (3,) in the base frame, m/s^2
+    tip_R: np.ndarray           # (3, 3)
+    tip_p: np.ndarray           # (3,)
+    lower: np.ndarray           # (n,) rad or m, -inf where absent
+    upper: np.ndarray           # (n,)
+    velocity_limit: np.ndarray  # (n,) rad/s or m/s, inf where absent
+    effort_limit: np.ndarray    # (n,) N m or N, inf where absent
+    damping: np.ndarray         # (n,) URDF <dynamics damping>, N m s/rad or N s/m
+    friction: np.ndarray        # (n,) URDF <dynamics friction>, N m or N
+    frames: dict = field(default_factory=dict)
+
+    @property
+    def dof(self) -> int:
+        return len(self.joint_names)
+
+    @staticmethod
+    def build(*, name, joint_names, joint_types, link_names, base_link, tip_link,
+              R_parent, p_parent, axis, mass, com, inertia, gravity=(0, 0, -9.81),
+              tip_R=None, tip_p=None, lower=None, upper=None, velocity_limit=None,
+              effort_limit=None, damping=None, friction=None, frames=None,
+              check_mass_matrix=True) -> "Model":
+        """Build and validate a model; every array argument is copied and frozen."""
+        n = len(joint_names)
+        if n == 0:
+            raise ModelError(f"chain {base_link!r} -> {tip_link!r} has no movable joint")
+        full = lambda v, fill: _frozen(np.full(n, fill) if v is None else v, (n,))  # noqa: E731
+        axis = np.array(axis, dtype=float).reshape(n, 3)
+        norms = np.linalg.norm(axis, axis=1)
+        for i in np.flatnonzero(~(norms > 1e-12)):
+            raise ModelError(f"joint {joint_names[i]!r}: axis is zero; give a unit axis")
+        kind = [PRISMATIC if t == "prismatic" else REVOLUTE for t in joint_types]
+        model = Model(
+            name=name, joint_names=tuple(joint_names), joint_types=tuple(joint_types),
+            link_names=tuple(link_names), base_link=base_link, tip_link=tip_link,
+            R_parent=_frozen(R_parent, (n, 3, 3)), p_parent=_frozen(p_parent, (n, 3)),
+            axis=_frozen(axis / norms[:, None]), kind=_frozen(kind, (n,), np.int64),
+            mass=_frozen(mass, (n,)), com=_frozen(com, (n, 3)),
+            inertia=_frozen(inertia, (n, 3, 3)), gravity=_frozen(gravity, (3,)),
+            tip_R=_frozen(np.eye(3) if tip_R is None else tip_R, (3, 3)),
+            tip_p=_frozen(np.zeros(3) if tip_p is None else tip_p, (3,)),
+            lower=full(lower, -np.inf), upper=full(upper, np.inf),
+            velocity_limit=full(velocity_limit, np.inf), effort_limit=full(effort_limit, np.inf),
+            damping=full(damping, 0.0), friction=full(friction, 0.0),
+            frames=dict(frames or {}),
+        )
+        model.validate(check_mass_matrix=check_mass_matrix)
+        return model
+
+    # ------------------------------------------------------------------ validation
+    def validate(self, check_mass_matrix=True) -> None:
+        """Raise ``ModelError`` naming the culprit if the model is not physical."""
+        for arr_name in ("R_parent", "p_parent", "axis", "mass", "com", "inertia", "gravity",
+                         "tip_R", "tip_p", "damping", "friction"):
+            arr = getattr(self, arr_name)
+            if not np.all(np.isfinite(arr)):
+                bad = np.argwhere(~np.isfinite(arr))[0]
+                who = (f"joint {self.joint_names[bad[0]]!r} / link {self.link_names[bad[0]]!r}"
+                       if arr.ndim >= 1 and arr.shape[0] == self.dof and arr_name not in
+                       ("gravity", "tip_p") else "the model")
+                raise ModelError(f"{who}: {arr_name} has a NaN or Inf entry; fix the number")
+        for i in range(self.dof):
+            check_inertia(self.link_names[i], self.mass[i], self.inertia[i])
+            R = self.R_parent[i]
+            if not np.allclose(R @ R.T, np.eye(3), atol=1e-9):
+                raise ModelError(f"joint {self.joint_names[i]!r}: origin rotation is not a rotation")
+        for arr_name in ("damping", "friction"):
+            arr = getattr(self, arr_name)
+            for i in np.flatnonzero(arr < 0):
+                raise ModelError(f"joint {self.joint_names[i]!r}: {arr_name} = {arr[i]} < 0; "
+                                 "dissipation coefficients must be >= 0")
+        for i in np.flatnonzero(self.lower > self.upper):
+            raise ModelError(f"joint {self.joint_names[i]!r}: lower limit {self.lower[i]} > "
+                             f"upper limit {self.upper[i]}")
+        if check_mass_matrix:
+            self._check_mass_matrix()
+
+    def _check_mass_matrix(self) -> None:
+        """A joint that moves no mass makes M(q) singular: name it.
+
+        Checked at q = 0 and at two seeded random configurations within the limits.
+        """
+        from .algorithms.mass_matrix import mass_matrix  # local: algorithms import model
+
+        rng = np.random.default_rng(0)
+        lo = np.where(np.isfinite(self.lower), self.lower, -np.pi)
+        hi = np.where(np.isfinite(self.upper), self.upper, np.pi)
+        qs = np.vstack([np.clip(np.zeros(self.dof), lo, hi), rng.uniform(lo, hi, (2, self.dof))])
+        for q in qs:
+            M = mass_matrix(self, q)
+            scale = max(np.max(np.abs(np.diag(M))), 1e-300)
+            for i in np.flatnonzero(np.diag(M) <= 1e-12 * scale):
+                raise ModelError(
+                    f"joint {self.joint_names[i]!r} moves no mass (its diagonal of the mass "
+                    f"matrix is {M[i, i]:.3g} at q = {np.round(q, 3).tolist()}): the mass matrix "
+                    "is singular. Give the links it moves an <inertial>, or make it fixed.")
+            eig = np.linalg.eigvalsh(M)
+            if eig[0] <= 1e-14 * eig[-1]:
+                raise ModelError(
+                    f"the mass matrix of chain {self.base_link!r} -> {self.tip_link!r} is "
+                    f"singular at q = {np.round(q, 3).tolist()} (eigenvalues {eig[0]:.3g} .. "
+                    f"{eig[-1]:.3g}): two joints move the same mass the same way. "
+                    "Check joint axes and link inertias.")
+
+
+def check_inertia(link: str, mass: float, inertia: np.ndarray, rtol: float = 1e-9) -> None:
+    """Mass >= 0; inertia symmetric, positive semi-definite and obeying the triangle
+    inequality of principal moments (I1 + I2 >= I3), as every physical body does."""
+    if not mass >= 0:
+        raise ModelError(f"link {link!r}: mass {mass} is negative; a mass must be >= 0")
+    I = np.asarray(inertia, dtype=float)
+    scale = max(np.max(np.abs(I)), 1e-300)
+    if not np.allclose(I, I.T, atol=rtol * scale):
+        raise ModelError(f"link {link!r}: inertia matrix is not symmetric")
+    ev = np.linalg.eigvalsh(I)
+    if ev[0] < -rtol * scale:
+        raise ModelError(f"link {link!r}: inertia is not positive semi-definite (principal "
+                         f"moments {np.round(ev, 9).tolist()}); fix ixx..izz")
+    if ev[0] + ev[1] < ev[2] - 1e-6 * scale:
+        raise ModelError(f"link {link!r}: principal moments {np.round(ev, 9).tolist()} violate "
+                         "the triangle inequality I1 + I2 >= I3; no rigid body has them")

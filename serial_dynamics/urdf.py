@@ -1,0 +1,292 @@
+"""URDF -> Model: chain extraction from base_link to tip_link, and lumping.
+
+Parsed with yourdfpy; meshes are never loaded. The model is the chain of joints from
+``base_link`` to ``tip_link``. Fixed joints on the chain fold into the next joint's
+placement; links hanging off the chain by fixed joints are lumped into the inertia of
+the body they are rigidly attached to; movable joints off the chain are held at zero
+and lumped too, with one warning naming them.
+"""
+from __future__ import annotations
+
+import io
+import os
+import warnings
+
+import numpy as np
+
+from .model import Model, ModelError, check_inertia
+
+MOVABLE = ("revolute", "continuous", "prismatic")
+
+
+class URDFError(ValueError):
+    """The URDF cannot be read or does not describe a usable serial chain."""
+
+
+class HeldJointsWarning(UserWarning):
+    """Movable joints off the chain were held at zero and lumped into the chain."""
+
+
+def _parse(source):
+    import yourdfpy
+
+    text = source.decode() if isinstance(source, bytes) else source
+    is_xml = isinstance(text, str) and text.lstrip().startswith("<")
+    if not is_xml:
+        path = os.fspath(source)
+        if not os.path.isfile(path):
+            raise URDFError(f"URDF file {path!r} not found; give a path to a .urdf file or "
+                            "the URDF XML itself as a string")
+    handle = io.BytesIO(text.encode()) if is_xml else os.fspath(source)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            urdf = yourdfpy.URDF.load(handle, build_scene_graph=False, load_meshes=False,
+                                      build_collision_scene_graph=False,
+                                      load_collision_meshes=False)
+    except Exception as exc:  # lxml syntax errors, missing attributes, ...
+        where = "the URDF string" if is_xml else repr(os.fspath(source))
+        raise URDFError(f"cannot parse {where}: {exc}. Check that it is well-formed URDF XML "
+                        "(a <robot> with <link> and <joint> elements).") from exc
+    if urdf.robot is None or not urdf.robot.links:
+        raise URDFError("the URDF has no <link>; nothing to model")
+    return urdf.robot
+
+
+def _transform(X):
+    return (np.eye(4) if X is None else np.asarray(X, dtype=float))
+
+
+def _finite_or_fail(value, what):
+    arr = np.asarray(value, dtype=float)
+    if not np.all(np.isfinite(arr)):
+        raise URDFError(f"{what} has a NaN or Inf value ({arr.tolist()}); fix the number")
+    return arr
+
+
+def _float(value, default):
+    return default if value is None else float(value)
+
+
+def _link_inertia(link):
+    """(mass, com (3,), inertia about com (3, 3)) in the link frame; a link with no
+    <inertial> is massless."""
+    inertial = link.inertial
+    if inertial is None:
+        return 0.0, np.zeros(3), np.zeros((3, 3))
+    what = f"link {link.name!r} <inertial>"
+    m = float(_finite_or_fail(_float(inertial.mass, 0.0), what + " mass"))
+    X = _finite_or_fail(_transform(inertial.origin), what + " origin")
+    I = _finite_or_fail(np.zeros((3, 3)) if inertial.inertia is None else inertial.inertia,
+                        what + " inertia")
+    try:
+        check_inertia(link.name, m, I)
+    except ModelError as exc:
+        raise URDFError(str(exc)) from None
+    R = X[:3, :3]
+    return m, X[:3, 3].copy(), R @ I @ R.T
+
+
+def combine_inertias(parts):
+    """Lump rigidly attached parts [(m, c, I_c)] (one frame) into one body.
+    Parallel-axis theorem: I = sum I_i + m_i (|d_i|^2 1 - d_i d_i^T), d_i = c_i - c."""
+    m = sum(p[0] for p in parts)
+    c = sum(p[0] * p[1] for p in parts) / m if m > 0 else np.zeros(3)
+    I = np.zeros((3, 3))
+    for mi, ci, Ii in parts:
+        d = ci - c
+        I += Ii + mi * (d @ d * np.eye(3) - np.outer(d, d))
+    return m, c, I
+
+
+def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81)) -> Model:
+    """Parse a URDF (path or XML string) and build the validated chain model."""
+    robot = _parse(source)
+    links = {link.name: link for link in robot.links}
+    parent_joint = {}
+    children = {name: [] for name in links}
+    for joint in robot.joints:
+        for end in (joint.parent, joint.child):
+            if end not in links:
+                raise URDFError(f"joint {joint.name!r} refers to link {end!r}, which is not "
+                                "defined; add the <link> or fix the name")
+        if joint.child in parent_joint:
+            raise URDFError(f"link {joint.child!r} is the child of two joints "
+                            f"({parent_joint[joint.child].name!r}, {joint.name!r}); "
+                            "a URDF must be a tree")
+        parent_joint[joint.child] = joint
+        children[joint.parent].append(joint)
+    roots = [name for name in links if name not in parent_joint]
+    if len(roots) != 1:
+        raise URDFError(f"the URDF must have exactly one root link, found {roots}")
+    root = roots[0]
+
+    base_link = root if base_link is None else base_link
+    for role, name in (("base_link", base_link), ("tip_link", tip_link)):
+        if name is not None and name not in links:
+            raise URDFError(f"{role} {name!r} is not a link of this URDF; links are "
+                            f"{sorted(links)}")
+
+    def path_up(link, stop):
+        """Joints from ``stop`` down to ``link`` (base-to-tip order), or None."""
+        path = []
+        while link != stop:
+            if link not in parent_joint:
+                return None
+            path.append(parent_joint[link])
+            link = parent_joint[link].parent
+        return path[::-1]
+
+    if tip_link is None:
+        tip_link = _default_tip(base_link, children)
+    chain = path_up(tip_link, base_link)
+    if chain is None:
+        raise URDFError(f"tip_link {tip_link!r} is not below base_link {base_link!r}; "
+                        "choose a tip in the subtree of the base")
+    chain_joints = {j.name for j in chain}
+    chain_links = {base_link} | {j.child for j in chain}
+
+    # -- walk the chain: fold fixed joints, place links in bodies
+    bodies = []                                  # dicts per movable joint
+    frames = {base_link: (-1, np.eye(3), np.zeros(3))}
+    X_acc = np.eye(4)                            # next frame, in the current body
+    parts = {-1: []}                             # inertia parts per body (-1: base)
+    for joint in chain:
+        what = f"joint {joint.name!r}"
+        X = X_acc @ _finite_or_fail(_transform(joint.origin), what + " origin")
+        if joint.mimic is not None:
+            raise URDFError(f"{what} on the chain mimics {joint.mimic.joint!r}; mimic joints "
+                            "on the chain are not supported. Choose a tip_link above it.")
+        if joint.type == "fixed":
+            X_acc = X
+        elif joint.type in MOVABLE:
+            bodies.append(_body(joint, X))
+            X_acc = np.eye(4)
+            parts[len(bodies) - 1] = []
+        else:
+            raise URDFError(f"{what} on the chain is of type {joint.type!r}; only revolute, "
+                            "continuous, prismatic and fixed joints can form a serial chain")
+        frames[joint.child] = (len(bodies) - 1, X_acc[:3, :3].copy(), X_acc[:3, 3].copy())
+
+    # -- lump every link rigidly attached to a body (chain links and off-chain subtrees)
+    held = []
+    stack = [(name, frames[name][0], _pose(frames[name])) for name in chain_links]
+    while stack:
+        name, body, X_link = stack.pop()
+        m, c, I = _link_inertia(links[name])
+        R = X_link[:3, :3]
+        parts[body].append((m, R @ c + X_link[:3, 3], R @ I @ R.T))   # base parts are unused
+        for joint in children[name]:
+            if joint.name in chain_joints:
+                continue
+            X = X_link @ _finite_or_fail(_transform(joint.origin), f"joint {joint.name!r} origin")
+            if joint.type != "fixed":
+                held.append(joint.name)
+            frames[joint.child] = (body, X[:3, :3].copy(), X[:3, 3].copy())
+            stack.append((joint.child, body, X))
+    if held:
+        warnings.warn(f"joints {sorted(held)} are off the chain {base_link!r} -> {tip_link!r}: "
+                      "held at zero and lumped into the link they hang from",
+                      HeldJointsWarning, stacklevel=3)
+
+    if not bodies:
+        raise URDFError(f"no movable joint between {base_link!r} and {tip_link!r}; "
+                        "choose a base_link and tip_link with revolute or prismatic joints between")
+    inertia = [combine_inertias(parts[i]) if parts[i] else (0.0, np.zeros(3), np.zeros((3, 3)))
+               for i in range(len(bodies))]
+    g_root = _finite_or_fail(gravity, "gravity").reshape(3)
+    R_base = _pose_in_root(base_link, root, parent_joint)[:3, :3]
+    return Model.build(
+        name=robot.name or "robot",
+        joint_names=[b["name"] for b in bodies],
+        joint_types=[b["type"] for b in bodies],
+        link_names=[b["link"] for b in bodies],
+        base_link=base_link, tip_link=tip_link,
+        R_parent=[b["X"][:3, :3] for b in bodies], p_parent=[b["X"][:3, 3] for b in bodies],
+        axis=[b["axis"] for b in bodies],
+        mass=[p[0] for p in inertia], com=[p[1] for p in inertia],
+        inertia=[p[2] for p in inertia],
+        gravity=R_base.T @ g_root,                # world gravity in base coordinates
+        tip_R=X_acc[:3, :3], tip_p=X_acc[:3, 3],
+        lower=[b["lower"] for b in bodies], upper=[b["upper"] for b in bodies],
+        velocity_limit=[b["velocity"] for b in bodies],
+        effort_limit=[b["effort"] for b in bodies],
+        damping=[b["damping"] for b in bodies], friction=[b["friction"] for b in bodies],
+        frames=frames,
+    )
+
+
+def _pose(frame):
+    X = np.eye(4)
+    X[:3, :3], X[:3, 3] = frame[1], frame[2]
+    return X
+
+
+def _pose_in_root(link, root, parent_joint):
+    X = np.eye(4)
+    while link != root:
+        joint = parent_joint[link]
+        X = _transform(joint.origin) @ X   # joints above the base held at zero
+        link = joint.parent
+    return X
+
+
+def _body(joint, X):
+    what = f"joint {joint.name!r}"
+    axis = _finite_or_fail(np.array([1.0, 0, 0]) if joint.axis is None else joint.axis,
+                           what + " axis")
+    if np.linalg.norm(axis) < 1e-12:
+        raise URDFError(f"{what} has a zero axis; give a unit <axis xyz>")
+    lim, dyn = joint.limit, joint.dynamics
+    lower = _float(getattr(lim, "lower", None), -np.inf)
+    upper = _float(getattr(lim, "upper", None), np.inf)
+    if joint.type == "continuous" or lower == upper:   # URDF default 0/0 means "no limits"
+        lower, upper = -np.inf, np.inf
+    effort = _float(getattr(lim, "effort", None), np.inf)
+    velocity = _float(getattr(lim, "velocity", None), np.inf)
+    values = dict(lower=lower, upper=upper, effort=effort, velocity=velocity,
+                  damping=_float(getattr(dyn, "damping", None), 0.0),
+                  friction=_float(getattr(dyn, "friction", None), 0.0))
+    for key, v in values.items():
+        if np.isnan(v) or (key not in ("lower", "upper", "effort", "velocity") and np.isinf(v)):
+            raise URDFError(f"{what}: {key} is {v}; fix the number")
+    if values["lower"] > values["upper"]:
+        raise URDFError(f"{what}: lower limit {lower} > upper limit {upper}")
+    for key in ("damping", "friction"):
+        if values[key] < 0:
+            raise URDFError(f"{what}: <dynamics {key}=\"{values[key]}\"> is negative; "
+                            "dissipation coefficients must be >= 0")
+    for key in ("effort", "velocity"):      # non-positive limits are read as absent
+        if values[key] <= 0:
+            values[key] = np.inf
+    return dict(name=joint.name, type=joint.type, link=joint.child, X=X,
+                axis=axis / np.linalg.norm(axis), **values)
+
+
+def _default_tip(base, children):
+    """The end of the chain when the movable joints below ``base`` form a single path: the
+    child of the last movable joint, followed down a unique tail of fixed joints."""
+    movable = []      # (depth, joint, ancestors)
+
+    def walk(link, depth, ancestors):
+        for joint in children[link]:
+            anc = ancestors
+            if joint.type != "fixed":
+                movable.append((depth, joint, ancestors))
+                anc = ancestors | {joint.name}
+            walk(joint.child, depth + 1, anc)
+
+    walk(base, 0, frozenset())
+    if not movable:
+        raise URDFError(f"no movable joint below base_link {base!r}")
+    movable.sort(key=lambda t: t[0])
+    for (_, j1, _), (_, j2, anc2) in zip(movable, movable[1:]):
+        if j1.name not in anc2:
+            tips = sorted(j.child for _, j, _ in movable
+                          if not any(j.name in anc for _, _, anc in movable))
+            raise URDFError(f"the movable joints below {base!r} branch (at {j1.name!r} and "
+                            f"{j2.name!r}); choose a tip_link, e.g. one of {tips}")
+    tip = movable[-1][1].child
+    while len(children[tip]) == 1 and children[tip][0].type == "fixed":   # unique fixed tail
+        tip = children[tip][0].child
+    return tip

@@ -1,0 +1,42 @@
+"""serial_dynamics: ament_python package that also installs with plain pip."""
+import os
+from glob import glob
+
+from setuptools import find_packages, setup
+
+PACKAGE = "serial_dynamics"
+NODES = ["simulator", "inverse_dynamics", "computed_torque_controller"]
+
+setup(
+    name=PACKAGE,
+    version="0.1.0",
+    packages=find_packages(exclude=["test", "test.*", "bench"]),
+    package_data={PACKAGE: ["robots/*.urdf"]},
+    data_files=[
+        ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
+        (f"share/{PACKAGE}", ["package.xml"]),
+        (os.path.join("share", PACKAGE, "config"), glob("config/*.yaml")),
+        (os.path.join("share", PACKAGE, "launch"), glob("launch/*.py")),
+    ],
+    python_requires=">=3.10",
+    install_requires=["numpy>=1.24", "scipy>=1.10", "yourdfpy>=0.0.56", "numba>=0.59"],
+    extras_require={
+        # Off a ROS install only: rclpy and messages as PyPI wheels (CPython 3.11).
+        "ros": [
+            "ros-jazzy-rclpy",
+            "ros-jazzy-common-interfaces",
+            "ros-jazzy-rmw-fastrtps-cpp",
+        ],
+        "plot": ["matplotlib"],
+        "test": ["pytest", "pin", "example-robot-data", "matplotlib", "mpmath"],
+        "bench": ["pin", "example-robot-data", "mujoco", "matplotlib"],
+    },
+    zip_safe=True,
+    maintainer="serial_dynamics developers",
+    description="Dynamics of serial manipulators from URDF, with ROS 2 nodes",
+    license="Apache-2.0",
+    entry_points={
+        "console_scripts": [f"{node} = {PACKAGE}.ros.{node}:main" for node in NODES]
+        + ["serial-dynamics = serial_dynamics.cli:main"],
+    },
+)

@@ -25,7 +25,18 @@ def cmd_info(args):
 
 
 def cmd_demo(args):
-    """The main job: an offline look at the default robot (replaced by the ROS demo)."""
+    """The main job. With rclpy available: the ROS demo (serial_dynamics.ros.demo.run);
+    otherwise an offline look at the robot."""
+    try:
+        from .ros import demo
+    except ImportError:
+        demo = None
+    if demo is not None and hasattr(demo, "run"):
+        return demo.run(args)
+    return cmd_offline_demo(args)
+
+
+def cmd_offline_demo(args):
     from scipy.integrate import solve_ivp
     robot = _load(args)
     cmd_info(args)

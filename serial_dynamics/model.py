@@ -151,13 +151,13 @@ class Model:
         for q in qs:
             M = mass_matrix(self, q)
             scale = max(np.max(np.abs(np.diag(M))), 1e-300)
-            for i in np.flatnonzero(np.diag(M) <= 1e-12 * scale):
+            for i in np.flatnonzero(np.diag(M) <= 1e-16 * scale):   # zero to working precision
                 raise ModelError(
                     f"joint {self.joint_names[i]!r} moves no mass (its diagonal of the mass "
                     f"matrix is {M[i, i]:.3g} at q = {np.round(q, 3).tolist()}): the mass matrix "
                     "is singular. Give the links it moves an <inertial>, or make it fixed.")
             eig = np.linalg.eigvalsh(M)
-            if eig[0] <= 1e-14 * eig[-1]:
+            if eig[0] <= 1e-15 * eig[-1]:
                 raise ModelError(
                     f"the mass matrix of chain {self.base_link!r} -> {self.tip_link!r} is "
                     f"singular at q = {np.round(q, 3).tolist()} (eigenvalues {eig[0]:.3g} .. "

@@ -96,6 +96,14 @@ class Robot:
     def total_energy(self, q, qd):
         return self.kinetic_energy(q, qd) + self.potential_energy(q)
 
+    def warmup(self):
+        """Compile or load every fast path once, so that the first real call is fast.
+        Nodes call this before they report ready. Returns self."""
+        q = np.zeros(self.dof)
+        self.inverse_dynamics(q, q, q)
+        self.forward_dynamics(q, q, q)
+        return self
+
     def random_state(self, rng=None, batch=None, speed=1.0):
         """(q, qd) drawn uniformly within the joint limits (+-pi where unlimited) and
         velocities in +-speed; handy for tests and benchmarks."""

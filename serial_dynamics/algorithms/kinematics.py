@@ -21,11 +21,12 @@ def joint_transforms(model, q):
 
 
 def body_poses(model, q):
-    """Body rotations (N, n, 3, 3) and origins (N, n, 3) in the base frame. q: (N, n)."""
+    """Body rotations (N, k, 3, 3) and origins (N, k, 3) in the base frame of the first k
+    bodies; q: (N, k), k <= n (a prefix of the chain)."""
     R, p = joint_transforms(model, q)
     R0, p0 = np.empty_like(R), np.empty_like(p)
     R0[:, 0], p0[:, 0] = R[:, 0], p[:, 0]
-    for i in range(1, model.dof):
+    for i in range(1, q.shape[1]):
         R0[:, i] = R0[:, i - 1] @ R[:, i]
         p0[:, i] = p0[:, i - 1] + mv(R0[:, i - 1], p[:, i])
     return R0, p0

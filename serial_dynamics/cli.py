@@ -61,6 +61,11 @@ def main(argv=None):
         p.add_argument("--base-link", default=None)
         p.add_argument("--tip-link", default=None)
         p.set_defaults(func=fn)
+        if name == "demo":   # the ROS demo's options (serial_dynamics.ros.demo)
+            p.add_argument("--plot", metavar="PNG", default=None, help="write a plot of the tracking")
+            p.add_argument("--json", metavar="PATH", default=None, help="write the numbers as JSON")
+            p.add_argument("--real-time-factor", type=float, default=1.0,
+                           help="simulated s per wall s (0: as fast as possible)")
     args = parser.parse_args(argv)
     try:
         return args.func(args)

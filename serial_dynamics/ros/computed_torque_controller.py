@@ -1,0 +1,135 @@
+"""Computed-torque controller node.
+
+    python -m serial_dynamics.ros.computed_torque_controller --ros-args -p kp:=[400.0]
+    ros2 run serial_dynamics computed_torque_controller
+
+Subscribes ``joint_states`` and a time-parameterized trajectory_msgs/JointTrajectory on
+``desired_trajectory``; publishes ``effort_commands`` (std_msgs/Float64MultiArray, model
+joint order) at ``control_rate`` with
+
+    tau = M(q) (qdd_d + Kp e + Kd edot) + b(q, qd)  [- delta(qd) when compensating friction]
+
+computed as one recursive Newton-Euler call, robot.inverse_dynamics(q, qd, v). The error
+e = q_d - q is taken at the stamp of the joint state it uses (the state is a few ms old
+when it arrives; comparing it with the reference of the same instant removes the lag
+bias), the feed-forward qdd_d at the current time. The trajectory starts at its header
+stamp (zero: on arrival) from the current reference, and its last point holds at the end.
+Before any trajectory the controller holds the first measured position.
+"""
+from __future__ import annotations
+
+import numpy as np
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
+from trajectory_msgs.msg import JointTrajectory
+
+from . import common
+from .common import Rejected, StartupError
+from .interpolate import Trajectory
+
+PARAMETERS = {
+    **common.ROBOT_PARAMETERS,
+    "control_rate": ("double", 500.0, "effort_commands rate (Hz, of the node's clock: "
+                     "simulated time with use_sim_time)"),
+    "kp": ("double[]", [400.0], "position gains (1/s^2), one or one per joint"),
+    "kd": ("double[]", [40.0], "velocity gains (1/s), one or one per joint"),
+    "compensate_dissipation": ("bool", False, "add the torque that overcomes the joint "
+                               "dissipation (friction) at the measured velocity"),
+}
+MAX_STATE_AGE = 0.5   # s; an older (or future) state stamp is taken as "now" (clock mismatch)
+
+
+class ComputedTorqueController(Node):
+    NAME = "computed_torque_controller"
+
+    def __init__(self, **kwargs):
+        super().__init__(self.NAME, **kwargs)
+        p = common.declare(self, PARAMETERS)
+        self.robot = robot = common.load_robot(self, p)
+        self.kp = common.per_joint("kp", p["kp"], robot, None, positive=True)
+        self.kd = common.per_joint("kd", p["kd"], robot, None, positive=True)
+        if not 0 < p["control_rate"] < np.inf:
+            raise StartupError(f"parameter 'control_rate' must be > 0, got {p['control_rate']}")
+        self.compensate = p["compensate_dissipation"]
+        self.wrap = np.array([k == "continuous" for k in robot.joint_types])
+        self.state = None           # (t, q, qd) of the latest good joint state
+        self.reference = None       # (t0, Trajectory) in force
+        robot.warmup()
+        self.reject = common.Rejections(self.get_logger())
+        self.pub = self.create_publisher(Float64MultiArray, "effort_commands", common.QOS_DEPTH)
+        self.create_subscription(JointState, "joint_states", self.on_state, common.QOS_DEPTH)
+        self.create_subscription(JointTrajectory, "desired_trajectory", self.on_trajectory,
+                                 common.QOS_DEPTH)
+        self.create_timer(1.0 / p["control_rate"], self.on_timer)
+
+    def now(self):
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    def desired(self, t):
+        t0, traj = self.reference
+        return traj.sample(t - t0)
+
+    def on_state(self, msg):
+        try:
+            # extra joints (a gripper, another arm) are ignored; ours must all be there
+            msg_idx, idx = common.name_index(msg.name, self.robot, "joint_states",
+                                             require_all=True, allow_extra=True)
+            q, qd = np.empty(self.robot.dof), np.empty(self.robot.dof)
+            q[idx] = common.finite_vector(msg.position, len(msg.name), "joint_states position",
+                                          "joint_states position")[msg_idx]
+            qd[idx] = common.finite_vector(msg.velocity, len(msg.name), "joint_states velocity",
+                                           "joint_states velocity")[msg_idx]
+        except Rejected as exc:
+            return self.reject("joint_states", exc, "; control continues on the last good state")
+        now, t = self.now(), common.stamp_seconds(msg.header.stamp)
+        if t == 0.0 or abs(now - t) > MAX_STATE_AGE:
+            t = now
+        self.state = (t, q, qd)
+        if self.reference is None:                  # hold where the arm is
+            self.reference = (t, Trajectory([0.0], q[None]))
+
+    def on_trajectory(self, msg):
+        try:
+            t, q, qd, qdd, have_v, have_a = common.trajectory_arrays(
+                msg, self.robot, "desired_trajectory", need_increasing_time=True)
+            if have_a and not have_v:
+                raise Rejected("accelerations without velocities", "desired_trajectory gives "
+                               "accelerations but no velocities")
+            if self.reference is None:
+                raise Rejected("no joint state yet", "desired_trajectory arrived before any "
+                               "joint_states message")
+        except Rejected as exc:
+            return self.reject("desired_trajectory", exc, "; the trajectory in force stays")
+        start = common.stamp_seconds(msg.header.stamp) or self.now()
+        if t[0] > 0:                                 # start from the current reference
+            q0, qd0, qdd0 = self.desired(start)
+            t, q = np.r_[0.0, t], np.vstack([q0, q])
+            qd, qdd = np.vstack([qd0, qd]), np.vstack([qdd0, qdd])
+        self.reference = (start, Trajectory(t, q, qd if have_v else None,
+                                            qdd if have_a else None))
+
+    def on_timer(self):
+        if self.state is None:
+            return
+        ts, q, qd = self.state
+        q_ref, qd_ref, _ = self.desired(ts)            # reference at the state's instant
+        qdd_ff = self.desired(self.now())[2]           # feed-forward for the torque applied now
+        e = q_ref - q
+        e[self.wrap] = np.angle(np.exp(1j * e[self.wrap]))     # shortest way round
+        v = qdd_ff + self.kp * e + self.kd * (qd_ref - qd)
+        tau = self.robot.inverse_dynamics(q, qd, v)
+        if self.compensate:
+            tau = tau - self.robot.dissipation_torques(qd)
+        self.pub.publish(Float64MultiArray(data=tau.tolist()))
+
+    def close(self):
+        pass
+
+
+def main(args=None):
+    return common.run(ComputedTorqueController, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

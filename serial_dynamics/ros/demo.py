@@ -1,0 +1,218 @@
+"""The demo: the simulator and the computed-torque controller, started as separate
+processes, track a built-in pick-and-place trajectory; prints the tracking error and the
+real-time factor achieved.
+
+    serial-dynamics demo [URDF] [--plot out.png] [--json out.json]
+    python -m serial_dynamics.ros.demo [--attach]    # --attach: use nodes already running
+                                                     # (launch/demo.launch.py does this)
+
+The simulator publishes /clock and the controller runs on it (use_sim_time), so the
+control loop stays at its rate in simulated time even when the simulation runs slower
+than real time. The trajectory starts 0.5 s (simulated) after the simulation starts.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+
+import numpy as np
+import rclpy
+from builtin_interfaces.msg import Duration
+from rclpy.executors import SingleThreadedExecutor
+from sensor_msgs.msg import JointState
+from std_srvs.srv import SetBool
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+import serial_dynamics as sd
+
+from . import common
+from .interpolate import pick_and_place
+from .processes import NodeProcess
+
+LEAD, SETTLE = 0.5, 0.5        # s of simulated time before the trajectory and after its end
+STARTUP_TIMEOUT = 60.0         # s of wall time for the nodes to come up
+
+
+class DemoError(RuntimeError):
+    pass
+
+
+def _duration(t):
+    return Duration(sec=int(t), nanosec=int(round((t - int(t)) * 1e9)))
+
+
+def run_demo(urdf=None, base_link=None, tip_link=None, real_time_factor=1.0, attach=False,
+             log=print):
+    """Run the demo; returns a dict of results (raises DemoError when a node fails)."""
+    robot = sd.load_urdf(urdf or sd.builtin_path(), base_link, tip_link)
+    traj = pick_and_place(robot)
+    robot_params = {"urdf_path": os.path.abspath(urdf) if urdf else "",
+                    "base_link": base_link or "", "tip_link": tip_link or "",
+                    "robot_description_timeout": 0.0}
+    procs = []
+    if not attach:
+        procs.append(NodeProcess("simulator", {**robot_params, "publish_clock": True,
+                                               "start_paused": True,
+                                               "initial_positions": traj.q[0].tolist(),
+                                               "real_time_factor": float(real_time_factor)}))
+        procs.append(NodeProcess("computed_torque_controller",
+                                 {**robot_params, "use_sim_time": True}))
+    rclpy.init(args=[])
+    node = rclpy.create_node("demo")
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    states = []        # (wall s, stamp s, q, effort)
+    node.create_subscription(
+        JointState, "joint_states",
+        lambda m: states.append((time.monotonic(), common.stamp_seconds(m.header.stamp),
+                                 np.array(m.position), np.array(m.effort))), common.QOS_DEPTH)
+    pub = node.create_publisher(JointTrajectory, "desired_trajectory", common.QOS_DEPTH)
+    pause = node.create_client(SetBool, "simulator/pause")
+
+    def spin_until(done, timeout, what):
+        deadline = time.monotonic() + timeout
+        while not done():
+            for p in procs:
+                if not p.running():
+                    raise DemoError(f"the {p.module} node exited ({p.proc.returncode}):\n"
+                                    + p.output().strip())
+            if time.monotonic() > deadline:
+                raise DemoError(f"timed out waiting for {what}")
+            executor.spin_once(timeout_sec=0.05)
+
+    try:
+        t_wall = time.monotonic()
+        spin_until(lambda: states and pub.get_subscription_count() > 0
+                   and pause.service_is_ready(), STARTUP_TIMEOUT,
+                   "the simulator and the controller to start")
+        log(f"nodes up in {time.monotonic() - t_wall:.1f} s; running the pick-and-place "
+            f"trajectory ({traj.duration:.1f} s)")
+        future = pause.call_async(SetBool.Request(data=False))
+        spin_until(future.done, 10.0, "the simulator to resume")
+        spin_until(lambda: states[-1][1] > 0.0, 10.0, "simulated time to advance")
+        t0 = states[-1][1] + LEAD
+        msg = JointTrajectory(joint_names=robot.joint_names)
+        msg.header.stamp.sec, msg.header.stamp.nanosec = int(t0), int(round((t0 % 1) * 1e9))
+        msg.points = [JointTrajectoryPoint(positions=traj.q[i].tolist(),
+                                           velocities=traj.qd[i].tolist(),
+                                           accelerations=traj.qdd[i].tolist(),
+                                           time_from_start=_duration(traj.t[i]))
+                      for i in range(len(traj.t))]
+        pub.publish(msg)
+        t_end = t0 + traj.duration + SETTLE
+        spin_until(lambda: states[-1][1] >= t_end, 30.0 + 20.0 * (t_end / max(real_time_factor, 0.05)),
+                   "the end of the trajectory")
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+        for p in procs:
+            p.stop()
+
+    run = [s for s in states if s[1] > 0.0]
+    wall = np.array([s[0] for s in run])
+    stamp = np.array([s[1] for s in run])
+    q = np.array([s[2] for s in run])
+    effort = np.array([s[3] for s in run])
+    on = (stamp >= t0) & (stamp <= t_end)
+    q_ref = traj.sample(stamp - t0)[0]
+    err = q - q_ref
+    rtf = (stamp[-1] - stamp[0]) / (wall[-1] - wall[0])
+    return dict(robot=robot.model.name, joints=robot.joint_names, t0=t0,
+                stamp=stamp.tolist(), q=q.tolist(), q_ref=q_ref.tolist(),
+                rms=np.sqrt(np.mean(err[on] ** 2, axis=0)).tolist(),
+                max=np.max(np.abs(err[on]), axis=0).tolist(),
+                peak_effort=np.max(np.abs(effort[on]), axis=0).tolist(),
+                effort_limit=robot.effort_limit.tolist(), samples=int(on.sum()),
+                simulated=float(stamp[-1] - stamp[0]), wall=float(wall[-1] - wall[0]),
+                real_time_factor=float(rtf), target_real_time_factor=real_time_factor)
+
+
+def report(r) -> str:
+    names = [j.removesuffix("_joint") for j in r["joints"]]
+    w = max(12, *(len(x) + 2 for x in names))
+    row = lambda label, vals, fmt: f"  {label:<24}" + "".join(f"{fmt(v):>{w}}" for v in vals)  # noqa: E731
+    lines = [f"computed-torque tracking of the pick-and-place trajectory on {r['robot']} "
+             f"({r['samples']} joint states):",
+             row("joint", names, str),
+             row("RMS error (mrad)", r["rms"], lambda v: f"{1e3 * v:.3f}"),
+             row("max error (mrad)", r["max"], lambda v: f"{1e3 * v:.3f}"),
+             row("peak effort (N m)", r["peak_effort"], lambda v: f"{v:.1f}"),
+             row("effort limit (N m)", r["effort_limit"], lambda v: f"{v:.0f}"),
+             f"real-time factor achieved: {r['real_time_factor']:.2f} (asked "
+             f"{r['target_real_time_factor']:g}): {r['simulated']:.2f} s simulated in "
+             f"{r['wall']:.2f} s of wall time at sim_dt = 1 ms"]
+    return "\n".join(lines)
+
+
+def plot(r, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    t = np.array(r["stamp"]) - r["t0"]
+    q, q_ref = np.array(r["q"]), np.array(r["q_ref"])
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(9, 7), sharex=True)
+    for j, name in enumerate(r["joints"]):
+        line, = ax1.plot(t, q[:, j], label=name)
+        ax1.plot(t, q_ref[:, j], "--", color=line.get_color(), linewidth=0.8)
+        ax2.plot(t, 1e3 * (q[:, j] - q_ref[:, j]), color=line.get_color())
+    ax1.set_ylabel("joint position (rad); dashed: desired")
+    ax1.legend(fontsize=7, ncol=3)
+    ax2.set_ylabel("tracking error (mrad)")
+    ax2.set_xlabel("time from the trajectory start (s, simulated)")
+    ax1.set_title(f"computed-torque control, {r['robot']}: real-time factor "
+                  f"{r['real_time_factor']:.2f}")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def run(args) -> int:
+    """Entry point of ``serial-dynamics demo`` (args: urdf, base_link, tip_link and
+    optionally plot, json, real_time_factor, attach)."""
+    if "ROS_DOMAIN_ID" not in os.environ and not getattr(args, "attach", False):
+        # keep the demo's /clock off other ROS graphs on this network
+        os.environ["ROS_DOMAIN_ID"] = str(1 + os.getpid() % 100)
+    print(f"serial_dynamics demo (ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}): simulator + "
+          "computed-torque controller as separate processes", flush=True)
+    try:
+        r = run_demo(args.urdf, args.base_link, args.tip_link,
+                     getattr(args, "real_time_factor", 1.0), getattr(args, "attach", False),
+                     log=lambda s: print(s, flush=True))
+    except (DemoError, ValueError, OSError) as exc:
+        print(f"serial-dynamics demo: error: {exc}", file=sys.stderr)
+        return 1
+    print(report(r))
+    if getattr(args, "plot", None):
+        plot(r, args.plot)
+        print(f"plot written to {args.plot}")
+    if getattr(args, "json", None):
+        with open(args.json, "w") as fh:
+            json.dump({k: v for k, v in r.items() if k not in ("stamp", "q", "q_ref")}, fh,
+                      indent=1)
+    return 0
+
+
+def add_arguments(p):
+    p.add_argument("urdf", nargs="?", default=None, help="URDF path (default: built-in UR5e)")
+    p.add_argument("--base-link", default=None)
+    p.add_argument("--tip-link", default=None)
+    p.add_argument("--plot", metavar="PNG", default=None, help="write a plot of the tracking")
+    p.add_argument("--json", metavar="PATH", default=None, help="write the numbers as JSON")
+    p.add_argument("--real-time-factor", type=float, default=1.0,
+                   help="simulated s per wall s (0: as fast as possible)")
+    p.add_argument("--attach", action="store_true",
+                   help="do not start nodes: use the simulator and controller already running")
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(prog="python -m serial_dynamics.ros.demo",
+                                     description=__doc__.split("\n\n")[0])
+    add_arguments(parser)
+    return run(parser.parse_args(argv))
+
+
+if __name__ == "__main__":
+    sys.exit(main())

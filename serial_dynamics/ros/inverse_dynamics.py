@@ -1,0 +1,99 @@
+"""Inverse-dynamics node: the computed-torque service over topics.
+
+    python -m serial_dynamics.ros.inverse_dynamics
+    ros2 run serial_dynamics inverse_dynamics
+
+A trajectory_msgs/JointTrajectory on ``inverse_dynamics/request`` (joint names in any
+order; one point or many; missing velocities/accelerations are zeros) is answered on
+``inverse_dynamics/response`` with the same header, the joint names in model order and,
+for every point, positions, velocities, accelerations and the torques ``effort`` that
+produce them: tau = M(q) qdd + b(q, qd) - J^T w (+ the dissipation, when compensated),
+computed in one batched call for all the points.
+"""
+from __future__ import annotations
+
+import numpy as np
+from geometry_msgs.msg import WrenchStamped
+from rclpy.node import Node
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+from . import common
+from .common import Rejected
+
+PARAMETERS = {
+    **common.ROBOT_PARAMETERS,
+    "include_gravity": ("bool", True, "include the gravity torques"),
+    "compensate_dissipation": ("bool", False, "add the torque that overcomes the joint "
+                               "dissipation (friction) at the requested velocities"),
+}
+
+
+class InverseDynamics(Node):
+    NAME = "inverse_dynamics"
+
+    def __init__(self, **kwargs):
+        super().__init__(self.NAME, **kwargs)
+        p = common.declare(self, PARAMETERS)
+        gravity = None if p["include_gravity"] else [0.0, 0.0, 0.0]
+        self.robot = common.load_robot(self, p, gravity=gravity)
+        self.compensate = p["compensate_dissipation"]
+        self.wrench = None            # latest tip wrench: (6,) in base_link, or (6,) in tip_link
+        self.wrench_in_tip = False
+        self.robot.warmup()
+        self.reject = common.Rejections(self.get_logger())
+        self.pub = self.create_publisher(JointTrajectory, "inverse_dynamics/response",
+                                         common.QOS_DEPTH)
+        self.create_subscription(WrenchStamped, "inverse_dynamics/tip_wrench", self.on_wrench,
+                                 common.QOS_DEPTH)
+        self.create_subscription(JointTrajectory, "inverse_dynamics/request", self.on_request,
+                                 common.QOS_DEPTH)
+
+    def on_wrench(self, msg):
+        f, m = msg.wrench.force, msg.wrench.torque
+        try:
+            w = common.finite_vector([f.x, f.y, f.z, m.x, m.y, m.z], 6, "tip_wrench", "tip_wrench")
+            frame = msg.header.frame_id
+            if frame not in ("", self.robot.base_link, self.robot.tip_link):
+                raise Rejected("frame", f"tip_wrench frame_id {frame!r} is neither the base "
+                               f"({self.robot.base_link!r}) nor the tip ({self.robot.tip_link!r})")
+        except Rejected as exc:
+            return self.reject("tip_wrench", exc, "; the last good wrench stays in force")
+        self.wrench, self.wrench_in_tip = w, frame == self.robot.tip_link and frame != self.robot.base_link
+
+    def _wrench(self, q):
+        """The latest wrench in base coordinates, per point: (N, 6) or None."""
+        if self.wrench is None or not self.wrench_in_tip:
+            return self.wrench
+        R = self.robot.forward_kinematics(q)[..., :3, :3]            # (N, 3, 3) tip -> base
+        return np.concatenate([R @ self.wrench[:3], R @ self.wrench[3:]], axis=-1)
+
+    def on_request(self, msg):
+        try:
+            _, q, qd, qdd, _, _ = common.trajectory_arrays(msg, self.robot, "inverse_dynamics/request")
+            tau = self.robot.inverse_dynamics(q, qd, qdd, self._wrench(q))   # batch (N, n)
+            if self.compensate:
+                tau = tau - self.robot.dissipation_torques(qd)
+            if not np.all(np.isfinite(tau)):
+                raise Rejected("result NaN/Inf", "the torques came out non-finite")
+        except Rejected as exc:
+            return self.reject("inverse_dynamics/request", exc, "; no response sent")
+        except ValueError as exc:     # anything else the library refuses
+            return self.reject("inverse_dynamics/request", Rejected("library", str(exc)),
+                               "; no response sent")
+        out = JointTrajectory(header=msg.header, joint_names=self.robot.joint_names)
+        out.points = [JointTrajectoryPoint(positions=q[i].tolist(), velocities=qd[i].tolist(),
+                                           accelerations=qdd[i].tolist(), effort=tau[i].tolist(),
+                                           time_from_start=pt.time_from_start)
+                      for i, pt in enumerate(msg.points)]
+        self.pub.publish(out)
+
+    def close(self):
+        pass
+
+
+def main(args=None):
+    return common.run(InverseDynamics, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

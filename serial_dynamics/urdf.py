@@ -38,19 +38,39 @@ def _parse(source):
             raise URDFError(f"URDF file {path!r} not found; give a path to a .urdf file or "
                             "the URDF XML itself as a string")
     handle = io.BytesIO(text.encode()) if is_xml else os.fspath(source)
+    where = "the URDF string" if is_xml else repr(os.fspath(source))
+    _check_well_formed(io.BytesIO(text.encode()) if is_xml else handle, where)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             urdf = yourdfpy.URDF.load(handle, build_scene_graph=False, load_meshes=False,
                                       build_collision_scene_graph=False,
                                       load_collision_meshes=False)
-    except Exception as exc:  # lxml syntax errors, missing attributes, ...
-        where = "the URDF string" if is_xml else repr(os.fspath(source))
-        raise URDFError(f"cannot parse {where}: {exc}. Check that it is well-formed URDF XML "
+    except Exception as exc:  # missing attributes, ...
+        detail = f"missing attribute {exc}" if isinstance(exc, KeyError) else exc
+        raise URDFError(f"cannot parse {where}: {detail}. Check that it is well-formed URDF XML "
                         "(a <robot> with <link> and <joint> elements).") from exc
     if urdf.robot is None or not urdf.robot.links:
         raise URDFError("the URDF has no <link>; nothing to model")
     return urdf.robot
+
+
+def _check_well_formed(handle, where):
+    """yourdfpy silently recovers from broken XML (and would build a wrong robot): refuse
+    fatal syntax errors here; undeclared namespace prefixes (xacro leftovers) are tolerated."""
+    from lxml import etree
+
+    parser = etree.XMLParser(recover=True)
+    try:
+        etree.parse(handle, parser)
+        errors = [e for e in parser.error_log if e.level_name == "FATAL"]
+    except etree.XMLSyntaxError as exc:      # nothing recoverable, e.g. an empty document
+        errors = [exc]
+    if errors:
+        e = errors[0]
+        line = getattr(e, "line", None) or getattr(e, "lineno", "?")
+        raise URDFError(f"cannot parse {where}: not well-formed XML (line {line}: "
+                        f"{getattr(e, 'message', None) or e}); fix the markup")
 
 
 def _transform(X):
@@ -154,7 +174,7 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81))
     for joint in chain:
         what = f"joint {joint.name!r}"
         X = X_acc @ _finite_or_fail(_transform(joint.origin), what + " origin")
-        if joint.mimic is not None:
+        if joint.mimic is not None and joint.type != "fixed":    # a fixed joint never moves
             raise URDFError(f"{what} on the chain mimics {joint.mimic.joint!r}; mimic joints "
                             "on the chain are not supported. Choose a tip_link above it.")
         if joint.type == "fixed":

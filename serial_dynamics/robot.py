@@ -2,22 +2,60 @@
 
 It holds the immutable model and the dissipation model, checks inputs, and calls the
 algorithm functions. Every state argument accepts ``(n,)`` or a batch ``(N, n)``.
+
+Backends: ``"numba"`` (default) runs inverse dynamics, the mass matrix, bias and gravity
+torques and forward dynamics (Cholesky and articulated-body routes) through the compiled
+kernels of ``kernels.py``; ``"numpy"`` runs the readable reference implementations of
+``algorithms/`` (the tests compare the two). Choose per robot with
+``Robot(model, backend="numpy")`` or for the process with the environment variable
+``SERIAL_DYNAMICS_BACKEND=numpy``. Everything else (Coriolis matrix, kinematics,
+energies, forward dynamics by QR) always runs the reference code.
+
+The single-state path is kept lean: a float64 C-contiguous (n,) state goes straight to
+the compiled kernel, which checks lengths and NaN/Inf itself; anything else (lists,
+batches, other dtypes, errors) takes the general path, which validates like the
+reference (same ValueError messages) and calls the batch kernels.
 """
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
-from .algorithms import energy, forward, kinematics, mass_matrix, noc, rnea
+from .algorithms import aba, energy, forward, kinematics, mass_matrix, noc, rnea
+from .algorithms._batch import as_batch
 from .dissipation import Dissipation
 from .model import Model
+
+BACKENDS = ("numba", "numpy")
+FD_METHODS = ("auto", "cholesky", "aba", "qr")
+_QD, _QDD, _W = 1, 2, 4                    # kernel flags (kernels.F_QD, F_QDD, F_W)
+_FD_CODE = {"cholesky": 0, "aba": 1}       # kernel method codes
 
 
 class Robot:
     """Dynamics of one serial chain. Build it with ``serial_dynamics.load_urdf``."""
 
-    def __init__(self, model: Model, dissipation: Dissipation | None = None):
+    def __init__(self, model: Model, dissipation: Dissipation | None = None, backend=None):
         self.model = model
         self._dissipation = Dissipation.from_model(model) if dissipation is None else dissipation
+        backend = backend or os.environ.get("SERIAL_DYNAMICS_BACKEND", "numba")
+        if backend not in BACKENDS:
+            raise ValueError(f"backend {backend!r} unknown; use one of {BACKENDS}")
+        self._backend = backend
+        self._n = model.dof
+        # forward_dynamics(method="auto"): articulated bodies from aba.CROSSOVER joints on
+        self._fd_auto = "aba" if model.dof >= aba.CROSSOVER else "cholesky"
+        self._k = None
+        if backend == "numba":
+            from . import kernels
+            self._k = kernels.K                          # entry points, compiled on first use
+            self._P = kernels.pack(model)                # model data, packed once (readonly)
+            self._W = kernels.workspace(model.dof)       # scratch of the single-state kernels
+            self._w0 = np.zeros(6)                       # placeholder when there is no wrench
+            self._w1 = np.zeros((1, 6))
+
+    backend = property(lambda self: self._backend, doc='"numba" (compiled) or "numpy" (reference)')
 
     # ------------------------------------------------------------- description
     dof = property(lambda self: self.model.dof)
@@ -52,27 +90,115 @@ class Robot:
     # ------------------------------------------------------------- dynamics
     def inverse_dynamics(self, q, qd, qdd, wrench=None):
         """tau = M(q) qdd + b(q, qd) - J^T w  (rigid body; no friction). N m / N."""
-        return rnea.inverse_dynamics(self.model, q, qd, qdd, wrench)
+        k = self._k
+        if k is None:
+            return rnea.inverse_dynamics(self.model, q, qd, qdd, wrench)
+        if wrench is None:                   # fast path: one float64 state, no wrench
+            out = np.empty(self._n)
+            try:
+                if k.rnea(self._P, self._W, q, qd, qdd, self._w0, _QD | _QDD, out) == 0:
+                    return out
+            except TypeError:
+                pass
+        return self._rnea_general((("q", q), ("qd", qd), ("qdd", qdd)), wrench)
 
     def mass_matrix(self, q):
         """M(q), the generalized inertia matrix."""
-        return mass_matrix.mass_matrix(self.model, q)
+        k = self._k
+        if k is None:
+            return mass_matrix.mass_matrix(self.model, q)
+        out = np.empty((self._n, self._n))
+        try:
+            if k.crba(self._P, self._W, q, out) == 0:
+                return out
+        except TypeError:
+            pass
+        single, (q,) = as_batch(self.model, ("q", q))
+        q = _rows(q)
+        out = np.empty((q.shape[0], self._n, self._n))
+        if k.crba_batch(self._P, q, out) != 0:
+            raise ValueError("q has a NaN or Inf entry; states must be finite numbers")
+        return out[0] if single else out
 
     def bias_torques(self, q, qd, wrench=None):
         """b(q, qd) - J^T w = C(q, qd) qd + g(q) - J^T w."""
-        return rnea.inverse_dynamics(self.model, q, qd, None, wrench)
+        k = self._k
+        if k is None:
+            return rnea.inverse_dynamics(self.model, q, qd, None, wrench)
+        if wrench is None:
+            out = np.empty(self._n)
+            try:
+                if k.rnea(self._P, self._W, q, qd, q, self._w0, _QD, out) == 0:
+                    return out
+            except TypeError:
+                pass
+        return self._rnea_general((("q", q), ("qd", qd), ("qdd", None)), wrench)
 
     def gravity_torques(self, q):
         """g(q): the torques that hold the chain still (the textbook's gamma is -g)."""
-        return rnea.inverse_dynamics(self.model, q, None, None)
+        k = self._k
+        if k is None:
+            return rnea.inverse_dynamics(self.model, q, None, None)
+        out = np.empty(self._n)
+        try:
+            if k.rnea(self._P, self._W, q, q, q, self._w0, 0, out) == 0:
+                return out
+        except TypeError:
+            pass
+        return self._rnea_general((("q", q), ("qd", None), ("qdd", None)), None)
 
     def coriolis_matrix(self, q, qd):
         """C(q, qd) from the natural orthogonal complement: C qd + g = b, Mdot - 2C skew."""
         return noc.coriolis_matrix(self.model, q, qd)
 
-    def forward_dynamics(self, q, qd, tau, wrench=None, method="cholesky"):
-        """qdd for applied torques tau (rigid body). ``method``: "cholesky" or "qr"."""
-        return forward.forward_dynamics(self.model, q, qd, tau, wrench, method)
+    def forward_dynamics(self, q, qd, tau, wrench=None, method="auto"):
+        """qdd for applied torques tau (rigid body). ``method``: "auto" (Cholesky for short
+        chains, articulated bodies from ``algorithms.aba.CROSSOVER`` joints on),
+        "cholesky", "aba" (O(n)) or "qr" (for ill-conditioned chains)."""
+        if method == "auto":
+            method = self._fd_auto
+        k = self._k
+        code = _FD_CODE.get(method)
+        if k is None or code is None:
+            if method == "aba":
+                return aba.forward_dynamics(self.model, q, qd, tau, wrench)
+            if method not in FD_METHODS:
+                raise ValueError(f"forward-dynamics method {method!r} unknown; use one of "
+                                 f"{FD_METHODS}")
+            return forward.forward_dynamics(self.model, q, qd, tau, wrench, method)
+        if wrench is None:
+            out = np.empty(self._n)
+            try:
+                if k.fd(self._P, self._W, q, qd, tau, self._w0, _QD, code, out) == 0:
+                    return out
+            except TypeError:
+                pass
+        single, (q, qd, tau) = as_batch(self.model, ("q", q), ("qd", qd), ("tau", tau))
+        w, flags = self._wrench_rows(wrench, q.shape[0], _QD)
+        q, qd, tau = _rows(q), _rows(qd), _rows(tau)
+        out = np.empty((max(q.shape[0], qd.shape[0], tau.shape[0]), self._n))
+        if k.fd_batch(self._P, q, qd, tau, w, flags, code, out) != 0:
+            raise ValueError("wrench has a NaN or Inf entry; give finite numbers")
+        return out[0] if single else out
+
+    # general path of the kernels: validate like the reference, then one batch call
+    def _rnea_general(self, named, wrench):
+        single, (q, qd, qdd) = as_batch(self.model, *named)   # raises the reference's ValueError
+        N = q.shape[0]
+        flags = (_QD if named[1][1] is not None else 0) | (_QDD if named[2][1] is not None else 0)
+        q = _rows(q)
+        qd = _rows(qd) if flags & _QD else q             # unused by the kernel when absent
+        qdd = _rows(qdd) if flags & _QDD else q
+        w, flags = self._wrench_rows(wrench, N, flags)
+        out = np.empty((N, self._n))
+        if self._k.rnea_batch(self._P, q, qd, qdd, w, flags, out) != 0:
+            raise ValueError("wrench has a NaN or Inf entry; give finite numbers")
+        return out[0] if single else out
+
+    def _wrench_rows(self, wrench, N, flags):
+        if wrench is None:
+            return self._w1, flags
+        return _rows(rnea._wrench_batch(wrench, N)), flags | _W
 
     def dissipation_torques(self, qd):
         """delta(qd) of the current dissipation model (oppose the motion)."""
@@ -97,11 +223,22 @@ class Robot:
         return self.kinetic_energy(q, qd) + self.potential_energy(q)
 
     def warmup(self):
-        """Compile or load every fast path once, so that the first real call is fast.
+        """Compile or load every fast path once (numba backend: every kernel, single and
+        batch, from the numba cache when it is warm), so that the first real call is fast.
         Nodes call this before they report ready. Returns self."""
+        if self._k is not None:
+            self._k.load_all()
         q = np.zeros(self.dof)
-        self.inverse_dynamics(q, q, q)
-        self.forward_dynamics(q, q, q)
+        qb = np.zeros((2, self.dof))
+        w = np.zeros(6)
+        for x in (q, qb):
+            self.inverse_dynamics(x, x, x)
+            self.inverse_dynamics(x, x, x, wrench=w)
+            self.bias_torques(x, x)
+            self.gravity_torques(x)
+            self.mass_matrix(x)
+            for method in ("cholesky", "aba"):
+                self.forward_dynamics(x, x, x, method=method)
         return self
 
     def random_state(self, rng=None, batch=None, speed=1.0):
@@ -112,3 +249,11 @@ class Robot:
         lo = np.where(np.isfinite(self.lower), self.lower, -np.pi)
         hi = np.where(np.isfinite(self.upper), self.upper, np.pi)
         return rng.uniform(lo, hi, shape), rng.uniform(-speed, speed, shape)
+
+
+def _rows(a):
+    """An (N, n) state or wrench as a C-contiguous array for the kernels; a row broadcast
+    over the batch (stride 0) is passed as one row, which the kernels broadcast."""
+    if a.strides[0] == 0:
+        a = a[:1]
+    return np.ascontiguousarray(a, dtype=float)

@@ -70,8 +70,9 @@ class Dissipation:
                         raise ValueError(f"dissipation override names joint {joint!r}, which "
                                          f"is not in the chain {list(self.joint_names)}")
                     a[self.joint_names.index(joint)] = v
-            else:
-                a = np.broadcast_to(np.asarray(values, dtype=float), a.shape).copy()
+            else:   # a scalar sets every joint; an array is checked for length on rebuild
+                v = np.asarray(values, dtype=float)
+                a = np.full(a.shape, v) if v.ndim == 0 else v
             changes[name] = a
         return replace(self, **changes)
 
@@ -95,7 +96,8 @@ class Dissipation:
 
     def smooth_torque(self, qd, v_eps=1e-3):
         """delta with sgn(qd) regularized to tanh(qd / v_eps): continuous, for adaptive
-        integrators. The error against ``torque`` is below tau_s e^{-2|qd|/v_eps}."""
+        integrators. The error against ``torque`` is below 2 tau_s e^{-2|qd|/v_eps}
+        (1 - tanh x = 2 e^{-2x} / (1 + e^{-2x}))."""
         qd = np.asarray(qd, dtype=float)
         return -self.viscous * qd - self._kinetic(np.abs(qd)) * np.tanh(qd / v_eps)
 

@@ -109,7 +109,7 @@ class Simulator(Node):
     def _reset_state(self):
         n = self.robot.dof
         self.q, self.qd = self.q0.copy(), np.zeros(n)
-        self.tau, self.cmd_step, self.timed_out = np.zeros(n), self.k, False
+        self.tau, self.cmd_step, self.timed_out = np.zeros(n), self.k, True   # nothing to time out
 
     def _command(self, idx, effort):
         clamped = np.clip(effort, -self.limit[idx], self.limit[idx])

@@ -1,0 +1,111 @@
+"""Fixtures for the ROS tests: real rclpy, real nodes in separate processes, real topics.
+
+Each test session gets its own ROS_DOMAIN_ID (derived from the pid) so that parallel
+runs do not cross-talk; every process started here is stopped at the end of its fixture
+(and gets SIGTERM if this process dies).
+"""
+import os
+import time
+
+import pytest
+
+rclpy = pytest.importorskip("rclpy")
+
+DOMAIN = 1 + (os.getpid() % 50) * 2        # odd ids 1..99; the demo test uses DOMAIN + 1
+os.environ["ROS_DOMAIN_ID"] = str(DOMAIN)
+os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+os.environ.setdefault("RCUTILS_LOGGING_BUFFERED_STREAM", "0")
+
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+
+from serial_dynamics.ros.processes import NodeProcess  # noqa: E402
+
+# robot parameters for every node started here: the embedded UR5e, without waiting for a
+# robot_description topic
+NO_TOPIC = {"robot_description_timeout": 0.0}
+HOME = [0.0, -1.571, 1.571, -1.571, -1.571, 0.0]   # UR5e, elbow up
+
+
+class Ros:
+    """The test's own node and a spin helper."""
+
+    def __init__(self):
+        rclpy.init()
+        self.node = rclpy.create_node(f"test_{os.getpid()}")
+        self.executor = SingleThreadedExecutor()
+        self.executor.add_node(self.node)
+        self.procs = []
+
+    def spin_until(self, done, timeout=20.0, what="a condition"):
+        deadline = time.monotonic() + timeout
+        while not done():
+            for p in self.procs:
+                if not p.running() and p.expect_running:
+                    raise AssertionError(f"{p.module} exited:\n{p.output()}")
+            if time.monotonic() > deadline:
+                raise AssertionError(f"timed out after {timeout} s waiting for {what}")
+            self.executor.spin_once(timeout_sec=0.02)
+
+    def spin_for(self, seconds):
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline:
+            self.executor.spin_once(timeout_sec=0.02)
+
+    def start(self, module, params=None, expect_running=True):
+        p = NodeProcess(module, {**NO_TOPIC, **(params or {})})
+        p.expect_running = expect_running
+        self.procs.append(p)
+        return p
+
+    def call(self, client, request, timeout=20.0):
+        self.spin_until(client.service_is_ready, timeout, f"service {client.srv_name}")
+        future = client.call_async(request)
+        self.spin_until(future.done, timeout, f"the answer of {client.srv_name}")
+        return future.result()
+
+    def close(self):
+        for p in self.procs:
+            p.stop()
+        self.node.destroy_node()
+        rclpy.try_shutdown()
+
+
+@pytest.fixture(scope="session")
+def ros():
+    r = Ros()
+    yield r
+    r.close()
+
+
+def wait_for_log(ros, proc, text, timeout=20.0):
+    ros.spin_until(lambda: text in proc.output(), timeout, f"{text!r} in the {proc.module} log")
+
+
+class Latest:
+    """Subscription that keeps every message (with its wall time of arrival)."""
+
+    def __init__(self, ros, msg_type, topic, depth=50):
+        self.msgs = []
+        self.sub = ros.node.create_subscription(msg_type, topic, self.msgs.append, depth)
+        self.ros = ros
+
+    def clear(self):
+        self.msgs.clear()
+
+    def wait(self, pred=lambda m: True, timeout=20.0, what="a message"):
+        """The first message received from now on that satisfies pred."""
+        state = {"i": len(self.msgs), "found": None}
+
+        def done():
+            while state["i"] < len(self.msgs):
+                m = self.msgs[state["i"]]
+                state["i"] += 1
+                if pred(m):
+                    state["found"] = m
+                    return True
+            return False
+        self.ros.spin_until(done, timeout, what)
+        return state["found"]
+
+    def destroy(self):
+        self.ros.node.destroy_subscription(self.sub)

@@ -1,0 +1,214 @@
+"""The simulator node in its own process, over real topics and services.
+
+The simulator publishes /clock here, so joint_states stamps are simulated time: an exact
+count of integration steps (k * 1 ms), which makes the checks below exact and free of
+wall-clock timing.
+"""
+import numpy as np
+import pytest
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
+from std_srvs.srv import SetBool, Trigger
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+import serial_dynamics as sd
+from serial_dynamics.simulate import FixedStepIntegrator
+
+from conftest import HOME, Latest, wait_for_log
+
+DT_NS = 1_000_000
+
+
+def ns(msg):
+    return msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+
+
+class Sim:
+    def __init__(self, ros):
+        self.ros = ros
+        self.proc = ros.start("simulator", {"publish_clock": True, "initial_positions": HOME})
+        self.robot = sd.default_robot()
+        self.states = Latest(ros, JointState, "joint_states", depth=100)
+        self.effort = ros.node.create_publisher(Float64MultiArray, "effort_commands", 10)
+        self.joint = ros.node.create_publisher(JointState, "joint_commands", 10)
+        self.reset_client = ros.node.create_client(Trigger, "simulator/reset")
+        self.pause_client = ros.node.create_client(SetBool, "simulator/pause")
+        ros.spin_until(lambda: self.states.msgs and self.effort.get_subscription_count() > 0
+                       and self.joint.get_subscription_count() > 0, 60, "the simulator")
+
+    def pause(self, on=True):
+        assert self.ros.call(self.pause_client, SetBool.Request(data=on)).success
+
+    def reset(self):
+        """Pause, reset and return the first state at rest in HOME (its stamp is the
+        simulated time of the reset)."""
+        self.pause(True)
+        assert self.ros.call(self.reset_client, Trigger.Request()).success
+        return self.states.wait(lambda m: list(m.position) == HOME and not any(m.velocity)
+                                and not any(m.effort), what="the reset state")
+
+    def send(self, effort):
+        self.effort.publish(Float64MultiArray(data=[float(x) for x in effort]))
+
+    def wait_effort(self, effort):
+        return self.states.wait(lambda m: np.array_equal(m.effort, effort),
+                                what=f"applied effort {list(effort)}")
+
+
+@pytest.fixture(scope="module")
+def sim(ros):
+    s = Sim(ros)
+    yield s
+    s.states.destroy()
+    s.proc.stop()
+
+
+@pytest.fixture(scope="module")
+def inverse_dynamics(ros):
+    proc = ros.start("inverse_dynamics")
+    pub = ros.node.create_publisher(JointTrajectory, "inverse_dynamics/request", 10)
+    responses = Latest(ros, JointTrajectory, "inverse_dynamics/response")
+    ros.spin_until(lambda: pub.get_subscription_count() > 0, 60, "the inverse-dynamics node")
+    yield pub, responses
+    responses.destroy()
+    proc.stop()
+
+
+def test_joint_states_rate_and_names(sim):
+    sim.pause(False)
+    first = sim.states.wait(what="joint_states")
+    msgs = [sim.states.wait(lambda m: ns(m) > ns(first))]
+    while len(msgs) < 60:
+        msgs.append(sim.states.wait())
+    for m in msgs:
+        assert list(m.name) == sim.robot.joint_names
+        assert len(m.position) == len(m.velocity) == len(m.effort) == 6
+    # publish_rate 100 Hz of simulated time: consecutive stamps 10 ms apart, exactly (the
+    # stamps count integration steps). A message may be lost under load (the subscriber
+    # queue is finite), so gaps must be whole periods and rare.
+    gaps = np.diff([ns(m) for m in msgs])
+    assert np.all(gaps % (10 * DT_NS) == 0) and np.all(gaps > 0)
+    assert np.mean(gaps == 10 * DT_NS) >= 0.9
+
+
+def test_zero_effort_falls_as_the_library_predicts(sim):
+    rest = sim.reset()
+    sim.pause(False)
+    later = sim.states.wait(lambda m: ns(m) >= ns(rest) + 300 * DT_NS, what="0.3 s of fall")
+    steps = (ns(later) - ns(rest)) // DT_NS
+    integrator = FixedStepIntegrator(sim.robot, "semi_implicit_euler", 1e-3, True)
+    q, qd = np.array(HOME), np.zeros(6)
+    for _ in range(steps):
+        q, qd = integrator.step(q, qd, np.zeros(6))
+    assert np.max(np.abs(q - HOME)) > 0.05            # it did fall
+    np.testing.assert_allclose(later.position, q, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(later.velocity, qd, rtol=0, atol=1e-9)
+
+
+def test_gravity_torques_from_the_inverse_dynamics_node_hold_the_arm(ros, sim, inverse_dynamics):
+    request, responses = inverse_dynamics
+    rest = sim.reset()
+    msg = JointTrajectory(joint_names=sim.robot.joint_names,
+                          points=[JointTrajectoryPoint(positions=HOME)])
+    msg.header.frame_id = "hold"
+    request.publish(msg)
+    g = np.array(responses.wait(lambda m: m.header.frame_id == "hold").points[0].effort)
+    np.testing.assert_allclose(g, sim.robot.gravity_torques(HOME), rtol=1e-12, atol=1e-12)
+    assert np.max(np.abs(g)) > 1.0
+    timer = ros.node.create_timer(0.05, lambda: sim.send(g))   # within command_timeout
+    try:
+        sim.wait_effort(g)
+        sim.pause(False)
+        start = sim.states.wait(lambda m: ns(m) > ns(rest))
+        seen = [start]
+        while ns(seen[-1]) < ns(start) + 2000 * DT_NS:         # 2 s of simulated time
+            seen.append(sim.states.wait())
+        drift = max(np.max(np.abs(np.array(m.position) - HOME)) for m in seen)
+        assert drift < 1e-3
+        assert all(np.array_equal(m.effort, g) for m in seen)
+    finally:
+        ros.node.destroy_timer(timer)
+        sim.reset()
+
+
+def test_command_timeout_returns_effort_to_zero_with_one_warning(ros, sim):
+    sim.reset()
+    before = sim.proc.output().count("command_timeout")
+    sim.pause(False)
+    c = [1.0, 2.0, 1.0, 0.5, 0.25, 0.1]
+    sim.send(c)
+    held = sim.wait_effort(c)
+    released = sim.states.wait(lambda m: not any(m.effort), what="the timeout")
+    # command_timeout = 0.5 s of simulated time; joint_states come every 10 ms
+    assert 0.49e9 <= ns(released) - ns(held) <= 0.52e9
+    ros.spin_for(0.5)
+    assert sim.proc.output().count("command_timeout") - before == 1
+    sim.reset()
+
+
+def test_joint_commands_by_name_and_effort_clamping(sim):
+    sim.reset()    # paused: commands hold (no simulated time passes), states still come
+    sim.joint.publish(JointState(name=["elbow_joint", "shoulder_pan_joint"], effort=[10.0, -5.0]))
+    sim.wait_effort([-5.0, 0, 10.0, 0, 0, 0])
+    sim.joint.publish(JointState(name=["wrist_1_joint"], effort=[100.0]))   # limit 28 N m
+    sim.wait_effort([-5.0, 0, 10.0, 28.0, 0, 0])
+    sim.send([1000.0, -1000.0, 0, 0, 0, -29.0])                            # limits 150, 28
+    sim.wait_effort([150.0, -150.0, 0, 0, 0, -28.0])
+    wait_for_log(sim.ros, sim.proc, "clamped to the limit")
+    sim.reset()
+
+
+BAD_EFFORT = {   # message -> the log text of its cause
+    "effort_commands data contains NaN": [[float("nan")] * 6, [0, 0, float("inf"), 0, 0, 0]],
+    "effort_commands data has": [[1.0, 2.0], []],     # one cause: the wrong length
+}
+BAD_JOINT = {
+    "that are not in the chain": JointState(name=["elbow_joint", "gripper"], effort=[1.0, 2.0]),
+    "more than once": JointState(name=["elbow_joint", "elbow_joint"], effort=[1.0, 2.0]),
+    "joint_commands effort has 1 values": JointState(name=["elbow_joint", "wrist_1_joint"],
+                                                     effort=[1.0]),
+    "joint_commands effort contains NaN": JointState(name=["elbow_joint"], effort=[float("nan")]),
+    "joint_commands names no joints": JointState(),
+}
+
+
+def test_bad_commands_are_rejected_once_per_cause_and_the_last_good_one_stays(ros, sim):
+    sim.reset()
+    good = [1.0, 2.0, 3.0, 0.5, 0.25, 0.125]
+    sim.send(good)
+    sim.wait_effort(good)
+    for _ in range(3):
+        for messages in BAD_EFFORT.values():
+            for data in messages:
+                sim.effort.publish(Float64MultiArray(data=[float(x) for x in data]))
+        for msg in BAD_JOINT.values():
+            sim.joint.publish(msg)
+    for text in list(BAD_EFFORT) + list(BAD_JOINT):
+        wait_for_log(ros, sim.proc, text)
+    ros.spin_for(0.3)
+    log = sim.proc.output()
+    for text in (*BAD_EFFORT, *BAD_JOINT):
+        assert log.count(text) == 1, text
+    sim.states.clear()
+    sim.wait_effort(good)                        # still applying the last good command
+    assert sim.proc.running()
+    sim.reset()                                  # and still answering
+
+
+def test_pause_and_reset(sim):
+    sim.reset()
+    sim.pause(False)
+    a = sim.states.wait(lambda m: list(m.position) != HOME, what="motion")
+    sim.pause(True)
+    # once paused, two consecutive states with the same stamp, then no change at all
+    prev = [sim.states.wait()]
+    paused = sim.states.wait(lambda m: (ns(m) == ns(prev[-1])) or prev.append(m))
+    for _ in range(5):
+        m = sim.states.wait()
+        assert ns(m) == ns(paused) and list(m.position) == list(paused.position)
+    assert ns(paused) >= ns(a)
+    sim.reset()                                    # back to HOME at rest (waited for inside)
+    sim.pause(False)
+    sim.states.wait(lambda m: ns(m) > ns(paused) and list(m.position) != HOME,
+                    what="motion after the reset")
+    sim.reset()

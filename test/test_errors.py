@@ -208,9 +208,9 @@ def test_off_chain_floating_and_mimic_joints_are_held():
 
 
 # ---------------------------------------------------------------- bad states and arguments
-@pytest.fixture(scope="module")
-def robot():
-    return sd.default_robot()
+@pytest.fixture(scope="module", params=["numba", "numpy"])
+def robot(request):
+    return sd.Robot(sd.default_robot().model, backend=request.param)
 
 
 @pytest.mark.parametrize("call, argname", [
@@ -223,6 +223,7 @@ def robot():
     (lambda r, bad, ok: r.coriolis_matrix(ok, bad), "qd"),
     (lambda r, bad, ok: r.forward_dynamics(ok, ok, bad), "tau"),
     (lambda r, bad, ok: r.forward_dynamics(ok, ok, bad, method="qr"), "tau"),
+    (lambda r, bad, ok: r.forward_dynamics(bad, ok, ok, method="aba"), "q"),
     (lambda r, bad, ok: r.forward_kinematics(bad), "q"),
     (lambda r, bad, ok: r.jacobian(bad), "q"),
     (lambda r, bad, ok: r.kinetic_energy(ok, bad), "qd"),
@@ -256,6 +257,18 @@ def test_wrong_wrench_shape(robot, wrench):
                  lambda: robot.forward_dynamics(q, q, q, wrench=wrench)):
         with pytest.raises(ValueError, match="wrench has shape"):
             call()
+
+
+@pytest.mark.parametrize("value", [np.nan, np.inf])
+def test_nan_or_inf_wrench(robot, value):
+    w = np.array([1.0, 2.0, value, 0.0, 0.0, 0.0])
+    for q in (np.zeros(6), np.zeros((3, 6))):
+        for call in (lambda: robot.inverse_dynamics(q, q, q, wrench=w),
+                     lambda: robot.bias_torques(q, q, wrench=w),
+                     lambda: robot.forward_dynamics(q, q, q, wrench=w),
+                     lambda: robot.forward_dynamics(q, q, q, wrench=w, method="qr")):
+            with pytest.raises(ValueError, match="wrench has a NaN or Inf entry"):
+                call()
 
 
 def test_unknown_link_in_kinematics(robot):

@@ -33,9 +33,14 @@ ROBOTS = {
 }
 
 
-@pytest.fixture(params=sorted(ROBOTS), scope="module")
+BACKENDS = ("numba", "numpy")     # compiled kernels and the NumPy reference algorithms
+
+
+@pytest.fixture(params=[(r, b) for r in sorted(ROBOTS) for b in BACKENDS],
+                ids=lambda p: f"{p[0]}-{p[1]}", scope="module")
 def robot(request):
-    return ROBOTS[request.param]()
+    name, backend = request.param
+    return sd.Robot(ROBOTS[name]().model, backend=backend)
 
 
 def states(robot, count, seed=0):
@@ -148,7 +153,7 @@ def test_coriolis_matrix_pieces(robot):
 
 
 # ---------------------------------------------------------------- dynamics
-@pytest.mark.parametrize("method", ["cholesky", "qr"])
+@pytest.mark.parametrize("method", ["cholesky", "qr", "aba", "auto"])
 def test_forward_inverse_identity(robot, method):
     for q, qd, qdd in states(robot, 5, seed=8):
         tau = robot.inverse_dynamics(q, qd, qdd)
@@ -237,6 +242,9 @@ def test_batch_equals_per_state(robot):
         "coriolis_matrix": (robot.coriolis_matrix, (q, qd)),
         "forward_cholesky": (lambda a, b, c: robot.forward_dynamics(a, b, c), (q, qd, tau)),
         "forward_qr": (lambda a, b, c: robot.forward_dynamics(a, b, c, method="qr"), (q, qd, tau)),
+        "forward_aba": (lambda a, b, c: robot.forward_dynamics(a, b, c, method="aba"), (q, qd, tau)),
+        "forward_wrench": (lambda a, b, c, d: robot.forward_dynamics(a, b, c, wrench=d),
+                           (q, qd, tau, w)),
         "forward_kinematics": (robot.forward_kinematics, (q,)),
         "jacobian": (robot.jacobian, (q,)),
         "kinetic_energy": (robot.kinetic_energy, (q, qd)),

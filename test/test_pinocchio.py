@@ -80,10 +80,13 @@ CHAINS = {
 del CHAINS["anymal_c_leg"]   # its root link 'base' and 'hatch' fail validation (see below)
 
 
-def _load(path, base, tip):
+BACKENDS = ("numba", "numpy")     # compiled kernels and the NumPy reference algorithms
+
+
+def _load(path, base, tip, backend="numba"):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", sd.HeldJointsWarning)
-        return sd.load_urdf(path, base, tip, gravity=G_WORLD)
+        return sd.Robot(sd.load_urdf(path, base, tip, gravity=G_WORLD).model, backend=backend)
 
 
 def reference(robot, path):
@@ -126,11 +129,13 @@ def samples(robot, count=4, seed=0):
         yield q, qd, rng.uniform(-3, 3, robot.dof), w
 
 
-@pytest.fixture(scope="module", params=sorted(CHAINS))
+@pytest.fixture(scope="module", params=[(c, b) for c in sorted(CHAINS) for b in BACKENDS],
+                ids=lambda p: f"{p[0]}-{p[1]}")
 def chain(request):
-    rel, base, tip, _ = CHAINS[request.param]
+    name, backend = request.param
+    rel, base, tip, _ = CHAINS[name]
     path = erd(rel)
-    robot = _load(path, base, tip)
+    robot = _load(path, base, tip, backend)
     return robot, reference(robot, path)
 
 
@@ -161,13 +166,17 @@ def test_gravity_torques(chain):
         assert rel_err(robot.gravity_torques(q), ref.gravity(q)) <= RTOL
 
 
-@pytest.mark.parametrize("method", ["cholesky", "qr"])
+@pytest.mark.parametrize("method", ["cholesky", "qr", "aba"])
 def test_forward_dynamics(chain, method):
     robot, ref = chain
-    for q, qd, qdd, _ in samples(robot, seed=4):
+    for q, qd, qdd, w in samples(robot, seed=4):
         tau = ref.rnea(q, qd, qdd)
         expected = ref.aba(q, qd, tau)
         assert rel_err(robot.forward_dynamics(q, qd, tau, method=method), expected) <= RTOL
+        # with a tip wrench: the torques that produce qdd against it give qdd back
+        tau_w = ref.rnea(q, qd, qdd, pin_fext(ref, robot, q, w))
+        assert rel_err(robot.forward_dynamics(q, qd, tau_w, wrench=w, method=method),
+                       expected) <= RTOL
 
 
 def test_coriolis_times_qd(chain):
@@ -325,12 +334,13 @@ def test_every_chain_of(rel):
                 assert msg.startswith("link") and _inertia_is_unphysical(links[name]), msg
             continue
         ref = reference(robot, path)
-        for q, qd, qdd, w in samples(robot, count=2, seed=7):
-            tau = ref.rnea(q, qd, qdd, pin_fext(ref, robot, q, w))
-            assert rel_err(robot.inverse_dynamics(q, qd, qdd, wrench=w), tau) <= RTOL, tip
-            assert rel_err(robot.mass_matrix(q), ref.mass_matrix(q)) <= RTOL, tip
-            assert rel_err(robot.forward_dynamics(q, qd, tau, wrench=w),
-                           ref.aba(q, qd, ref.rnea(q, qd, qdd))) <= RTOL, tip
+        for r in (robot, sd.Robot(robot.model, backend="numpy")):
+            for q, qd, qdd, w in samples(robot, count=2, seed=7):
+                tau = ref.rnea(q, qd, qdd, pin_fext(ref, robot, q, w))
+                assert rel_err(r.inverse_dynamics(q, qd, qdd, wrench=w), tau) <= RTOL, tip
+                assert rel_err(r.mass_matrix(q), ref.mass_matrix(q)) <= RTOL, tip
+                assert rel_err(r.forward_dynamics(q, qd, tau, wrench=w),
+                               ref.aba(q, qd, ref.rnea(q, qd, qdd))) <= RTOL, tip
         checked += 1
     if checked == 0:
         pytest.skip(f"{rel}: no chain loads: {KNOWN_INVALID[rel]}")

@@ -68,17 +68,19 @@ PLANAR_PARAMS = {
 }
 
 
-def _planar(name):
+def _planar(name, backend="numba"):
     a, m, I = PLANAR_PARAMS[name]
     robot = sd.load_urdf(planar_3r_urdf(a, m, I), base_link="base_link")
+    robot = sd.Robot(robot.model, backend=backend)
     if I is None:   # the generator's default: thin cylinders of radius 0.02
         I = np.asarray(m) * (3 * 0.02**2 + np.asarray(a) ** 2) / 12.0
     return robot, a, m, I
 
 
-@pytest.fixture(params=sorted(PLANAR_PARAMS), scope="module")
+@pytest.fixture(params=[(p, b) for p in sorted(PLANAR_PARAMS) for b in ("numba", "numpy")],
+                ids=lambda p: f"{p[0]}-{p[1]}", scope="module")
 def planar(request):
-    return _planar(request.param)
+    return _planar(*request.param)
 
 
 def test_planar_setup_matches_the_example(planar):
@@ -148,7 +150,7 @@ def test_planar_equations_of_motion(planar):
         M, v, g = planar_oracle(a, m, I, q, qd)
         tau = M @ qdd + v + g
         assert_rel(robot.inverse_dynamics(q, qd, qdd), tau, 1e-12, "I qdd + v + g")
-        for method in ("cholesky", "qr"):
+        for method in ("cholesky", "qr", "aba"):
             assert_rel(robot.forward_dynamics(q, qd, tau, method=method), qdd, 1e-10,
                        f"forward dynamics ({method})")
 
@@ -171,17 +173,24 @@ def test_planar_energy_is_lagrangian():
 SPATIAL_PARAMS = [(0.5, 2.0, 0.05), (1.0, 1.0, 0.1), (0.2, 7.5, 0.003)]
 
 
+def _spatial(a, m, I, backend):
+    model = sd.load_urdf(spatial_3r_urdf(a, m, I), gravity=(0, 0, 0)).model
+    return sd.Robot(model, backend=backend)
+
+
+@pytest.mark.parametrize("backend", ["numba", "numpy"])
 @pytest.mark.parametrize("a, m, I", SPATIAL_PARAMS)
-def test_spatial_mass_matrix(a, m, I):
-    robot = sd.load_urdf(spatial_3r_urdf(a, m, I), gravity=(0, 0, 0))
+def test_spatial_mass_matrix(a, m, I, backend):
+    robot = _spatial(a, m, I, backend)
     expected = 0.25 * m * a**2 * np.array([[11, 4, 0], [4, 7, 0], [0, 0, 1]]) + I * np.diag([3, 2, 1])
     assert_rel(robot.mass_matrix(np.zeros(3)), expected, 1e-13, "mass matrix")
 
 
 @pytest.mark.parametrize("a, m, I", SPATIAL_PARAMS)
 @pytest.mark.parametrize("p", [1.0, -0.7, 2.5])
-def test_spatial_coriolis_torques(a, m, I, p):
-    robot = sd.load_urdf(spatial_3r_urdf(a, m, I), gravity=(0, 0, 0))
+@pytest.mark.parametrize("backend", ["numba", "numpy"])
+def test_spatial_coriolis_torques(a, m, I, p, backend):
+    robot = _spatial(a, m, I, backend)
     q, qd = np.zeros(3), p * np.ones(3)
     # erratum: the chapter prints tau1 = p^2 (a^2 m / 2 - I); the correct value is p^2 (a^2 m - I)
     expected = p**2 * np.array([a**2 * m - I, I - 0.25 * a**2 * m, a**2 * m - I])

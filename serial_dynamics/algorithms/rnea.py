@@ -30,6 +30,8 @@ def _wrench_batch(wrench, N):
     if w.shape not in ((6,), (N, 6)) and not (w.ndim == 2 and w.shape == (1, 6)):
         raise ValueError(f"wrench has shape {w.shape}; expected (6,) or ({N}, 6) "
                          "ordered [fx, fy, fz, mx, my, mz]")
+    if not np.all(np.isfinite(w)):
+        raise ValueError("wrench has a NaN or Inf entry; give finite numbers")
     return np.broadcast_to(w, (N, 6))
 
 

@@ -69,15 +69,15 @@ CHAINS = {
     "go1_leg": ("go1_description/urdf/go1.urdf", "trunk", "FR_foot", "quadruped leg, foot mass"),
     "a1_leg": ("a1_description/urdf/a1.urdf", None, "RL_foot", "quadruped leg"),
     "solo12_leg": ("solo_description/robots/solo12.urdf", None, "HR_FOOT", "quadruped leg"),
-    "anymal_c_leg": ("anymal_c_simple_description/urdf/anymal.urdf", "base_inertia", None,
-                     "placeholder, see KNOWN_INVALID"),
+    "anymal_knee": ("anymal_b_simple_description/robots/anymal.urdf", "LF_HIP", "LF_FOOT",
+                    "hip and knee below a held abduction joint; adapter and foot lumped "
+                    "(the root link 'base' itself fails validation, see KNOWN_INVALID)"),
     "g1_arm": ("g1_description/urdf/g1_29dof_rev_1_0.urdf", None, "left_wrist_yaw_link",
                "waist + arm"),
     "human_right_arm": ("human_description/robots/human.urdf", None, "right_hand", "13 joints"),
     "hextilt_arm": ("hextilt_description/urdf/hextilt_flying_arm_5.urdf", None, None, ""),
     "finger_edu": ("finger_edu_description/robots/finger_edu.urdf", None, None, ""),
 }
-del CHAINS["anymal_c_leg"]   # its root link 'base' and 'hatch' fail validation (see below)
 
 
 BACKENDS = ("numba", "numpy")     # compiled kernels and the NumPy reference algorithms

@@ -102,7 +102,8 @@ def pick_and_place(robot) -> Trajectory:
     if robot.joint_names == ur:
         q = np.array([w[1] for w in UR5E_PICK_AND_PLACE])
     else:
-        mid = np.where(np.isfinite(robot.lower + robot.upper), 0.5 * (robot.lower + robot.upper), 0.0)
+        limited = np.isfinite(robot.lower) & np.isfinite(robot.upper)
+        mid = np.where(limited, 0.5 * (np.where(limited, robot.lower, 0) + np.where(limited, robot.upper, 0)), 0.0)
         scale = np.array([0.05 if k == "prismatic" else 0.4 for k in robot.joint_types])
         pattern = np.array([0.0, 0.6, 1.0, 1.0, 0.6, -0.6, -1.0, -1.0, -0.6])
         sign = np.where(np.arange(robot.dof) % 2 == 0, 1.0, -1.0)

@@ -40,7 +40,7 @@ class NodeProcess:
 
     def __init__(self, module: str, params: dict | None = None, ros_args=(), env=None,
                  log_dir=None):
-        self.module = module
+        self.module, self.stopped = module, False
         self.cmd = [sys.executable, "-m", f"serial_dynamics.ros.{module}", "--ros-args"]
         for name, value in (params or {}).items():
             self.cmd += ["-p", f"{name}:={ros_value(value)}"]
@@ -61,6 +61,7 @@ class NodeProcess:
         return self.proc.poll() is None
 
     def stop(self, timeout: float = 5.0) -> int:
+        self.stopped = True
         if self.proc.poll() is None:
             self.proc.send_signal(signal.SIGINT)
             try:

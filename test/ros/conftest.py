@@ -40,7 +40,7 @@ class Ros:
         deadline = time.monotonic() + timeout
         while not done():
             for p in self.procs:
-                if not p.running() and p.expect_running:
+                if p.expect_running and not p.stopped and not p.running():
                     raise AssertionError(f"{p.module} exited:\n{p.output()}")
             if time.monotonic() > deadline:
                 raise AssertionError(f"timed out after {timeout} s waiting for {what}")
@@ -51,8 +51,8 @@ class Ros:
         while time.monotonic() < deadline:
             self.executor.spin_once(timeout_sec=0.02)
 
-    def start(self, module, params=None, expect_running=True):
-        p = NodeProcess(module, {**NO_TOPIC, **(params or {})})
+    def start(self, module, params=None, ros_args=(), expect_running=True):
+        p = NodeProcess(module, {**NO_TOPIC, **(params or {})}, ros_args)
         p.expect_running = expect_running
         self.procs.append(p)
         return p

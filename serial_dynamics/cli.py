@@ -1,4 +1,4 @@
-"""Command line: ``serial-dynamics {info,demo} ...``."""
+"""Command line: ``serial-dynamics {info,demo,simulate} ...``."""
 from __future__ import annotations
 
 import argparse
@@ -51,11 +51,91 @@ def cmd_offline_demo(args):
     return 0
 
 
+def _vector(text, n, name):
+    """'0.1,0.2,...' (n values) or a single value for every joint."""
+    if text is None:
+        return None
+    vals = [float(v) for v in text.replace(" ", ",").split(",") if v]
+    if len(vals) == 1:
+        vals = vals * n
+    if len(vals) != n:
+        raise ValueError(f"--{name} has {len(vals)} values; give one per joint ({n}) or one for all")
+    return np.array(vals)
+
+
+def cmd_simulate(args):
+    """Simulate a run, print its statistics and energy balance; --plot, --csv."""
+    from .simulate import FIXED_STEP, SimulationError, simulate
+    robot = _load(args)
+    n = robot.dof
+    q0 = _vector(args.q0, n, "q0")
+    qd0 = _vector(args.qd0, n, "qd0")
+    torque = _vector(args.torque, n, "torque")
+    kw = dict(method=args.method, dissipation=not args.no_dissipation,
+              output_dt=args.output_dt, progress=not args.quiet)
+    if args.method in FIXED_STEP:
+        if args.rtol is not None or args.atol is not None:
+            raise ValueError(f"--rtol/--atol are for the adaptive methods; {args.method} takes --dt")
+        kw["dt"] = args.dt
+    else:
+        if args.dt is not None:
+            raise ValueError(f"--dt is for the fixed-step methods {list(FIXED_STEP)}; "
+                             f"{args.method} takes --rtol/--atol")
+        kw.update(rtol=args.rtol, atol=args.atol)
+    if kw["output_dt"] is None and (args.plot or args.csv):
+        kw["output_dt"] = min(0.01, args.duration / 200)
+    print(f"{robot}\nsimulating {args.duration:g} s with {args.method}", flush=True)
+    try:
+        res = simulate(robot, args.duration, q0, qd0, torque, **kw)
+    except SimulationError as exc:
+        print(f"serial-dynamics: {exc}", file=sys.stderr)
+        return 3
+    s = res.stats
+    np.set_printoptions(precision=5, suppress=True, linewidth=120)
+    print(f"{s.steps} steps, {s.nfev} right-hand-side evaluations, {s.njev} Jacobians, "
+          f"{s.rejected} rejected, {s.dynamics_states} dynamics states, {s.wall_time:.3f} s wall")
+    print(f"q({res.t[-1]:g} s)  = {res.q[-1]}")
+    print(f"qd({res.t[-1]:g} s) = {res.qd[-1]}")
+    e = res.energy
+    print(f"energy: E(0) = {e[0]:.6g} J, E(end) = {e[-1]:.6g} J, actuator work "
+          f"{res.work_actuators[-1] + 0.0:.6g} J, dissipated {res.energy_dissipated[-1] + 0.0:.6g} J; "
+          f"balance error {np.max(np.abs(res.energy_balance_error)):.3g} J "
+          f"({res.relative_energy_error():.2e} relative)")
+    if args.csv:
+        res.to_csv(args.csv)
+        print(f"wrote {args.csv}")
+    if args.plot:
+        res.plot(args.plot, title=f"{robot.model.name}: {args.method}, {args.duration:g} s "
+                 f"({s.steps} steps, {s.nfev} evaluations, {s.wall_time:.2f} s wall)")
+        print(f"wrote {args.plot}")
+    return 0
+
+
+def _simulate_options(p):
+    from .simulate import DEFAULT_DT, METHODS
+    p.add_argument("--duration", type=float, default=3.0, help="simulated time, s (3)")
+    p.add_argument("--method", default="DOP853", choices=METHODS, help="integrator (DOP853)")
+    p.add_argument("--dt", type=float, default=None,
+                   help=f"step of the fixed-step methods, s ({DEFAULT_DT:g})")
+    p.add_argument("--rtol", type=float, default=None, help="adaptive methods (1e-6)")
+    p.add_argument("--atol", type=float, default=None, help="adaptive methods (1e-9)")
+    p.add_argument("--q0", default=None, help="initial positions, comma separated (0)")
+    p.add_argument("--qd0", default=None, help="initial speeds, comma separated (0)")
+    p.add_argument("--torque", default=None, help="constant joint torques (0)")
+    p.add_argument("--no-dissipation", action="store_true", help="no joint friction")
+    p.add_argument("--output-dt", type=float, default=None,
+                   help="output spacing, s (every step; 0.01 with --plot/--csv)")
+    p.add_argument("--plot", default=None, metavar="OUT.png", help="plot q, tau and energy")
+    p.add_argument("--csv", default=None, metavar="OUT.csv", help="write the samples")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(prog="serial-dynamics", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
     for name, fn, help_ in (("info", cmd_info, "print a robot's gravity torques and mass matrix"),
-                            ("demo", cmd_demo, "run the main demo on the default robot")):
+                            ("demo", cmd_demo, "run the main demo on the default robot"),
+                            ("simulate", cmd_simulate, "simulate the forward dynamics; plot, CSV")):
         p = sub.add_parser(name, help=help_)
         p.add_argument("urdf", nargs="?", default=None, help="URDF path (default: built-in UR5e)")
         p.add_argument("--base-link", default=None)
@@ -66,6 +146,8 @@ def main(argv=None):
             p.add_argument("--json", metavar="PATH", default=None, help="write the numbers as JSON")
             p.add_argument("--real-time-factor", type=float, default=1.0,
                            help="simulated s per wall s (0: as fast as possible)")
+        if name == "simulate":
+            _simulate_options(p)
     args = parser.parse_args(argv)
     try:
         return args.func(args)

@@ -170,7 +170,7 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81))
     bodies = []                                  # dicts per movable joint
     frames = {base_link: (-1, np.eye(3), np.zeros(3))}
     X_acc = np.eye(4)                            # next frame, in the current body
-    parts = {-1: []}                             # inertia parts per body (-1: base)
+    parts = {}                                   # inertia parts per body
     for joint in chain:
         what = f"joint {joint.name!r}"
         X = X_acc @ _finite_or_fail(_transform(joint.origin), what + " origin")
@@ -193,9 +193,10 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81))
     stack = [(name, frames[name][0], _pose(frames[name])) for name in chain_links]
     while stack:
         name, body, X_link = stack.pop()
-        m, c, I = _link_inertia(links[name])
-        R = X_link[:3, :3]
-        parts[body].append((m, R @ c + X_link[:3, 3], R @ I @ R.T))   # base parts are unused
+        if body >= 0:   # links fixed to the base are not in the model: neither used nor checked
+            m, c, I = _link_inertia(links[name])
+            R = X_link[:3, :3]
+            parts[body].append((m, R @ c + X_link[:3, 3], R @ I @ R.T))
         for joint in children[name]:
             if joint.name in chain_joints:
                 continue

@@ -227,7 +227,8 @@ def test_hand_picked_chains_cover_the_joint_kinds():
 
 # ---------------------------------------------------------------- every chain of every URDF
 # URDFs of example-robot-data whose every root-to-branch-end chain is refused, and why.
-# Validation is not loosened for them: each refusal names a link whose inertia no rigid body
+# (Links fixed to the base are not part of the model and are not checked, so a bad antenna
+# on a mobile base does not refuse the arm.) Validation is not loosened for them: each refusal names a link whose inertia no rigid body
 # has (re-checked independently in _inertia_is_unphysical) or a mimic joint on the chain.
 KNOWN_INVALID = {
     "alex_description/urdf/alex_psyonic_hands.urdf":
@@ -237,18 +238,6 @@ KNOWN_INVALID = {
         "link_15.0 and link_7.0: principal moments violate the triangle inequality",
     "allegro_hand_description/urdf/allegro_right_hand.urdf":
         "link_15.0 and link_7.0: principal moments violate the triangle inequality",
-    "anymal_b_simple_description/robots/anymal.urdf":
-        "root link 'base' (legs hang from it): rank-1 inertia (all entries 1e-6)",
-    "anymal_b_simple_description/robots/anymal-kinova.urdf":
-        "root link 'base' (legs and arm hang from it): rank-1 inertia (all entries 1e-6)",
-    "anymal_c_simple_description/urdf/anymal.urdf":
-        "link 'hatch' on the base: rank-1 inertia (only izz)",
-    "b1_description/urdf/b1.urdf": "root link 'base': rank-1 inertia (all entries 1e-6); "
-                                   "chains from 'trunk' load",
-    "b1_description/urdf/b1-z1.urdf": "root link 'base': rank-1 inertia (all entries 1e-6); "
-                                      "chains from 'trunk' load",
-    "go1_description/urdf/go1.urdf": "root link 'base': rank-1 inertia (all entries 1e-6); "
-                                     "chains from 'trunk' load",
     "hyq_description/robots/hyq_no_sensors.urdf":
         "foot links (e.g. 'rh_foot'): rank-1 inertia (all entries 1e-6)",
     "icub_description/robots/icub.urdf":
@@ -258,14 +247,6 @@ KNOWN_INVALID = {
     "romeo_description/urdf/romeo_laas_small.urdf":
         "'LHipPitch_link' not positive semi-definite; 'LShoulderYaw_link' violates the "
         "triangle inequality",
-    "romeo_description/urdf/romeo_small.urdf":
-        "'RShoulderYawLink' (on the trunk, the base of every chain) violates the triangle "
-        "inequality",
-    "tiago_description/robots/tiago.urdf":
-        "'base_antenna_right_link' on the mobile base: not positive semi-definite; "
-        "chains from 'torso_fixed_link' load",
-    "tiago_description/robots/tiago_dual.urdf": "as tiago.urdf",
-    "tiago_description/robots/tiago_no_hand.urdf": "as tiago.urdf",
     "pr2_description/urdf/pr2.urdf":
         "'sensor_mount_link' (on the head, held and lumped into the torso) violates the "
         "triangle inequality; chains from 'r_shoulder_pan_link' load",
@@ -321,7 +302,7 @@ def test_every_chain_of(rel):
         with pytest.raises(sd.URDFError, match="no movable joint"):
             sd.load_urdf(path)
         pytest.skip(f"{rel} has no movable joint")
-    checked = 0
+    checked, unreferenced = 0, []
     for tip in ends:
         try:
             robot = _load(path, None, tip)
@@ -333,7 +314,12 @@ def test_every_chain_of(rel):
             else:
                 assert msg.startswith("link") and _inertia_is_unphysical(links[name]), msg
             continue
-        ref = reference(robot, path)
+        try:
+            ref = reference(robot, path)
+        except ValueError as exc:   # Pinocchio cannot reduce a model whose joint and link
+            assert "Several frames match" in str(exc), exc   # share a name (anymal_c, b1-z1)
+            unreferenced.append(tip)
+            continue
         for r in (robot, sd.Robot(robot.model, backend="numpy")):
             for q, qd, qdd, w in samples(robot, count=2, seed=7):
                 tau = ref.rnea(q, qd, qdd, pin_fext(ref, robot, q, w))
@@ -342,6 +328,9 @@ def test_every_chain_of(rel):
                 assert rel_err(r.forward_dynamics(q, qd, tau, wrench=w),
                                ref.aba(q, qd, ref.rnea(q, qd, qdd))) <= RTOL, tip
         checked += 1
+    if checked == 0 and unreferenced:
+        pytest.skip(f"{rel}: chains to {unreferenced} load, but Pinocchio cannot build the "
+                    "reduced reference model (a joint and a link share a name)")
     if checked == 0:
         pytest.skip(f"{rel}: no chain loads: {KNOWN_INVALID[rel]}")
     assert rel not in KNOWN_INVALID, f"{rel} now loads: update KNOWN_INVALID"

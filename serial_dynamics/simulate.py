@@ -41,8 +41,11 @@ METHODS = ADAPTIVE + FIXED_STEP
 IMPLICIT = ("Radau", "BDF", "LSODA", "implicit_midpoint")
 DEFAULT_RTOL, DEFAULT_ATOL, DEFAULT_DT = 1e-6, 1e-9, 1e-3
 REST_SPEED = 1e-9            # rad/s (m/s): a Coulomb joint slower than this is at rest
-SPEED_BOUND_FACTOR = 100.0   # divergence: |qd| > 100 x velocity limit (1e4 where none)
+SPEED_BOUND_FACTOR = 1e3    # divergence: |qd| > 1000 x velocity limit (1e5 where none)
 PRISMATIC_BOUND = 1e3        # m: no prismatic joint travels a kilometre
+JACOBIAN_AGE = 20            # implicit midpoint: steps a Jacobian is reused at most
+NEWTON_ACCEPT = 1e-7         # implicit midpoint: largest relative correction accepted at the
+                             # last Newton iteration (the target is newton_tol = 1e-10)
 
 
 class SimulationError(RuntimeError):
@@ -155,7 +158,7 @@ class _Equations:
         self.v_eps = float(smoothing)
         self.names = list(robot.joint_names)
         vl = np.asarray(robot.velocity_limit, float)
-        self.speed_bound = np.where(np.isfinite(vl) & (vl > 0), SPEED_BOUND_FACTOR * vl, 1e4)
+        self.speed_bound = np.where(np.isfinite(vl) & (vl > 0), SPEED_BOUND_FACTOR * vl, 1e5)
         self.prismatic = np.array([t == "prismatic" for t in robot.joint_types])
         self.calls = 0       # calls to the dynamics
         self.states = 0      # states evaluated (a batch of N counts N)
@@ -171,9 +174,12 @@ class _Equations:
             return self.diss.smooth_torque(qd, self.v_eps)
         if sign is None:
             return self.diss.torque(qd)
+        return -self.beta * qd - self.kinetic(qd) * sign
+
+    def kinetic(self, qd):
+        """Magnitude of the Coulomb friction while sliding, tau_c + eps e^(-gamma |qd|)."""
         d = self.diss
-        kinetic = d.coulomb + d.stribeck * np.exp(-d.stribeck_rate * np.abs(qd))
-        return -self.beta * qd - kinetic * sign
+        return d.coulomb + d.stribeck * np.exp(-d.stribeck_rate * np.abs(qd))
 
     # -- dynamics through the facade
     def fd(self, q, qd, tau, w=None):
@@ -181,11 +187,16 @@ class _Equations:
         self.states += 1 if np.ndim(q) == 1 else len(q)
         return self.robot.forward_dynamics(q, qd, tau, w)
 
-    def accel(self, q, qd, tau, w=None, stuck=None, sign=None, smooth=False):
+    def accel(self, q, qd, tau, w=None, stuck=None, sign=None, smooth=False, coulomb=None):
         """qdd and delta for (batches of) states. ``stuck``: joints held by static friction
         (qdd = 0; their delta is the holding torque), ``sign``: sliding direction per
-        Coulomb joint, fixed over a step (None: exact sgn, or tanh when ``smooth``)."""
-        delta = self.delta(qd, sign, smooth)
+        Coulomb joint, fixed over a step (None: exact sgn, or tanh when ``smooth``);
+        ``coulomb``: Coulomb torques frozen over a step (then only the viscous part
+        depends on qd)."""
+        if coulomb is not None:
+            delta = -self.beta * qd + coulomb
+        else:
+            delta = self.delta(qd, sign, smooth)
         if stuck is None or not stuck.any():
             return self.fd(q, qd, tau + delta, w), delta
         self.calls += 2
@@ -243,7 +254,7 @@ class _Equations:
             j = int(np.argmax(np.abs(qd) / self.speed_bound))
             reason = "speed"
             what = (f"its speed {qd[j]:.4g} exceeds the bound {self.speed_bound[j]:.4g} "
-                    f"({SPEED_BOUND_FACTOR:g} x its velocity limit, or 1e4 where none)")
+                    f"({SPEED_BOUND_FACTOR:g} x its velocity limit, or 1e5 where none)")
         else:
             j = int(np.argmax(self.prismatic * np.abs(q)))
             reason = "position"
@@ -284,7 +295,7 @@ class FixedStepIntegrator:
     METHODS = FIXED_STEP
 
     def __init__(self, robot, method="semi_implicit_euler", dt=1e-3, dissipation=True, *,
-                 newton_tol=1e-10, max_newton=8):
+                 newton_tol=1e-10, max_newton=10):
         if method not in self.METHODS:
             raise ValueError(f"fixed-step method {method!r} unknown; use one of {self.METHODS}")
         if not dt > 0:
@@ -293,6 +304,8 @@ class FixedStepIntegrator:
         self.eq = _Equations(robot, dissipation)
         self.newton_tol, self.max_newton = float(newton_tol), int(max_newton)
         self.newton_iterations = 0
+        self.newton_stalls = 0   # steps accepted with a correction between tol and NEWTON_ACCEPT
+        self._jac_cache = None   # implicit midpoint: (modes, age, dqdd/dq, LU) of the last step
         self.jacobians = 0
         self.stages = 0          # right-hand-side evaluations (a Jacobian batch counts 1)
         self._lean = method == "semi_implicit_euler" and not self.eq.coulomb_on
@@ -366,8 +379,17 @@ class FixedStepIntegrator:
             if energy:
                 dW = dt / 6 * (p1 + 2 * p2 + 2 * p3 + p4)
         else:                                   # implicit midpoint (Hairer, Lubich & Wanner, GNI)
-            q1, qd1, dW = self._midpoint(t, q, qd, torque_fn, wrench_fn, stuck, sign, energy,
-                                         power)
+            coulomb = None
+            if eq.coulomb_on:
+                # the Coulomb (+ Stribeck) magnitude is held over the step at its value for
+                # the predicted midpoint speed (second order while sliding); Newton then sees
+                # only the smooth viscous and rigid-body terms, not the kink of |qd| at zero
+                # nor the negative slope of the Stribeck rise
+                v_mid = qd + dt / 2 * qdd0
+                coulomb = np.where(sign != 0, -eq.kinetic(np.maximum(sign * v_mid, 0.0)) * sign,
+                                   0.0)
+            q1, qd1, dW = self._midpoint(t, q, qd, torque_fn, wrench_fn, stuck, sign, coulomb,
+                                         energy, power)
         if eq.coulomb_on:   # a sliding joint whose speed crossed zero stops (and may stick)
             moving = eq.coulomb & (sign != 0)
             qd1 = np.where(moving & (qd1 * sign <= 0.0), 0.0, qd1)
@@ -377,7 +399,7 @@ class FixedStepIntegrator:
         eq.check_state(t + dt, q1, qd1, method, dt)
         return q1, qd1, (tau0, delta0, qdd0, dW)
 
-    def _midpoint(self, t, q, qd, torque_fn, wrench_fn, stuck, sign, energy, power):
+    def _midpoint(self, t, q, qd, torque_fn, wrench_fn, stuck, sign, coulomb, energy, power):
         eq, dt, n = self.eq, self.dt, self.eq.n
         tm = t + dt / 2
 
@@ -388,27 +410,45 @@ class FixedStepIntegrator:
             w = None if wrench_fn is None else np.array([wrench_fn(tm, a, b) for a, b in zip(Q, V)])
             return tau, w
 
-        # Jacobian of qdd at x0 by forward differences: one batched call over 2n+1 states
-        hq = 1e-7 * np.maximum(1.0, np.abs(q))
-        hv = 1e-7 * np.maximum(1.0, np.abs(qd))
-        Q = np.repeat(q[None], 2 * n + 1, axis=0)
-        V = np.repeat(qd[None], 2 * n + 1, axis=0)
-        Q[1 + np.arange(n), np.arange(n)] += hq
-        V[1 + n + np.arange(n), np.arange(n)] += hv
-        tau, w = inputs(Q, V)
-        A, D = eq.accel(Q, V, tau, w, stuck, sign)
-        self.jacobians += 1
-        self.stages += 1
-        a0 = A[0]
-        dA_dq = ((A[1:n + 1] - a0) / hq[:, None]).T
-        dA_dv = ((A[n + 1:] - a0) / hv[:, None]).T
-        # Newton on G(dq, dv) = [dq - dt (qd + dv/2); dv - dt a(q + dq/2, qd + dv/2)] = 0;
-        # the position rows are eliminated: (1 - dt/2 A_v - dt^2/4 A_q) s_v = -G_v - dt/2 A_q G_q
-        lu = _lu(np.eye(n) - dt / 2 * dA_dv - dt * dt / 4 * dA_dq)
+        def jacobian(x, v):
+            """qdd at (x, v) and its derivatives by forward differences: one batched call
+            over the state and its 2n perturbations."""
+            hq = 1e-7 * np.maximum(1.0, np.abs(x))
+            hv = 1e-7 * np.maximum(1.0, np.abs(v))
+            Q = np.repeat(x[None], 2 * n + 1, axis=0)
+            V = np.repeat(v[None], 2 * n + 1, axis=0)
+            Q[1 + np.arange(n), np.arange(n)] += hq
+            V[1 + n + np.arange(n), np.arange(n)] += hv
+            tau, w = inputs(Q, V)
+            A, D = eq.accel(Q, V, tau, w, stuck, sign, coulomb=coulomb)
+            self.jacobians += 1
+            self.stages += 1
+            a0 = A[0]
+            Aq = ((A[1:n + 1] - a0) / hq[:, None]).T
+            Av = ((A[n + 1:] - a0) / hv[:, None]).T
+            # Newton on G(dq, dv) = [dq - dt (qd + dv/2); dv - dt a(q + dq/2, qd + dv/2)] = 0
+            # with the position rows eliminated: (1 - dt/2 A_v - dt^2/4 A_q) s_v = ...
+            lu = _lu(np.eye(n) - dt / 2 * Av - dt * dt / 4 * Aq)
+            return a0, Aq, lu, (x, v, tau[0], D[0], None if w is None else w[0])
+
+        key = (None if stuck is None else stuck.tobytes(), None if sign is None else
+               sign.tobytes())
+        cache = self._jac_cache
+        if cache is not None and cache[0] == key and cache[1] < JACOBIAN_AGE:
+            # reuse the last Jacobian (simplified Newton); refreshed below when it converges
+            # slowly, when the stick-slip modes change, or after JACOBIAN_AGE steps
+            dA_dq, lu = cache[2], cache[3]
+            self._jac_cache = (key, cache[1] + 1, dA_dq, lu)
+            tau_0, w_0 = inputs(q, qd)
+            a, d_0 = eq.accel(q, qd, tau_0, w_0, stuck, sign, coulomb=coulomb)
+            self.stages += 1
+            p_args = (q, qd, tau_0, d_0, w_0)
+        else:
+            a, dA_dq, lu, p_args = jacobian(q, qd)
+            self._jac_cache = (key, 1, dA_dq, lu)
         dq, dv = np.zeros(n), np.zeros(n)
-        a, p_args = a0, (q, qd, tau[0], D[0], None if w is None else w[0])
         scale = 1.0 + np.concatenate([np.abs(q), np.abs(qd)])
-        prev = None
+        prev, refreshed = None, 0
         for it in range(1, self.max_newton + 1):
             Gq, Gv = dq - dt * (qd + dv / 2), dv - dt * a
             sv = _lu_solve(lu, -Gv - dt / 2 * (dA_dq @ Gq))
@@ -418,23 +458,33 @@ class FixedStepIntegrator:
             size = np.max(np.abs(step) / scale)
             # simplified Newton converges linearly at rate rho; the error left after this
             # correction is about rho / (1 - rho) of it (Hairer & Wanner, Sec. IV.8)
-            rho = size / prev if prev else 1.0
+            rho = size / prev if prev else None
             if not np.isfinite(size) or size <= self.newton_tol or \
-                    (rho < 0.5 and rho / (1.0 - rho) * size <= self.newton_tol):
+                    (rho is not None and rho < 0.5 and rho / (1.0 - rho) * size <= self.newton_tol):
                 break
             prev = size
             qm, vm = q + dq / 2, qd + dv / 2
             if not (np.all(np.isfinite(qm)) and np.all(np.isfinite(vm))):
                 break
-            tau_m, w_m = inputs(qm, vm)
-            a, d_m = eq.accel(qm, vm, tau_m, w_m, stuck, sign)
-            self.stages += 1
-            p_args = (qm, vm, tau_m, d_m, w_m)
+            if rho is not None and rho > 0.2 and refreshed < 2:
+                # slow contraction: a new Jacobian at the current midpoint (it gives a too)
+                a, dA_dq, lu, p_args = jacobian(qm, vm)
+                self._jac_cache = (key, 1, dA_dq, lu)
+                refreshed += 1
+                prev = None
+            else:
+                tau_m, w_m = inputs(qm, vm)
+                a, d_m = eq.accel(qm, vm, tau_m, w_m, stuck, sign, coulomb=coulomb)
+                self.stages += 1
+                p_args = (qm, vm, tau_m, d_m, w_m)
         else:
-            raise SimulationError(
-                f"implicit midpoint: Newton did not converge within {self.max_newton} "
-                f"iterations at t = {t:.6g} s (last correction {np.max(np.abs(step)):.3g}). "
-                f"{_advice('implicit_midpoint', dt)}", t, None, "newton")
+            # a correction just above newton_tol after max_newton iterations is accepted
+            if not size <= NEWTON_ACCEPT:
+                raise SimulationError(
+                    f"implicit midpoint: Newton did not converge within {self.max_newton} "
+                    f"iterations at t = {t:.6g} s (last relative correction {size:.3g}). "
+                    f"{_advice('implicit_midpoint', dt)}", t, None, "newton")
+            self.newton_stalls += 1
         dW = dt * power(*p_args) if energy else np.zeros(3)
         return q + dq, qd + dv, dW
 

@@ -8,7 +8,7 @@ order; one point or many; missing velocities/accelerations are zeros) is answere
 ``inverse_dynamics/response`` with the same header, the joint names in model order and,
 for every point, positions, velocities, accelerations and the torques ``effort`` that
 produce them: tau = M(q) qdd + b(q, qd) - J^T w (+ the dissipation, when compensated),
-computed in one batched call for all the points.
+computed in one batched call for all the points (the single-state path for one).
 """
 from __future__ import annotations
 
@@ -70,7 +70,10 @@ class InverseDynamics(Node):
     def on_request(self, msg):
         try:
             _, q, qd, qdd, _, _ = common.trajectory_arrays(msg, self.robot, "inverse_dynamics/request")
-            tau = self.robot.inverse_dynamics(q, qd, qdd, self._wrench(q))   # batch (N, n)
+            if len(q) == 1:     # one point: the single-state path (cheaper to call)
+                tau = self.robot.inverse_dynamics(q[0], qd[0], qdd[0], self._wrench(q[0]))[None]
+            else:               # many: one batched call over the (N, n) arrays
+                tau = self.robot.inverse_dynamics(q, qd, qdd, self._wrench(q))
             if self.compensate:
                 tau = tau - self.robot.dissipation_torques(qd)
             if not np.all(np.isfinite(tau)):

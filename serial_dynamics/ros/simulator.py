@@ -11,6 +11,7 @@ replaced or until ``command_timeout`` s of simulated time pass without one.
 """
 from __future__ import annotations
 
+import sys
 import threading
 import time
 
@@ -22,7 +23,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool, Trigger
 
-from serial_dynamics.simulate import FixedStepIntegrator
+from serial_dynamics.simulate import FixedStepIntegrator, SimulationError
 
 from . import common
 from .common import Rejected, StartupError
@@ -182,11 +183,14 @@ class Simulator(Node):
         except Exception as exc:  # noqa: BLE001 -- a dead thread would hang silently
             if self.context.ok():
                 self.get_logger().error(f"simulation stopped: {exc}")
-        wall = time.monotonic() - start_wall
-        if wall > 0 and self.k > start_k:
-            self.get_logger().info(f"simulated {(self.k - start_k) * self.integrator.dt:.3f} s "
-                                   f"in {wall:.3f} s (real-time factor "
-                                   f"{(self.k - start_k) * self.integrator.dt / wall:.3f})")
+        wall, simulated = time.monotonic() - start_wall, (self.k - start_k) * self.integrator.dt
+        if wall > 0 and simulated > 0:
+            text = (f"simulated {simulated:.3f} s in {wall:.3f} s of wall time (real-time "
+                    f"factor {simulated / wall:.3f}, pauses included)")
+            if self.context.ok():
+                self.get_logger().info(text)
+            else:   # shutting down: /rosout is gone
+                print(f"[{self.NAME}] {text}", file=sys.stderr)
 
     def _step(self):
         with self.lock:
@@ -196,11 +200,14 @@ class Simulator(Node):
                 self.timed_out, self.tau = True, np.zeros(self.robot.dof)
                 self.get_logger().warning(f"no command for {self.timeout_steps * self.integrator.dt}"
                                           " s (command_timeout): applied effort back to zero")
-            q, qd = self.integrator.step(self.q, self.qd, self.tau)
-            if not (np.all(np.isfinite(q)) and np.all(np.isfinite(qd))):
+            try:
+                q, qd = self.integrator.step(self.q, self.qd, self.tau, t=self.k * self.integrator.dt)
+                if not (np.all(np.isfinite(q)) and np.all(np.isfinite(qd))):
+                    raise SimulationError("the state is no longer finite")
+            except (SimulationError, ValueError) as exc:
                 self.paused = True
-                self.get_logger().error(f"the state diverged at t = {self.k * self.integrator.dt}"
-                                        " s; paused at the last finite state (call ~/reset)")
+                self.get_logger().error(f"{exc} -- paused at the last good state "
+                                        f"(t = {self.k * self.integrator.dt:.3f} s); call ~/reset")
                 return
             self.q, self.qd, self.k = q, qd, self.k + 1
         if self.clock_pub is not None and self.k % self.clock_every == 0:

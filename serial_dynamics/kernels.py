@@ -20,11 +20,16 @@ translation ``A_{i-1}^T p_i``, the joint kind, mass ``m``, first moment ``h = m 
 rotational inertia about the body origin ``I_o = I_c + m ([c]x)^T [c]x`` (xx yy zz xy xz yz).
 The last row holds gravity (base frame) and the tip point (last body's aligned frame).
 
-Entry points take ``P`` (readonly), a workspace ``W`` (single calls; see ``workspace``) and
-C-contiguous float64 arrays, write into ``out`` and return a status: 0 = ok, 1 = a NaN/Inf
-in an input (the caller raises the reference's ValueError), 2 = wrong length. Flags:
-bit 0 = use qd, bit 1 = use qdd, bit 2 = use the tip wrench. Batch kernels take (N, n)
-inputs, or (1, n) to broadcast one row over the batch.
+Calling convention. A numba call costs ~100 ns plus ~35 ns per array argument, so the
+single-state entry points take few arrays: ``PW`` is one array holding the packed model
+(rows 0..n, ``P``) followed by the scratch memory of single calls (rows n+1.., ``W``);
+``pack`` builds it once per Robot. Inputs are C-contiguous float64 arrays; results are
+written into ``out`` and the return value is a status: 0 = ok, 1 = a NaN/Inf in an input
+(the caller then raises the reference's ValueError naming it), 2 = wrong length. Flags:
+bit 0 = use qd, bit 1 = use qdd, bit 2 = use the tip wrench (single calls: stored by the
+caller in ``wrench_row(PW)``), bit 3 = forward dynamics by ABA instead of Cholesky. Batch
+kernels take (N, n) inputs, or (1, n) to broadcast one row over the batch, and their own
+scratch memory (allocated once per call, outside the loop).
 
 Entry points are compiled on first use with explicit signatures and ``cache=True``
 (a compile takes seconds once; loading from the numba cache in ``__pycache__`` takes
@@ -41,29 +46,38 @@ from .model import PRISMATIC
 
 # ------------------------------------------------------------------ packed layout
 RP, PP, KIND, MASS, H, IO = 0, 9, 12, 13, 14, 17      # per-body row of P
-PW = 23                                               # width of P
+NPOS = 23                                             # P[0, NPOS] = n
+PWIDTH = 24                                           # columns used by P
 G, TIPP = 0, 3                                        # last row of P
 # workspace row of body i
 WR, WP, WF, WN = 0, 9, 12, 15                         # joint rotation, translation; body force, moment
-CM, CH, CI = 18, 19, 22                               # composite mass, first moment, inertia (6)
-AV, AC, AIA, APA, AU, AD, AUU = 28, 34, 40, 76, 82, 88, 89   # ABA: v, c, IA (6x6), pA, U, D, u
-WW = 90
+AV, AC, AIA, APA, AU, AD, AUU = 20, 26, 32, 68, 74, 80, 81   # ABA: v, c, IA (6x6), pA, U, D, u
+WRENCH = 60                                           # W[2n+1, WRENCH:+6]: tip wrench
+WW = 82
 
-F_QD, F_QDD, F_W = 1, 2, 4
+F_QD, F_QDD, F_W, F_ABA = 1, 2, 4, 8
+
+# Only fused multiply-add is allowed (about 4% faster); no other fast-math flag, so that NaN
+# and Inf propagate and the input checks (x * 0.0 is NaN iff x is NaN or Inf) hold.
+_FM = {"contract"}
 
 # Forward dynamics: the articulated-body method is used from this many joints on,
 # the Cholesky route below it ("auto"). Measured by bench/bench_speed.py (docs/speed.md).
 ABA_CROSSOVER = 13
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FM)
 def _workspace(n):
-    return np.zeros((2 * n + 2, max(WW, n)))
+    """Scratch memory of one evaluation: n body rows, an n x n matrix, a vector, a scratch
+    row, sin q and cos q."""
+    return np.zeros((2 * n + 4, max(WW, n)))
 
 
-def workspace(n: int) -> np.ndarray:
-    """Scratch memory of a single call: n body rows, an n x n matrix, a vector, scratch."""
-    return np.zeros((2 * n + 2, max(WW, n)))
+@njit(cache=True, fastmath=_FM, inline="always")
+def _split(PW):
+    """n, P (the first n + 1 rows: PW itself) and the view W of the packed array."""
+    n = int(PW[0, NPOS])
+    return n, PW, PW[n + 1:]
 
 
 def _frame_for_axis(a):
@@ -78,9 +92,12 @@ def _frame_for_axis(a):
 
 
 def pack(model) -> np.ndarray:
-    """The model's data in the aligned body frames, one readonly (n + 1, PW) array."""
+    """``PW``: the model's data in the aligned body frames (rows 0..n) followed by the
+    scratch memory of single calls (rows n+1 .. 3n+2). Never shared between threads
+    (single-state kernels hold the GIL)."""
     n = model.dof
-    P = np.zeros((n + 1, PW))
+    PW = np.zeros((3 * n + 5, max(WW, n, PWIDTH)))
+    P = PW[:n + 1]
     A_prev = np.eye(3)
     for i in range(n):
         A = _frame_for_axis(model.axis[i])
@@ -98,17 +115,87 @@ def pack(model) -> np.ndarray:
         A_prev = A
     P[n, G:G + 3] = model.gravity
     P[n, TIPP:TIPP + 3] = A_prev.T @ model.tip_p
-    P.setflags(write=False)
-    return P
+    P[0, NPOS] = n
+    return PW
+
+
+def wrench_row(PW):
+    """Where a single-state call reads the tip wrench (flag F_W) from."""
+    n = int(PW[0, NPOS])
+    return PW[n + 1 + 2 * n + 1, WRENCH:WRENCH + 6]
+
+
+# ------------------------------------------------------------------ sine and cosine
+def _pio2_parts():
+    """pi/2 = C1 + C2 + C3 with C1, C2 of 26 significant bits, so that k*C1 and k*C2 are
+    exact for |k| < 2^27 (Cody-Waite argument reduction)."""
+    from decimal import Decimal, getcontext
+    getcontext().prec = 60
+    pio2 = Decimal("3.14159265358979323846264338327950288419716939937510582097494459") / 2
+
+    def hi(x):                                  # x rounded down to 26 significant bits
+        m, e = math.frexp(x)
+        return math.ldexp(math.floor(math.ldexp(m, 26)), e - 26)
+
+    c1 = hi(float(pio2))
+    c2 = hi(float(pio2 - Decimal(c1)))
+    return c1, c2, float(pio2 - Decimal(c1) - Decimal(c2)), float(1 / pio2)
+
+
+_C1, _C2, _C3, _TWO_OVER_PI = _pio2_parts()
+# Taylor coefficients (-1)^k / (2k+1)! (sine, r^3..r^17) and (-1)^k / (2k)! (cosine, r^4..r^18):
+# on |r| <= pi/4 the first omitted terms are below 1e-19.
+_S1, _S2, _S3, _S4, _S5, _S6, _S7, _S8 = [(-1.0) ** k / math.factorial(2 * k + 1) for k in range(1, 9)]
+_K2, _K3, _K4, _K5, _K6, _K7, _K8, _K9 = [(-1.0) ** k / math.factorial(2 * k) for k in range(2, 10)]
+
+
+@njit(cache=True, fastmath=_FM, inline="always")
+def _sincos(x):
+    """(sin x, cos x) together, to ~1 ulp, for |x| < 1e5: x = k pi/2 + r, |r| <= pi/4,
+    Taylor series in r (Estrin's scheme: short dependency chains), quadrant k mod 4 by
+    compares and selects (no branches). About half the cost of libm's sin and cos here."""
+    k = math.floor(x * _TWO_OVER_PI + 0.5)
+    r = ((x - k * _C1) - k * _C2) - k * _C3
+    z = r * r
+    z2 = z * z
+    z4 = z2 * z2
+    ps = ((_S1 + z * _S2) + z2 * (_S3 + z * _S4)) + z4 * ((_S5 + z * _S6) + z2 * (_S7 + z * _S8))
+    pc = ((_K2 + z * _K3) + z2 * (_K4 + z * _K5)) + z4 * ((_K6 + z * _K7) + z2 * (_K8 + z * _K9))
+    s = r + r * z * ps
+    c = 1.0 - 0.5 * z + z2 * pc
+    j = k - 4.0 * math.floor(0.25 * k)   # k mod 4, as a float
+    odd = j == 1.0 or j == 3.0
+    ss = c if odd else s                 # sin(r + k pi/2): s, c, -s, -c for k = 0, 1, 2, 3
+    cc = s if odd else c                 # cos(r + k pi/2): c, -s, -c, s
+    return (-ss if j >= 2.0 else ss), (-cc if j == 1.0 or j == 2.0 else cc)
+
+
+@njit(cache=True, fastmath=_FM, inline="always")
+def _trig(W, q, n):
+    """sin q_i, cos q_i of every joint into rows SIN, COS of W. Returns 0.0, or NaN if
+    some q_i is NaN or Inf (then x * 0.0 is NaN)."""
+    small = True
+    for i in range(n):
+        small &= abs(q[i]) < 1e5
+    sn, cs = W[2 * n + 2], W[2 * n + 3]
+    if small:
+        for i in range(n):
+            sn[i], cs[i] = _sincos(q[i])
+        return 0.0
+    chk = 0.0                            # huge, NaN or Inf angles: libm's argument reduction
+    for i in range(n):
+        chk += q[i] * 0.0
+        sn[i], cs[i] = math.sin(q[i]), math.cos(q[i])
+    return chk
 
 
 # ------------------------------------------------------------------ shared cores
-@njit(cache=True)
-def _joint(P, W, i, qi):
+@njit(cache=True, fastmath=_FM, inline="always")
+def _joint(P, W, i, qi, n):
     """Body i's rotation R = Rp' Rz(q) (revolute) or Rp' (prismatic) and origin
     p = p' (+ q Rp' e_z) in the parent frame, stored in W[i]."""
     if P[i, KIND] == 0.0:
-        c, s = math.cos(qi), math.sin(qi)
+        s, c = W[2 * n + 2, i], W[2 * n + 3, i]
         for r in range(3):
             a, b = P[i, RP + 3 * r], P[i, RP + 3 * r + 1]
             W[i, WR + 3 * r] = c * a + s * b                 # column 0: c Rp'e_x + s Rp'e_y
@@ -122,8 +209,8 @@ def _joint(P, W, i, qi):
             W[i, WP + r] = P[i, PP + r] + qi * P[i, RP + 3 * r + 2]
 
 
-@njit(cache=True)
-def _rnea_core(P, W, q, qd, qdd, flags, w, tau):
+@njit(cache=True, fastmath=_FM)
+def _rnea_core(P, W, q, qd, qdd, flags, tau):
     """Recursive Newton-Euler (same equations as algorithms/rnea.py). Fills W's joint
     transforms on the way. Returns 0.0, or NaN if an input is NaN/Inf."""
     n = tau.shape[0]
@@ -134,14 +221,16 @@ def _rnea_core(P, W, q, qd, qdd, flags, w, tau):
     lx, ly, lz = -P[n, G], -P[n, G + 1], -P[n, G + 2]   # linear acc. of its origin; base: -g
     fx = fy = fz = mx = my = mz = 0.0                   # tip wrench, carried into each frame
     if use_w:
+        w = W[2 * n + 1, WRENCH:WRENCH + 6]
         fx, fy, fz, mx, my, mz = w[0], w[1], w[2], w[3], w[4], w[5]
         chk += fx * 0.0 + fy * 0.0 + fz * 0.0 + mx * 0.0 + my * 0.0 + mz * 0.0
+    chk += _trig(W, q, n)
     for i in range(n):
         qi = q[i]
         dq = qd[i] if use_qd else 0.0
         ddq = qdd[i] if use_qdd else 0.0
-        chk += qi * 0.0 + dq * 0.0 + ddq * 0.0           # NaN iff an entry is NaN/Inf
-        _joint(P, W, i, qi)
+        chk += dq * 0.0 + ddq * 0.0                      # NaN iff an entry is NaN/Inf
+        _joint(P, W, i, qi, n)
         px, py, pz = W[i, WP], W[i, WP + 1], W[i, WP + 2]
         # a + alpha x p + w x (w x p), in the parent frame
         ux, uy, uz = wy * pz - wz * py, wz * px - wx * pz, wx * py - wy * px
@@ -205,20 +294,17 @@ def _rnea_core(P, W, q, qd, qdd, flags, w, tau):
     return chk
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FM)
 def _crba_core(P, W, M):
-    """Composite-rigid-body algorithm in body frames; W holds the joint transforms."""
+    """Composite-rigid-body algorithm in body frames; W holds the joint transforms. In a
+    chain, composite i-1 = body i-1 + composite i, so the composite (m, h, I_o) is carried
+    in registers from the tip to the base."""
     n = M.shape[0]
-    for i in range(n):
-        W[i, CM] = P[i, MASS]
-        for k in range(3):
-            W[i, CH + k] = P[i, H + k]
-        for k in range(6):
-            W[i, CI + k] = P[i, IO + k]
+    k = n - 1
+    m, hx, hy, hz = P[k, MASS], P[k, H], P[k, H + 1], P[k, H + 2]
+    Ixx, Iyy, Izz, Ixy, Ixz, Iyz = (P[k, IO], P[k, IO + 1], P[k, IO + 2], P[k, IO + 3],
+                                    P[k, IO + 4], P[k, IO + 5])
     for i in range(n - 1, -1, -1):
-        m, hx, hy, hz = W[i, CM], W[i, CH], W[i, CH + 1], W[i, CH + 2]
-        Ixx, Iyy, Izz, Ixy, Ixz, Iyz = (W[i, CI], W[i, CI + 1], W[i, CI + 2], W[i, CI + 3],
-                                        W[i, CI + 4], W[i, CI + 5])
         # F = I^C S: momentum of composite body i.. moving with a unit joint rate
         if P[i, KIND] == 0.0:       # unit spin about z: f = e_z x h, n = I_o e_z
             fx, fy, fz, nx, ny, nz = -hy, hx, 0.0, Ixz, Iyz, Izz
@@ -227,7 +313,7 @@ def _crba_core(P, W, M):
             fx, fy, fz, nx, ny, nz = 0.0, 0.0, m, hy, -hx, 0.0
             M[i, i] = fz
         j = i
-        while j > 0:                # carry F into the parent frame: f = R f, n = R n + p x f
+        while j > 1:                # carry F into the parent frame: f = R f, n = R n + p x f
             r0, r1, r2, r3, r4, r5, r6, r7, r8 = (W[j, WR], W[j, WR + 1], W[j, WR + 2],
                                                   W[j, WR + 3], W[j, WR + 4], W[j, WR + 5],
                                                   W[j, WR + 6], W[j, WR + 7], W[j, WR + 8])
@@ -238,12 +324,23 @@ def _crba_core(P, W, M):
             j -= 1
             M[j, i] = nz if P[j, KIND] == 0.0 else fz     # M_ji = S_j . F
             M[i, j] = M[j, i]
-        if i > 0:                   # add composite i to its parent, in the parent's frame
+        if i > 0:                   # last step, into body 0: only S_0 . F is needed
+            r0, r1, r2, r3, r4, r5, r6, r7, r8 = (W[1, WR], W[1, WR + 1], W[1, WR + 2],
+                                                  W[1, WR + 3], W[1, WR + 4], W[1, WR + 5],
+                                                  W[1, WR + 6], W[1, WR + 7], W[1, WR + 8])
+            if j == 1:
+                if P[0, KIND] == 0.0:
+                    gx, gy = r0 * fx + r1 * fy + r2 * fz, r3 * fx + r4 * fy + r5 * fz
+                    M[0, i] = r6 * nx + r7 * ny + r8 * nz + W[1, WP] * gy - W[1, WP + 1] * gx
+                else:
+                    M[0, i] = r6 * fx + r7 * fy + r8 * fz
+                M[i, 0] = M[0, i]
+            # composite i-1 = body i-1 + composite i carried into frame i-1:
+            # h_R = R h; I_R = R I R^T (T = R I, then T R^T)
             r0, r1, r2, r3, r4, r5, r6, r7, r8 = (W[i, WR], W[i, WR + 1], W[i, WR + 2],
                                                   W[i, WR + 3], W[i, WR + 4], W[i, WR + 5],
                                                   W[i, WR + 6], W[i, WR + 7], W[i, WR + 8])
             px, py, pz = W[i, WP], W[i, WP + 1], W[i, WP + 2]
-            # h_R = R h; I_R = R I R^T (T = R I, then T R^T)
             gx, gy, gz = r0 * hx + r1 * hy + r2 * hz, r3 * hx + r4 * hy + r5 * hz, r6 * hx + r7 * hy + r8 * hz
             t0, t1, t2 = r0 * Ixx + r1 * Ixy + r2 * Ixz, r0 * Ixy + r1 * Iyy + r2 * Iyz, r0 * Ixz + r1 * Iyz + r2 * Izz
             t3, t4, t5 = r3 * Ixx + r4 * Ixy + r5 * Ixz, r3 * Ixy + r4 * Iyy + r5 * Iyz, r3 * Ixz + r4 * Iyz + r5 * Izz
@@ -254,19 +351,19 @@ def _crba_core(P, W, M):
             # I' = I_R + (2 h_R.p + m p.p) 1 - (h_R p^T + p h_R^T + m p p^T),  h' = h_R + m p
             d = 2.0 * (gx * px + gy * py + gz * pz) + m * (px * px + py * py + pz * pz)
             k = i - 1
-            W[k, CM] += m
-            W[k, CH] += gx + m * px
-            W[k, CH + 1] += gy + m * py
-            W[k, CH + 2] += gz + m * pz
-            W[k, CI] += Jxx + d - 2.0 * gx * px - m * px * px
-            W[k, CI + 1] += Jyy + d - 2.0 * gy * py - m * py * py
-            W[k, CI + 2] += Jzz + d - 2.0 * gz * pz - m * pz * pz
-            W[k, CI + 3] += Jxy - gx * py - px * gy - m * px * py
-            W[k, CI + 4] += Jxz - gx * pz - px * gz - m * px * pz
-            W[k, CI + 5] += Jyz - gy * pz - py * gz - m * py * pz
+            Ixx = P[k, IO] + Jxx + d - 2.0 * gx * px - m * px * px
+            Iyy = P[k, IO + 1] + Jyy + d - 2.0 * gy * py - m * py * py
+            Izz = P[k, IO + 2] + Jzz + d - 2.0 * gz * pz - m * pz * pz
+            Ixy = P[k, IO + 3] + Jxy - gx * py - px * gy - m * px * py
+            Ixz = P[k, IO + 4] + Jxz - gx * pz - px * gz - m * px * pz
+            Iyz = P[k, IO + 5] + Jyz - gy * pz - py * gz - m * py * pz
+            hx = P[k, H] + gx + m * px
+            hy = P[k, H + 1] + gy + m * py
+            hz = P[k, H + 2] + gz + m * pz
+            m = P[k, MASS] + m
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FM)
 def _cholesky_solve(L, b, x):
     """Solve M x = b in place: L (n x n) holds M on entry, its Cholesky factor after."""
     n = b.shape[0]
@@ -293,12 +390,12 @@ def _cholesky_solve(L, b, x):
         x[i] = s / L[i, i]
 
 
-@njit(cache=True)
-def _fd_cholesky(P, W, q, qd, tau, flags, w, out):
+@njit(cache=True, fastmath=_FM)
+def _fd_cholesky(P, W, q, qd, tau, flags, out):
     """qdd = M^-1 (tau - b): b by Newton-Euler at zero acceleration, M by the CRBA."""
     n = out.shape[0]
     b = W[2 * n, :n]
-    chk = _rnea_core(P, W, q, qd, q, flags & (F_QD | F_W), w, b)
+    chk = _rnea_core(P, W, q, qd, q, flags & (F_QD | F_W), b)
     for i in range(n):
         chk += tau[i] * 0.0
         b[i] = tau[i] - b[i]
@@ -308,7 +405,7 @@ def _fd_cholesky(P, W, q, qd, tau, flags, w, out):
     return chk
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FM)
 def _rot_block(Rm, X, a0, b0, Y):
     """Y = R X_blk R^T for the 3x3 block of the 6x6 X at rows a0.., columns b0.."""
     for a in range(3):
@@ -322,8 +419,8 @@ def _rot_block(Rm, X, a0, b0, Y):
             Y[a, b] = s
 
 
-@njit(cache=True)
-def _fd_aba(P, W, q, qd, tau, flags, w, out):
+@njit(cache=True, fastmath=_FM)
+def _fd_aba(P, W, q, qd, tau, flags, out):
     """Articulated-body algorithm (Featherstone 2008, Table 7.1), spatial vectors
     (angular; linear) in the aligned body frames, S = e_z (index 2 revolute, 5 prismatic).
     Gravity enters as the base acceleration -g."""
@@ -336,11 +433,12 @@ def _fd_aba(P, W, q, qd, tau, flags, w, out):
     Rm = W[S, 45:54].reshape((3, 3))
     # --- pass 1, outward: velocities v, velocity-product accelerations c, bias forces pA
     vx = vy = vz = ux = uy = uz = 0.0    # (omega; v) of the previous body
+    chk += _trig(W, q, n)
     for i in range(n):
         qi = q[i]
         dq = qd[i] if use_qd else 0.0
-        chk += qi * 0.0 + dq * 0.0 + tau[i] * 0.0
-        _joint(P, W, i, qi)
+        chk += dq * 0.0 + tau[i] * 0.0
+        _joint(P, W, i, qi, n)
         r0, r1, r2, r3, r4, r5, r6, r7, r8 = (W[i, WR], W[i, WR + 1], W[i, WR + 2], W[i, WR + 3],
                                               W[i, WR + 4], W[i, WR + 5], W[i, WR + 6],
                                               W[i, WR + 7], W[i, WR + 8])
@@ -390,6 +488,7 @@ def _fd_aba(P, W, q, qd, tau, flags, w, out):
         W[i, APA + 4] = wz * Px - wx * Pz
         W[i, APA + 5] = wx * Py - wy * Px
     if use_w:                            # pA_last -= wrench on the tip, in the last body's frame
+        w = W[S, WRENCH:WRENCH + 6]
         fx, fy, fz, mx, my, mz = w[0], w[1], w[2], w[3], w[4], w[5]
         chk += fx * 0.0 + fy * 0.0 + fz * 0.0 + mx * 0.0 + my * 0.0 + mz * 0.0
         for i in range(n):               # base -> last body: x = R^T x
@@ -545,103 +644,112 @@ def _fd_aba(P, W, q, qd, tau, flags, w, out):
     return chk
 
 
-@njit(cache=True)
-def _fd(P, W, q, qd, tau, flags, w, method, out):
-    if method == 1:
-        return _fd_aba(P, W, q, qd, tau, flags, w, out)
-    return _fd_cholesky(P, W, q, qd, tau, flags, w, out)
+@njit(cache=True, fastmath=_FM)
+def _fd(P, W, q, qd, tau, flags, out):
+    if (flags & F_ABA) != 0:
+        return _fd_aba(P, W, q, qd, tau, flags, out)
+    return _fd_cholesky(P, W, q, qd, tau, flags, out)
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FM)
+def _set_wrench(W, n, w):
+    for k in range(6):
+        W[2 * n + 1, WRENCH + k] = w[k]
+
+
+@njit(cache=True, fastmath=_FM)
 def _status(chk):
     return 0 if chk == 0.0 else 1
 
 
 # ------------------------------------------------------------------ entry points
-def rnea(P, W, q, qd, qdd, w, flags, out):
+def rnea(PW, q, qd, qdd, flags, out):
     """Inverse dynamics of one state into ``out`` (n,); see the module docstring."""
-    n = P.shape[0] - 1
+    n, P, W = _split(PW)
     if q.shape[0] != n or qd.shape[0] != n or qdd.shape[0] != n or out.shape[0] != n:
         return 2
-    if (flags & F_W) != 0 and w.shape[0] != 6:
-        return 2
-    return _status(_rnea_core(P, W, q, qd, qdd, flags, w, out))
+    return _status(_rnea_core(P, W, q, qd, qdd, flags, out))
 
 
-def crba(P, W, q, out):
+def crba(PW, q, out):
     """Mass matrix of one configuration into ``out`` (n, n)."""
-    n = P.shape[0] - 1
+    n, P, W = _split(PW)
     if q.shape[0] != n or out.shape[0] != n or out.shape[1] != n:
         return 2
-    chk = 0.0
+    chk = _trig(W, q, n)
     for i in range(n):
-        chk += q[i] * 0.0
-        _joint(P, W, i, q[i])
+        _joint(P, W, i, q[i], n)
     _crba_core(P, W, out)
     return _status(chk)
 
 
-def fd(P, W, q, qd, tau, w, flags, method, out):
-    """Forward dynamics of one state into ``out`` (n,); method 0 = Cholesky, 1 = ABA."""
-    n = P.shape[0] - 1
+def fd(PW, q, qd, tau, flags, out):
+    """Forward dynamics of one state into ``out`` (n,): Cholesky, or ABA with F_ABA."""
+    n, P, W = _split(PW)
     if q.shape[0] != n or qd.shape[0] != n or tau.shape[0] != n or out.shape[0] != n:
         return 2
-    if (flags & F_W) != 0 and w.shape[0] != 6:
-        return 2
-    return _status(_fd(P, W, q, qd, tau, flags, w, method, out))
+    return _status(_fd(P, W, q, qd, tau, flags, out))
 
 
-def rnea_batch(P, q, qd, qdd, w, flags, out):
+def rnea_batch(PW, q, qd, qdd, w, flags, out):
     """Inverse dynamics of N states: q, qd, qdd (N, n) or (1, n); w (N, 6) or (1, 6)."""
-    N, n = out.shape
+    N = out.shape[0]
+    n, P, _ = _split(PW)
     W = _workspace(n)
     nq, nv, na, nw = q.shape[0] > 1, qd.shape[0] > 1, qdd.shape[0] > 1, w.shape[0] > 1
+    use_w = (flags & F_W) != 0
     bad = 0
     for k in range(N):
+        if use_w:
+            _set_wrench(W, n, w[k if nw else 0])
         chk = _rnea_core(P, W, q[k if nq else 0], qd[k if nv else 0], qdd[k if na else 0],
-                         flags, w[k if nw else 0], out[k])
-        if chk != 0.0 and bad == 0:
+                         flags, out[k])
+        if chk != 0.0:
             bad = 1
     return bad
 
 
-def crba_batch(P, q, out):
+def crba_batch(PW, q, out):
     """Mass matrices (N, n, n) of N configurations."""
-    N, n = q.shape
+    N = q.shape[0]
+    n, P, _ = _split(PW)
     W = _workspace(n)
     bad = 0
     for k in range(N):
-        chk = 0.0
+        qk = q[k]
+        chk = _trig(W, qk, n)
         for i in range(n):
-            chk += q[k, i] * 0.0
-            _joint(P, W, i, q[k, i])
+            _joint(P, W, i, qk[i], n)
         _crba_core(P, W, out[k])
         if chk != 0.0:
             bad = 1
     return bad
 
 
-def fd_batch(P, q, qd, tau, w, flags, method, out):
+def fd_batch(PW, q, qd, tau, w, flags, out):
     """Forward dynamics of N states (rows broadcast as in rnea_batch)."""
-    N, n = out.shape
+    N = out.shape[0]
+    n, P, _ = _split(PW)
     W = _workspace(n)
     nq, nv, nt, nw = q.shape[0] > 1, qd.shape[0] > 1, tau.shape[0] > 1, w.shape[0] > 1
+    use_w = (flags & F_W) != 0
     bad = 0
     for k in range(N):
-        chk = _fd(P, W, q[k if nq else 0], qd[k if nv else 0], tau[k if nt else 0], flags,
-                  w[k if nw else 0], method, out[k])
+        if use_w:
+            _set_wrench(W, n, w[k if nw else 0])
+        chk = _fd(P, W, q[k if nq else 0], qd[k if nv else 0], tau[k if nt else 0], flags, out[k])
         if chk != 0.0:
             bad = 1
     return bad
 
 
-def simulate_semi_implicit_euler(P, q0, qd0, tau, dt, nsteps, viscous, w, method):
+def simulate_semi_implicit_euler(PW, q0, qd0, tau, dt, nsteps, viscous, w, flags):
     """Fixed-step loop: qdd = FD(q, qd, tau_k - viscous * qd [, w_k]); qd += dt qdd;
     q += dt qd (semi-implicit Euler). ``tau`` (nsteps, n) or (1, n) held constant;
-    ``w`` (nsteps, 6), (1, 6) or (0, 6) for no wrench. Returns (q, qd), each
-    (nsteps + 1, n) with the initial state first; a step whose state is not finite and
-    all the steps after it are NaN."""
-    n = q0.shape[0]
+    ``w`` (nsteps, 6), (1, 6) or (0, 6) for no wrench; ``flags``: F_ABA for the
+    articulated-body method, else Cholesky. Returns (q, qd), each (nsteps + 1, n) with the
+    initial state first; from the first step whose state is not finite on, rows are NaN."""
+    n, P, _ = _split(PW)
     qs = np.full((nsteps + 1, n), np.nan)
     qds = np.full((nsteps + 1, n), np.nan)
     W = _workspace(n)
@@ -651,14 +759,17 @@ def simulate_semi_implicit_euler(P, q0, qd0, tau, dt, nsteps, viscous, w, method
     qd = qd0.copy()
     qs[0] = q
     qds[0] = qd
-    flags = F_QD | (F_W if w.shape[0] > 0 else 0)
+    flags = F_QD | (flags & F_ABA) | (F_W if w.shape[0] > 0 else 0)
     ntau, nw = tau.shape[0] > 1, w.shape[0] > 1
+    if w.shape[0] > 0:
+        _set_wrench(W, n, w[0])
     for k in range(nsteps):
         tk = tau[k if ntau else 0]
         for i in range(n):
             t[i] = tk[i] - viscous[i] * qd[i]
-        wk = P[0] if w.shape[0] == 0 else w[k if nw else 0]     # P[0]: unused placeholder
-        chk = _fd(P, W, q, qd, t, flags, wk, method, qdd)
+        if nw:
+            _set_wrench(W, n, w[k])
+        chk = _fd(P, W, q, qd, t, flags, qdd)
         ok = chk == 0.0
         for i in range(n):
             qd[i] += dt * qdd[i]
@@ -681,14 +792,14 @@ _rw2 = types.Array(_f8, 2, "C")
 _rw3 = types.Array(_f8, 3, "C")
 
 SIGNATURES = {
-    "rnea": _i8(_ro2, _rw2, _ro1, _ro1, _ro1, _ro1, _i8, _rw1),
-    "crba": _i8(_ro2, _rw2, _ro1, _rw2),
-    "fd": _i8(_ro2, _rw2, _ro1, _ro1, _ro1, _ro1, _i8, _i8, _rw1),
-    "rnea_batch": _i8(_ro2, _ro2, _ro2, _ro2, _ro2, _i8, _rw2),
-    "crba_batch": _i8(_ro2, _ro2, _rw3),
-    "fd_batch": _i8(_ro2, _ro2, _ro2, _ro2, _ro2, _i8, _i8, _rw2),
+    "rnea": _i8(_rw2, _ro1, _ro1, _ro1, _i8, _rw1),
+    "crba": _i8(_rw2, _ro1, _rw2),
+    "fd": _i8(_rw2, _ro1, _ro1, _ro1, _i8, _rw1),
+    "rnea_batch": _i8(_rw2, _ro2, _ro2, _ro2, _ro2, _i8, _rw2),
+    "crba_batch": _i8(_rw2, _ro2, _rw3),
+    "fd_batch": _i8(_rw2, _ro2, _ro2, _ro2, _ro2, _i8, _rw2),
     "simulate_semi_implicit_euler": types.Tuple((_rw2, _rw2))(
-        _ro2, _ro1, _ro1, _ro2, _f8, _i8, _ro1, _ro2, _i8),
+        _rw2, _ro1, _ro1, _ro2, _f8, _i8, _ro1, _ro2, _i8),
 }
 
 
@@ -699,7 +810,7 @@ class _Kernels:
     def __getattr__(self, name):
         if name not in SIGNATURES:
             raise AttributeError(name)
-        disp = njit([SIGNATURES[name]], cache=True)(globals()[name])
+        disp = njit([SIGNATURES[name]], cache=True, fastmath=_FM)(globals()[name])
         setattr(self, name, disp)
         return disp
 

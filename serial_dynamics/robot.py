@@ -29,8 +29,8 @@ from .model import Model
 
 BACKENDS = ("numba", "numpy")
 FD_METHODS = ("auto", "cholesky", "aba", "qr")
-_QD, _QDD, _W = 1, 2, 4                    # kernel flags (kernels.F_QD, F_QDD, F_W)
-_FD_CODE = {"cholesky": 0, "aba": 1}       # kernel method codes
+_QD, _QDD, _W, _ABA = 1, 2, 4, 8          # kernel flags (kernels.F_QD, F_QDD, F_W, F_ABA)
+_FD_FLAGS = {"cholesky": _QD, "aba": _QD | _ABA}
 
 
 class Robot:
@@ -43,17 +43,22 @@ class Robot:
         if backend not in BACKENDS:
             raise ValueError(f"backend {backend!r} unknown; use one of {BACKENDS}")
         self._backend = backend
-        self._n = model.dof
+        self._n, self._nn = model.dof, (model.dof, model.dof)
         # forward_dynamics(method="auto"): articulated bodies from aba.CROSSOVER joints on
-        self._fd_auto = "aba" if model.dof >= aba.CROSSOVER else "cholesky"
+        self._fd_auto = _FD_FLAGS["aba" if model.dof >= aba.CROSSOVER else "cholesky"]
+        # Single-state fast paths: compiled kernels (set up on first call), or, with the
+        # reference backend, stand-ins that send every call to the general path.
         self._k = None
+        self._rnea = self._crba = self._fd = _no_fast_path
+        self._PW, self._wrow = None, np.zeros(6)
         if backend == "numba":
             from . import kernels
-            self._k = kernels.K                          # entry points, compiled on first use
-            self._P = kernels.pack(model)                # model data, packed once (readonly)
-            self._W = kernels.workspace(model.dof)       # scratch of the single-state kernels
-            self._w0 = np.zeros(6)                       # placeholder when there is no wrench
-            self._w1 = np.zeros((1, 6))
+            self._k = kernels.K                  # all entry points, compiled on first use
+            self._PW = kernels.pack(model)       # packed model + scratch of single calls
+            self._wrow = kernels.wrench_row(self._PW)
+            self._w1 = np.zeros((1, 6))          # placeholder when there is no wrench
+            for attr, name in (("_rnea", "rnea"), ("_crba", "crba"), ("_fd", "fd")):
+                setattr(self, attr, _FirstCall(self, attr, name))
 
     backend = property(lambda self: self._backend, doc='"numba" (compiled) or "numpy" (reference)')
 
@@ -88,60 +93,54 @@ class Robot:
                 f"{self.tip_link!r}, joints={self.joint_names})")
 
     # ------------------------------------------------------------- dynamics
+    # Each method first tries the single-state fast path: a float64 C-contiguous (n,) state
+    # goes straight to the kernel, which checks lengths and NaN/Inf and returns 0 on
+    # success. Anything else -- other types (TypeError from the kernel's signature), a
+    # batch, a bad value, the reference backend -- takes the general path, which validates
+    # like the reference and raises its ValueError.
     def inverse_dynamics(self, q, qd, qdd, wrench=None):
         """tau = M(q) qdd + b(q, qd) - J^T w  (rigid body; no friction). N m / N."""
-        k = self._k
-        if k is None:
-            return rnea.inverse_dynamics(self.model, q, qd, qdd, wrench)
-        if wrench is None:                   # fast path: one float64 state, no wrench
-            out = np.empty(self._n)
-            try:
-                if k.rnea(self._P, self._W, q, qd, qdd, self._w0, _QD | _QDD, out) == 0:
-                    return out
-            except TypeError:
-                pass
+        out = np.empty(self._n)
+        try:
+            if self._rnea(self._PW, q, qd, qdd,
+                          3 if wrench is None else 3 | self._set_wrench(wrench), out) == 0:
+                return out
+        except TypeError:
+            pass
         return self._rnea_general((("q", q), ("qd", qd), ("qdd", qdd)), wrench)
 
     def mass_matrix(self, q):
         """M(q), the generalized inertia matrix."""
-        k = self._k
-        if k is None:
-            return mass_matrix.mass_matrix(self.model, q)
-        out = np.empty((self._n, self._n))
+        out = np.empty(self._nn)
         try:
-            if k.crba(self._P, self._W, q, out) == 0:
+            if self._crba(self._PW, q, out) == 0:
                 return out
         except TypeError:
             pass
+        if self._k is None:
+            return mass_matrix.mass_matrix(self.model, q)
         single, (q,) = as_batch(self.model, ("q", q))
         q = _rows(q)
         out = np.empty((q.shape[0], self._n, self._n))
-        if k.crba_batch(self._P, q, out) != 0:
-            raise ValueError("q has a NaN or Inf entry; states must be finite numbers")
+        self._k.crba_batch(self._PW, q, out)
         return out[0] if single else out
 
     def bias_torques(self, q, qd, wrench=None):
         """b(q, qd) - J^T w = C(q, qd) qd + g(q) - J^T w."""
-        k = self._k
-        if k is None:
-            return rnea.inverse_dynamics(self.model, q, qd, None, wrench)
-        if wrench is None:
-            out = np.empty(self._n)
-            try:
-                if k.rnea(self._P, self._W, q, qd, q, self._w0, _QD, out) == 0:
-                    return out
-            except TypeError:
-                pass
+        out = np.empty(self._n)
+        try:
+            if self._rnea(self._PW, q, qd, q,
+                          1 if wrench is None else 1 | self._set_wrench(wrench), out) == 0:
+                return out
+        except TypeError:
+            pass
         return self._rnea_general((("q", q), ("qd", qd), ("qdd", None)), wrench)
 
     def gravity_torques(self, q):
         """g(q): the torques that hold the chain still (the textbook's gamma is -g)."""
-        k = self._k
-        if k is None:
-            return rnea.inverse_dynamics(self.model, q, None, None)
         out = np.empty(self._n)
         try:
-            if k.rnea(self._P, self._W, q, q, q, self._w0, 0, out) == 0:
+            if self._rnea(self._PW, q, q, q, 0, out) == 0:
                 return out
         except TypeError:
             pass
@@ -155,34 +154,37 @@ class Robot:
         """qdd for applied torques tau (rigid body). ``method``: "auto" (Cholesky for short
         chains, articulated bodies from ``algorithms.aba.CROSSOVER`` joints on),
         "cholesky", "aba" (O(n)) or "qr" (for ill-conditioned chains)."""
-        if method == "auto":
-            method = self._fd_auto
-        k = self._k
-        code = _FD_CODE.get(method)
-        if k is None or code is None:
+        flags = self._fd_auto if method == "auto" else _FD_FLAGS.get(method)
+        if flags is not None:
+            out = np.empty(self._n)
+            try:
+                if self._fd(self._PW, q, qd, tau,
+                            flags if wrench is None else flags | self._set_wrench(wrench),
+                            out) == 0:
+                    return out
+            except TypeError:
+                pass
+        if self._k is None or flags is None:
+            if method == "auto":
+                method = "aba" if flags & _ABA else "cholesky"
             if method == "aba":
                 return aba.forward_dynamics(self.model, q, qd, tau, wrench)
             if method not in FD_METHODS:
                 raise ValueError(f"forward-dynamics method {method!r} unknown; use one of "
                                  f"{FD_METHODS}")
             return forward.forward_dynamics(self.model, q, qd, tau, wrench, method)
-        if wrench is None:
-            out = np.empty(self._n)
-            try:
-                if k.fd(self._P, self._W, q, qd, tau, self._w0, _QD, code, out) == 0:
-                    return out
-            except TypeError:
-                pass
         single, (q, qd, tau) = as_batch(self.model, ("q", q), ("qd", qd), ("tau", tau))
-        w, flags = self._wrench_rows(wrench, q.shape[0], _QD)
+        w, flags = self._wrench_rows(wrench, q.shape[0], flags)
         q, qd, tau = _rows(q), _rows(qd), _rows(tau)
         out = np.empty((max(q.shape[0], qd.shape[0], tau.shape[0]), self._n))
-        if k.fd_batch(self._P, q, qd, tau, w, flags, code, out) != 0:
+        if self._k.fd_batch(self._PW, q, qd, tau, w, flags, out) != 0:
             raise ValueError("wrench has a NaN or Inf entry; give finite numbers")
         return out[0] if single else out
 
-    # general path of the kernels: validate like the reference, then one batch call
+    # general path: validate like the reference, then one batch kernel call
     def _rnea_general(self, named, wrench):
+        if self._k is None:
+            return rnea.inverse_dynamics(self.model, *(x for _, x in named), wrench)
         single, (q, qd, qdd) = as_batch(self.model, *named)   # raises the reference's ValueError
         N = q.shape[0]
         flags = (_QD if named[1][1] is not None else 0) | (_QDD if named[2][1] is not None else 0)
@@ -191,9 +193,18 @@ class Robot:
         qdd = _rows(qdd) if flags & _QDD else q
         w, flags = self._wrench_rows(wrench, N, flags)
         out = np.empty((N, self._n))
-        if self._k.rnea_batch(self._P, q, qd, qdd, w, flags, out) != 0:
+        if self._k.rnea_batch(self._PW, q, qd, qdd, w, flags, out) != 0:
             raise ValueError("wrench has a NaN or Inf entry; give finite numbers")
         return out[0] if single else out
+
+    def _set_wrench(self, wrench):
+        """Single-state calls: put a (6,) wrench where the kernel reads it and return the
+        flag; anything but a flat 6-vector raises TypeError (-> the general path)."""
+        w = np.asarray(wrench, dtype=float)
+        if w.shape != (6,):
+            raise TypeError
+        self._wrow[:] = w
+        return _W
 
     def _wrench_rows(self, wrench, N, flags):
         if wrench is None:
@@ -228,6 +239,7 @@ class Robot:
         Nodes call this before they report ready. Returns self."""
         if self._k is not None:
             self._k.load_all()
+            self._rnea, self._crba, self._fd = self._k.rnea, self._k.crba, self._k.fd
         q = np.zeros(self.dof)
         qb = np.zeros((2, self.dof))
         w = np.zeros(6)
@@ -257,3 +269,21 @@ def _rows(a):
     if a.strides[0] == 0:
         a = a[:1]
     return np.ascontiguousarray(a, dtype=float)
+
+
+def _no_fast_path(*args):
+    """Fast-path stand-in of the reference backend: every call takes the general path."""
+    raise TypeError
+
+
+class _FirstCall:
+    """Stands in for a kernel until the first call, which compiles it (or loads it from
+    the numba cache) and puts the compiled kernel itself on the robot."""
+
+    def __init__(self, robot, attr, name):
+        self.robot, self.attr, self.name = robot, attr, name
+
+    def __call__(self, *args):
+        kernel = getattr(self.robot._k, self.name)
+        setattr(self.robot, self.attr, kernel)
+        return kernel(*args)

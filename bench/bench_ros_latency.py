@@ -57,7 +57,7 @@ def latency(node, executor, seconds, rate=1000.0):
                                                            time.perf_counter()), 10)
     proc = NodeProcess("inverse_dynamics", NO_TOPIC)
     try:
-        spin_until(executor, lambda: pub.get_subscription_count() > 0, 60, "the node")
+        spin_until(executor, lambda: pub.get_subscription_count() > 0, 150, "the node")
         q, qd = robot.random_state(0)
         template = JointTrajectory(joint_names=robot.joint_names, points=[
             JointTrajectoryPoint(positions=q.tolist(), velocities=qd.tolist(),
@@ -117,7 +117,7 @@ def sim_rtf(node, executor, seconds, rtf):
                                      "start_paused": True}, ros_args=["-r", f"__ns:={ns}"])
     try:
         spin_until(executor, lambda: efforts and pub.get_subscription_count() > 0
-                   and pause.service_is_ready(), 60, "the simulator")
+                   and pause.service_is_ready(), 150, "the simulator")
         pub.publish(Float64MultiArray(data=g))
         spin_until(executor, lambda: efforts[-1] == g, 10, "the command")
         future = pause.call_async(SetBool.Request(data=False))

@@ -33,7 +33,7 @@ from .interpolate import pick_and_place
 from .processes import NodeProcess
 
 LEAD, SETTLE = 0.5, 0.5        # s of simulated time before the trajectory and after its end
-STARTUP_TIMEOUT = 60.0         # s of wall time for the nodes to come up
+STARTUP_TIMEOUT = 150.0        # s of wall time for the nodes to come up (a first run compiles)
 
 
 class DemoError(RuntimeError):
@@ -54,6 +54,8 @@ def run_demo(urdf=None, base_link=None, tip_link=None, real_time_factor=1.0, att
                     "robot_description_timeout": 0.0}
     procs = []
     if not attach:
+        log("starting the simulator and the controller (the very first run also compiles the "
+            "numerical kernels, once: about 20 s)")
         procs.append(NodeProcess("simulator", {**robot_params, "publish_clock": True,
                                                "start_paused": True,
                                                "initial_positions": traj.q[0].tolist(),

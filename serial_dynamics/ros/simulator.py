@@ -207,7 +207,7 @@ class Simulator(Node):
             except (SimulationError, ValueError) as exc:
                 self.paused = True
                 self.get_logger().error(f"{exc} -- paused at the last good state "
-                                        f"(t = {self.k * self.integrator.dt:.3f} s); call ~/reset")
+                                        f"(t = {self.k * self.integrator.dt:.3f} s); call ~/reset, then ~/pause false")
                 return
             self.q, self.qd, self.k = q, qd, self.k + 1
         if self.clock_pub is not None and self.k % self.clock_every == 0:

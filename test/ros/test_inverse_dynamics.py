@@ -22,7 +22,7 @@ class Client:
         self.wrench = ros.node.create_publisher(WrenchStamped, f"{ns}inverse_dynamics/tip_wrench", 10)
         self.responses = Latest(ros, JointTrajectory, f"{ns}inverse_dynamics/response")
         ros.spin_until(lambda: self.pub.get_subscription_count() > 0
-                       and self.wrench.get_subscription_count() > 0, 60, f"{proc.module} node")
+                       and self.wrench.get_subscription_count() > 0, 150, f"{proc.module} node")
 
     def send(self, msg):
         self.count += 1

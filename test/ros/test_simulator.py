@@ -34,7 +34,7 @@ class Sim:
         self.reset_client = ros.node.create_client(Trigger, "simulator/reset")
         self.pause_client = ros.node.create_client(SetBool, "simulator/pause")
         ros.spin_until(lambda: self.states.msgs and self.effort.get_subscription_count() > 0
-                       and self.joint.get_subscription_count() > 0, 60, "the simulator")
+                       and self.joint.get_subscription_count() > 0, 150, "the simulator")
 
     def pause(self, on=True):
         assert self.ros.call(self.pause_client, SetBool.Request(data=on)).success
@@ -68,7 +68,7 @@ def inverse_dynamics(ros):
     proc = ros.start("inverse_dynamics")
     pub = ros.node.create_publisher(JointTrajectory, "inverse_dynamics/request", 10)
     responses = Latest(ros, JointTrajectory, "inverse_dynamics/response")
-    ros.spin_until(lambda: pub.get_subscription_count() > 0, 60, "the inverse-dynamics node")
+    ros.spin_until(lambda: pub.get_subscription_count() > 0, 150, "the inverse-dynamics node")
     yield pub, responses
     responses.destroy()
     proc.stop()
@@ -212,3 +212,23 @@ def test_pause_and_reset(sim):
     sim.states.wait(lambda m: ns(m) > ns(paused) and list(m.position) != HOME,
                     what="motion after the reset")
     sim.reset()
+
+
+def test_a_diverging_simulation_pauses_and_the_node_keeps_serving(ros):
+    proc = ros.start("simulator", {"clamp_effort": False, "publish_clock": True,
+                                   "command_timeout": 0.0}, ros_args=["-r", "__ns:=/div"])
+    states = Latest(ros, JointState, "/div/joint_states")
+    pub = ros.node.create_publisher(Float64MultiArray, "/div/effort_commands", 10)
+    reset = ros.node.create_client(Trigger, "/div/simulator/reset")
+    try:
+        ros.spin_until(lambda: states.msgs and pub.get_subscription_count() > 0, 150,
+                       "the simulator")
+        pub.publish(Float64MultiArray(data=[0.0] * 5 + [1e7]))   # unclamped: wrist_3 explodes
+        wait_for_log(ros, proc, "paused at the last good state")
+        assert ros.call(reset, Trigger.Request()).success
+        states.wait(lambda m: not any(m.position) and not any(m.velocity) and not any(m.effort),
+                    what="the reset state")
+        assert proc.running()
+    finally:
+        states.destroy()
+        proc.stop()

@@ -34,7 +34,7 @@ def test_bad_start_up_exits_with_one_paragraph(ros, tmp_path):
     procs = [(ros.start(node, params, expect_running=False), text)
              for node, params, text in cases(tmp_path)]
     for p, text in procs:
-        ros.spin_until(lambda: not p.running(), 60, f"{p.module} {p.cmd[-1]} to exit")
+        ros.spin_until(lambda: not p.running(), 150, f"{p.module} {p.cmd[-1]} to exit")
         out = p.output()
         assert p.proc.returncode == 2, out
         assert "Traceback" not in out, out

@@ -342,6 +342,14 @@ def _crba_core(P, W, M):
                                                   W[i, WR + 6], W[i, WR + 7], W[i, WR + 8])
             px, py, pz = W[i, WP], W[i, WP + 1], W[i, WP + 2]
             gx, gy, gz = r0 * hx + r1 * hy + r2 * hz, r3 * hx + r4 * hy + r5 * hz, r6 * hx + r7 * hy + r8 * hz
+            if i == 1:              # of composite 0 only S_0 . I^C S_0 is needed
+                if P[0, KIND] == 0.0:
+                    t6, t7, t8 = r6 * Ixx + r7 * Ixy + r8 * Ixz, r6 * Ixy + r7 * Iyy + r8 * Iyz, r6 * Ixz + r7 * Iyz + r8 * Izz
+                    d = 2.0 * (gx * px + gy * py) + m * (px * px + py * py)
+                    M[0, 0] = P[0, IO + 2] + t6 * r6 + t7 * r7 + t8 * r8 + d
+                else:
+                    M[0, 0] = P[0, MASS] + m
+                return
             t0, t1, t2 = r0 * Ixx + r1 * Ixy + r2 * Ixz, r0 * Ixy + r1 * Iyy + r2 * Iyz, r0 * Ixz + r1 * Iyz + r2 * Izz
             t3, t4, t5 = r3 * Ixx + r4 * Ixy + r5 * Ixz, r3 * Ixy + r4 * Iyy + r5 * Iyz, r3 * Ixz + r4 * Iyz + r5 * Izz
             t6, t7, t8 = r6 * Ixx + r7 * Ixy + r8 * Ixz, r6 * Ixy + r7 * Iyy + r8 * Iyz, r6 * Ixz + r7 * Iyz + r8 * Izz

@@ -27,6 +27,7 @@ from .algorithms._batch import as_batch
 from .dissipation import Dissipation
 from .model import Model
 
+_empty = np.empty                          # one global lookup on the fast paths
 BACKENDS = ("numba", "numpy")
 FD_METHODS = ("auto", "cholesky", "aba", "qr")
 _QD, _QDD, _W, _ABA = 1, 2, 4, 8          # kernel flags (kernels.F_QD, F_QDD, F_W, F_ABA)
@@ -100,7 +101,7 @@ class Robot:
     # like the reference and raises its ValueError.
     def inverse_dynamics(self, q, qd, qdd, wrench=None):
         """tau = M(q) qdd + b(q, qd) - J^T w  (rigid body; no friction). N m / N."""
-        out = np.empty(self._n)
+        out = _empty(self._n)
         try:
             if self._rnea(self._PW, q, qd, qdd,
                           3 if wrench is None else 3 | self._set_wrench(wrench), out) == 0:
@@ -111,7 +112,7 @@ class Robot:
 
     def mass_matrix(self, q):
         """M(q), the generalized inertia matrix."""
-        out = np.empty(self._nn)
+        out = _empty(self._nn)
         try:
             if self._crba(self._PW, q, out) == 0:
                 return out
@@ -127,7 +128,7 @@ class Robot:
 
     def bias_torques(self, q, qd, wrench=None):
         """b(q, qd) - J^T w = C(q, qd) qd + g(q) - J^T w."""
-        out = np.empty(self._n)
+        out = _empty(self._n)
         try:
             if self._rnea(self._PW, q, qd, q,
                           1 if wrench is None else 1 | self._set_wrench(wrench), out) == 0:
@@ -138,7 +139,7 @@ class Robot:
 
     def gravity_torques(self, q):
         """g(q): the torques that hold the chain still (the textbook's gamma is -g)."""
-        out = np.empty(self._n)
+        out = _empty(self._n)
         try:
             if self._rnea(self._PW, q, q, q, 0, out) == 0:
                 return out
@@ -156,7 +157,7 @@ class Robot:
         "cholesky", "aba" (O(n)) or "qr" (for ill-conditioned chains)."""
         flags = self._fd_auto if method == "auto" else _FD_FLAGS.get(method)
         if flags is not None:
-            out = np.empty(self._n)
+            out = _empty(self._n)
             try:
                 if self._fd(self._PW, q, qd, tau,
                             flags if wrench is None else flags | self._set_wrench(wrench),

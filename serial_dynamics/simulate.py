@@ -132,7 +132,7 @@ def _interp_fn(ts, vals):
 class _Equations:
     """The state equations of one robot with one dissipation model; counts dynamics calls."""
 
-    def __init__(self, robot, dissipation, smoothing=1e-3):
+    def __init__(self, robot, dissipation, smoothing=1e-4):
         self.robot = robot
         self.n = n = robot.dof
         if dissipation is True:
@@ -664,7 +664,7 @@ class _Progress:
 # ----------------------------------------------------------------------------- simulate
 def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853", rtol=None,
              atol=None, dt=None, dissipation=True, wrench=None, output_dt=None,
-             max_step=np.inf, first_step=None, friction_smoothing=1e-3, check_energy=True,
+             max_step=np.inf, first_step=None, friction_smoothing=1e-4, check_energy=True,
              progress=False) -> SimulationResult:
     """Simulate ``duration`` seconds of motion from (q0, qd0) (zeros by default).
 
@@ -677,8 +677,10 @@ def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853"
         1e-9) or "semi_implicit_euler", "rk4", "implicit_midpoint" (fixed step: dt,
         default 1e-3 s).
     dissipation: True (the robot's), False, or a ``Dissipation``. Adaptive methods replace
-        sgn(qd) in Coulomb friction by tanh(qd / friction_smoothing); fixed-step methods
-        do stick-slip.
+        sgn(qd) in Coulomb friction by tanh(qd / friction_smoothing) (default 1e-4 rad/s:
+        below breakaway a joint creeps at friction_smoothing * atanh(tau / tau_s); this
+        makes the equations stiff, so use Radau, BDF or LSODA); fixed-step methods do
+        stick-slip.
     output_dt: spacing of the output samples (default: every step of the solver).
     check_energy: raise SimulationError when the energy balance is violated by more than
         half the energy scale (energy growing without input).

@@ -27,6 +27,7 @@ from std_srvs.srv import SetBool
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 import serial_dynamics as sd
+from serial_dynamics.simulate import FixedStepIntegrator
 
 from . import common
 from .interpolate import pick_and_place
@@ -54,8 +55,13 @@ def run_demo(urdf=None, base_link=None, tip_link=None, real_time_factor=1.0, att
                     "robot_description_timeout": 0.0}
     procs = []
     if not attach:
-        log("starting the simulator and the controller (the very first run also compiles the "
-            "numerical kernels, once: about 20 s)")
+        # compile the kernels here, once, into the cache the nodes load from (two nodes
+        # compiling the same kernels side by side on a cold cache take twice as long)
+        t = time.monotonic()
+        robot.warmup()
+        FixedStepIntegrator(robot).step(traj.q[0], np.zeros(robot.dof), np.zeros(robot.dof))
+        if time.monotonic() - t > 2.0:
+            log(f"compiled the numerical kernels in {time.monotonic() - t:.0f} s (first run only)")
         procs.append(NodeProcess("simulator", {**robot_params, "publish_clock": True,
                                                "start_paused": True,
                                                "initial_positions": traj.q[0].tolist(),

@@ -92,7 +92,7 @@ class Latest:
     def clear(self):
         self.msgs.clear()
 
-    def wait(self, pred=lambda m: True, timeout=20.0, what="a message"):
+    def wait(self, pred=lambda m: True, timeout=90.0, what="a message"):
         """The first message received from now on that satisfies pred."""
         state = {"i": len(self.msgs), "found": None}
 

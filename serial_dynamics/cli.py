@@ -59,7 +59,8 @@ def _vector(text, n, name):
     if len(vals) == 1:
         vals = vals * n
     if len(vals) != n:
-        raise ValueError(f"--{name} has {len(vals)} values; give one per joint ({n}) or one for all")
+        raise ValueError(f"--{name} has {len(vals)} values; give one per joint ({n}) "
+                         "or one for all")
     return np.array(vals)
 
 
@@ -75,7 +76,8 @@ def cmd_simulate(args):
               output_dt=args.output_dt, progress=not args.quiet)
     if args.method in FIXED_STEP:
         if args.rtol is not None or args.atol is not None:
-            raise ValueError(f"--rtol/--atol are for the adaptive methods; {args.method} takes --dt")
+            raise ValueError(f"--rtol/--atol are for the adaptive methods; {args.method} "
+                             "takes --dt")
         kw["dt"] = args.dt
     else:
         if args.dt is not None:
@@ -98,7 +100,8 @@ def cmd_simulate(args):
     print(f"qd({res.t[-1]:g} s) = {res.qd[-1]}")
     e = res.energy
     print(f"energy: E(0) = {e[0]:.6g} J, E(end) = {e[-1]:.6g} J, actuator work "
-          f"{res.work_actuators[-1] + 0.0:.6g} J, dissipated {res.energy_dissipated[-1] + 0.0:.6g} J; "
+          f"{res.work_actuators[-1] + 0.0:.6g} J, dissipated "
+          f"{res.energy_dissipated[-1] + 0.0:.6g} J; "
           f"balance error {np.max(np.abs(res.energy_balance_error)):.3g} J "
           f"({res.relative_energy_error():.2e} relative)")
     if args.csv:

@@ -97,7 +97,8 @@ def _input_fn(value, width, name, duration, joint_names):
         return fn, "fn"
     if isinstance(value, tuple) and len(value) == 2:          # (times, samples)
         ts, vals = np.asarray(value[0], float), np.asarray(value[1], float)
-        if ts.ndim != 1 or vals.shape != (ts.size, width) or ts.size < 2 or np.any(np.diff(ts) <= 0):
+        if ts.ndim != 1 or vals.shape != (ts.size, width) or ts.size < 2 or \
+                np.any(np.diff(ts) <= 0):
             raise ValueError(f"{name} given as (times, samples) needs increasing times (K,) and "
                              f"samples ({ts.size}, {width}); got {ts.shape}, {vals.shape}")
         return _interp_fn(ts, vals), "fn"

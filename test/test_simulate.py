@@ -353,3 +353,32 @@ def test_energy_growth_without_input_raises():
     # the implicit method is stable there and loses energy as it should
     res = sd.simulate(robot, 0.2, None, [1.0], method="implicit_midpoint", dt=dt)
     assert res.energy[-1] < res.energy[0]
+
+
+# ----------------------------------------------------------------------------- progress, CLI
+def test_progress_callback(ur5e):
+    seen = []
+    sd.simulate(ur5e, 0.2, Q0, method="rk4", progress=seen.append)
+    sd.simulate(ur5e, 0.2, Q0, method="RK45", progress=seen.append)
+    assert seen and all(0 < f <= 1 + 1e-12 for f in seen) and seen[-1] == pytest.approx(1)
+
+
+def test_cli_simulate(tmp_path, capsys):
+    from serial_dynamics.cli import main
+    png, csv = tmp_path / "run.png", tmp_path / "run.csv"
+    assert main(["simulate", "--duration", "0.2", "--q0", "0.3,-1,0.8,-0.5,0.4,0.2",
+                 "--plot", str(png), "--csv", str(csv), "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "energy: E(0)" in out and "RHS" not in out and "right-hand-side" in out
+    assert png.stat().st_size > 20000
+    data = np.genfromtxt(csv, delimiter=",", names=True)
+    assert data["t"][-1] == pytest.approx(0.2) and data.size == 201   # every 1 ms (T / 200)
+    np.testing.assert_allclose(data["energy"], data["kinetic"] + data["potential"])
+    assert abs(data["energy"][-1] - data["energy"][0]) < 1e-4
+    assert main(["simulate", "--method", "rk4", "--rtol", "1e-6", "--quiet"]) == 2
+    assert main(["simulate", "--q0", "1,2", "--quiet"]) == 2
+    stiff = tmp_path / "stiff.urdf"
+    stiff.write_text(stiff_chain_urdf())
+    assert main(["simulate", str(stiff), "--q0", "0.3,0.8,-0.5,0.6", "--method",
+                 "semi_implicit_euler", "--quiet"]) == 3
+    assert "implicit_midpoint" in capsys.readouterr().err

@@ -229,14 +229,18 @@ class Rejections:
         self.counts, self._logged_at, self._logged_count = {}, {}, {}
 
     def __call__(self, where: str, exc: Rejected, consequence: str = ""):
-        key = (where, exc.cause)
+        self.once((where, exc.cause), f"rejected {where}: {exc}{consequence}",
+                  f"rejected {{}} more {where} message(s) since: {exc.cause}")
+
+    def once(self, key, text: str, repeats: str | None = None):
+        """Log ``text`` the first time ``key`` comes up; later, ``repeats`` (formatted with
+        the count) at most every ``period`` s."""
         n = self.counts[key] = self.counts.get(key, 0) + 1
         now = time.monotonic()
         if n == 1:
-            self.logger.warning(f"rejected {where}: {exc}{consequence}")
-        elif now - self._logged_at[key] >= self.period:
-            extra = n - self._logged_count[key]
-            self.logger.warning(f"rejected {extra} more {where} message(s) since: {exc.cause}")
+            self.logger.warning(text)
+        elif repeats and now - self._logged_at[key] >= self.period:
+            self.logger.warning(repeats.format(n - self._logged_count[key]))
         else:
             return
         self._logged_at[key], self._logged_count[key] = now, n

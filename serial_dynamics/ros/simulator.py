@@ -116,9 +116,9 @@ class Simulator(Node):
         clamped = np.clip(effort, -self.limit[idx], self.limit[idx])
         if np.any(clamped != effort):
             j = idx[np.flatnonzero(clamped != effort)[0]]
-            self.reject("effort", Rejected("clamped", f"{self.robot.joint_names[j]} asked for "
-                        f"{effort[idx == j][0]:.4g}, beyond its limit {self.limit[j]:.4g}"),
-                        "; clamped to the limit (logged once)")
+            self.reject.once("clamped", f"effort command for {self.robot.joint_names[j]}: "
+                             f"{effort[idx == j][0]:.4g}, beyond its limit {self.limit[j]:.4g}; "
+                             "clamped to the limit (logged once)")
         with self.lock:
             tau = self.tau.copy()
             tau[idx] = clamped

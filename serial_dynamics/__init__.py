@@ -10,10 +10,12 @@ from .dissipation import Dissipation
 from .model import Model, ModelError
 from .robot import Robot
 from .robots import builtin_path, builtin_robot, default_robot
+from .simulate import SimulationError, simulate   # binds sd.simulate to the function, not the module
 from .urdf import HeldJointsWarning, URDFError, load_model
 
 __all__ = ["load_urdf", "Robot", "Model", "Dissipation", "URDFError", "ModelError",
-           "HeldJointsWarning", "default_robot", "builtin_robot", "builtin_path", "simulate"]
+           "HeldJointsWarning", "default_robot", "builtin_robot", "builtin_path", "simulate",
+           "SimulationError"]
 __version__ = "0.1.0"
 
 
@@ -26,9 +28,3 @@ def load_urdf(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81)) 
     """
     return Robot(load_model(source, base_link, tip_link, gravity))
 
-
-def __getattr__(name):   # the simulator loads on first use
-    if name == "simulate":
-        from .simulate import simulate
-        return simulate
-    raise AttributeError(f"module 'serial_dynamics' has no attribute {name!r}")

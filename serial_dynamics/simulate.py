@@ -953,15 +953,3 @@ def _proposed_step(solver, method, max_step, t_bound):
             return None
         h = min(h, max_step)
     return min(h, t_bound - solver.t)
-
-
-class _CallableModule(type(sys)):
-    """``serial_dynamics.simulate`` is both this module and the function: the package
-    exposes the function lazily, but importing the submodule rebinds the package
-    attribute to the module, so the module forwards calls to the function."""
-
-    def __call__(self, *args, **kwargs):
-        return simulate(*args, **kwargs)
-
-
-sys.modules[__name__].__class__ = _CallableModule

@@ -1,0 +1,248 @@
+"""Compiled kernels (backend "numba") against the NumPy reference (backend "numpy").
+
+Agreement is asserted to 1e-12 relative (max |ours - ref| / max |ref|) for inverse dynamics,
+bias and gravity torques and the mass matrix on every robot, and for forward dynamics on
+the arms. On the 100-joint chains the mass matrix has cond ~1e7, so two correct
+forward-dynamics solvers (the reference's own Cholesky and ABA included) differ by up to
+cond * eps: there the test asserts the backward error |ID(q, qd, qdd) - tau| /
+(|M qdd| + |b| + |tau|) to 1e-12 and the forward error to 10 cond eps.
+"""
+import warnings
+
+import numpy as np
+import pytest
+
+import serial_dynamics as sd
+from serial_dynamics import Robot, kernels
+from serial_dynamics.algorithms import aba, forward, rnea
+from serial_dynamics.robots.synthetic import chain_urdf
+
+TOL = 1e-12
+
+
+def rel(a, b):
+    return np.max(np.abs(np.asarray(a) - b)) / max(np.max(np.abs(b)), 1e-300)
+
+
+def _panda():
+    from pin_reference import erd, load
+    return load(erd("panda_description/urdf/panda.urdf"), None, "panda_link8")
+
+
+ROBOTS = {
+    "ur5e": lambda: sd.default_robot(),
+    "panda": _panda,
+    "planar_3r": lambda: sd.builtin_robot("planar_3r"),          # wall-mounted: tilted gravity
+    "prismatic_chain": lambda: sd.load_urdf(chain_urdf(9, kinds=["revolute", "prismatic", "revolute"] * 3)),
+    "chain_100": lambda: sd.load_urdf(chain_urdf(100)),
+    "prismatic_chain_100": lambda: sd.load_urdf(chain_urdf(100, kinds=(["revolute"] * 4 + ["prismatic"]) * 20)),
+}
+LONG = ("chain_100", "prismatic_chain_100")
+
+
+@pytest.fixture(scope="module", params=list(ROBOTS))
+def pair(request):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        robot = ROBOTS[request.param]()
+    assert robot.backend == "numba"
+    return request.param, robot, Robot(robot.model, backend="numpy")
+
+
+def states(robot, seed=0, batch=None):
+    rng = np.random.default_rng(seed)
+    q, qd = robot.random_state(rng, batch=batch, speed=2.0)
+    shape = q.shape
+    return q, qd, rng.normal(size=shape) * 3, rng.normal(size=shape) * 20, rng.normal(size=6) * 5
+
+
+@pytest.mark.parametrize("batch", [None, 37])
+def test_rigid_body_terms_match_reference(pair, batch):
+    _, robot, ref = pair
+    q, qd, qdd, _, w = states(robot, batch=batch)
+    assert rel(robot.inverse_dynamics(q, qd, qdd), ref.inverse_dynamics(q, qd, qdd)) <= TOL
+    assert rel(robot.inverse_dynamics(q, qd, qdd, w), ref.inverse_dynamics(q, qd, qdd, w)) <= TOL
+    assert rel(robot.bias_torques(q, qd), ref.bias_torques(q, qd)) <= TOL
+    assert rel(robot.bias_torques(q, qd, w), ref.bias_torques(q, qd, w)) <= TOL
+    assert rel(robot.gravity_torques(q), ref.gravity_torques(q)) <= TOL
+    assert rel(robot.mass_matrix(q), ref.mass_matrix(q)) <= TOL
+    if batch:
+        W = np.random.default_rng(1).normal(size=(batch, 6))
+        assert rel(robot.inverse_dynamics(q, qd, qdd, W), ref.inverse_dynamics(q, qd, qdd, W)) <= TOL
+
+
+@pytest.mark.parametrize("batch", [None, 9])
+@pytest.mark.parametrize("method", ["cholesky", "aba"])
+def test_forward_dynamics_matches_reference(pair, method, batch):
+    name, robot, ref = pair
+    q, qd, _, tau, w = states(robot, seed=2, batch=batch)
+    for wrench in (None, w):
+        qdd = robot.forward_dynamics(q, qd, tau, wrench, method=method)
+        qdd_ref = ref.forward_dynamics(q, qd, tau, wrench, method="cholesky")
+        residual = ref.inverse_dynamics(q, qd, qdd, wrench) - tau
+        scale = (np.max(np.abs(ref.inverse_dynamics(q, 0 * qd, qdd) - ref.gravity_torques(q)))
+                 + np.max(np.abs(ref.bias_torques(q, qd, wrench))) + np.max(np.abs(tau)))
+        assert np.max(np.abs(residual)) <= TOL * scale
+        if name in LONG:
+            kappa = np.linalg.cond(ref.mass_matrix(q if batch is None else q[0]))
+            assert rel(qdd, qdd_ref) <= 10 * kappa * np.finfo(float).eps
+        else:
+            assert rel(qdd, qdd_ref) <= TOL
+
+
+def test_auto_method_follows_the_crossover(pair):
+    _, robot, _ = pair
+    q, qd, _, tau, _ = states(robot, seed=3)
+    method = "aba" if robot.dof >= aba.CROSSOVER else "cholesky"
+    np.testing.assert_array_equal(robot.forward_dynamics(q, qd, tau),
+                                  robot.forward_dynamics(q, qd, tau, method=method))
+
+
+def test_batch_equals_single_states(pair):
+    _, robot, _ = pair
+    q, qd, qdd, tau, w = states(robot, seed=4, batch=70)     # 70: two full blocks and a partial one
+    tb = robot.inverse_dynamics(q, qd, qdd)
+    Mb = robot.mass_matrix(q)
+    fb = robot.forward_dynamics(q, qd, tau, w)
+    for k in (0, 33, 69):
+        assert rel(tb[k], robot.inverse_dynamics(q[k], qd[k], qdd[k])) <= TOL
+        assert rel(Mb[k], robot.mass_matrix(q[k])) <= TOL
+        assert rel(fb[k], robot.forward_dynamics(q[k], qd[k], tau[k], w)) <= TOL
+    # a single row broadcast over the batch
+    assert rel(robot.inverse_dynamics(q, qd[0], qdd), robot.inverse_dynamics(q, np.tile(qd[0], (70, 1)), qdd)) <= TOL
+    assert rel(robot.gravity_torques(q[:1]), robot.gravity_torques(q[0])[None]) <= TOL
+
+
+def test_inputs_of_any_kind(pair):
+    _, robot, ref = pair
+    q, qd, qdd, tau, _ = states(robot, seed=5)
+    expect = ref.inverse_dynamics(q, qd, qdd)
+    ro = q.copy()
+    ro.setflags(write=False)
+    strided = np.repeat(qd, 2)[::2]
+    assert not strided.flags.c_contiguous
+    assert rel(robot.inverse_dynamics(list(q), tuple(qd), list(qdd)), expect) <= TOL
+    qdd32 = qdd.astype(np.float32)                                # -> the general path
+    assert rel(robot.inverse_dynamics(ro, strided, qdd32),
+               ref.inverse_dynamics(q, qd, qdd32.astype(float))) <= TOL
+    assert rel(robot.forward_dynamics(list(q), qd, list(tau)), ref.forward_dynamics(q, qd, tau)) <= 1e-9
+    assert robot.inverse_dynamics(q, qd, qdd).shape == (robot.dof,)
+    assert robot.inverse_dynamics(q[None], qd, qdd).shape == (1, robot.dof)
+    zeros = np.zeros(robot.dof, dtype=int)
+    assert rel(robot.gravity_torques(zeros), ref.gravity_torques(zeros.astype(float))) <= TOL
+
+
+def test_huge_angles_take_exact_argument_reduction(pair):
+    _, robot, ref = pair
+    q, qd, qdd, _, _ = states(robot, seed=6)
+    q = q + 2 * np.pi * 3e5                                       # |q| > 1e5: libm sin/cos
+    assert rel(robot.inverse_dynamics(q, qd, qdd), ref.inverse_dynamics(q, qd, qdd)) <= TOL
+    Q = np.vstack([q, q - 2 * np.pi * 3e5])
+    assert rel(robot.inverse_dynamics(Q, qd, qdd), ref.inverse_dynamics(Q, qd, qdd)) <= 1e-9
+
+
+def test_nan_and_inf_raise_naming_argument_and_joint():
+    robot = sd.default_robot()
+    n = robot.dof
+    z = np.zeros(n)
+    for bad in (np.nan, np.inf, -np.inf):
+        for arg in range(3):
+            x = [z.copy(), z.copy(), z.copy()]
+            x[arg][2] = bad
+            name = ("q", "qd", "qdd")[arg]
+            with pytest.raises(ValueError, match=rf"^{name} has a NaN or Inf entry \(joint 'elbow_joint'\)"):
+                robot.inverse_dynamics(*x)
+            X = [np.zeros((40, n)) for _ in range(3)]
+            X[arg][35, 4] = bad
+            with pytest.raises(ValueError, match=rf"^{name} has a NaN or Inf entry \(joint 'wrist_2_joint'\)"):
+                robot.inverse_dynamics(*X)
+        t = z.copy()
+        t[0] = bad
+        with pytest.raises(ValueError, match=r"^tau has a NaN or Inf entry \(joint 'shoulder_pan_joint'\)"):
+            robot.forward_dynamics(z, z, t)
+        with pytest.raises(ValueError, match=r"^q has a NaN"):
+            robot.mass_matrix(np.where(np.arange(n) == 1, bad, 0.0))
+        with pytest.raises(ValueError, match=r"^qd has a NaN"):
+            robot.bias_torques(z, t)
+        with pytest.raises(ValueError, match=r"^wrench has a NaN or Inf entry"):
+            robot.inverse_dynamics(z, z, z, wrench=[0, 0, bad, 0, 0, 0])
+        with pytest.raises(ValueError, match=r"^wrench has a NaN or Inf entry"):
+            robot.forward_dynamics(np.zeros((3, n)), z, z, wrench=[0, 0, bad, 0, 0, 0])
+
+
+def test_wrong_shapes_raise_like_the_reference():
+    robot = sd.default_robot()
+    z = np.zeros(6)
+    with pytest.raises(ValueError, match=r"^q has shape \(5,\); expected \(6,\) or \(N, 6\)"):
+        robot.inverse_dynamics(np.zeros(5), z, z)
+    with pytest.raises(ValueError, match=r"^qdd has shape \(7,\)"):
+        robot.inverse_dynamics(z, z, np.zeros(7))
+    with pytest.raises(ValueError, match=r"^batch sizes differ"):
+        robot.inverse_dynamics(np.zeros((3, 6)), np.zeros((4, 6)), z)
+    with pytest.raises(ValueError, match=r"^wrench has shape \(5,\)"):
+        robot.inverse_dynamics(z, z, z, wrench=np.zeros(5))
+    with pytest.raises(ValueError, match="forward-dynamics method 'lu' unknown"):
+        robot.forward_dynamics(z, z, z, method="lu")
+
+
+def test_backends_and_the_environment_switch(monkeypatch):
+    robot = sd.default_robot()
+    q, qd, qdd, _, _ = states(robot, seed=7)
+    ref = Robot(robot.model, backend="numpy")
+    np.testing.assert_array_equal(ref.inverse_dynamics(q, qd, qdd),
+                                  rnea.inverse_dynamics(robot.model, q, qd, qdd))
+    np.testing.assert_array_equal(ref.forward_dynamics(q, qd, qdd, method="cholesky"),
+                                  forward.forward_dynamics(robot.model, q, qd, qdd))
+    monkeypatch.setenv("SERIAL_DYNAMICS_BACKEND", "numpy")
+    assert Robot(robot.model).backend == "numpy"
+    with pytest.raises(ValueError, match="backend 'cuda' unknown"):
+        Robot(robot.model, backend="cuda")
+
+
+def test_warmup_loads_every_kernel():
+    robot = sd.default_robot().warmup()
+    for name in kernels.SIGNATURES:
+        assert name in vars(kernels.K), name          # compiled (or loaded) entry point
+    assert robot._rnea is kernels.K.rnea and robot._fd is kernels.K.fd
+
+
+def test_sincos_to_one_ulp():
+    from numba import njit
+
+    @njit
+    def both(x, s, c):
+        for i in range(x.shape[0]):
+            s[i], c[i] = kernels._sincos(x[i])
+
+    rng = np.random.default_rng(0)
+    x = np.concatenate([rng.uniform(-4, 4, 20000), rng.uniform(-9e4, 9e4, 20000),
+                        np.arange(-64, 65) * (np.pi / 4), [0.0, -0.0, 1e-300, 5e-8]])
+    s, c = np.empty_like(x), np.empty_like(x)
+    both(x, s, c)
+    assert np.max(np.abs(s - np.sin(x))) <= 2.3e-16 and np.max(np.abs(c - np.cos(x))) <= 2.3e-16
+    assert s[-2] == 1e-300 and c[-2] == 1.0
+
+
+def test_fixed_step_loop_matches_a_python_loop():
+    robot = sd.load_urdf(chain_urdf(5, damping=[0.1, 0.2, 0.0, 0.3, 0.05]))
+    ref = Robot(robot.model, backend="numpy")
+    n, dt, steps = robot.dof, 1e-3, 50
+    q0, qd0 = robot.random_state(0)
+    rng = np.random.default_rng(1)
+    tau = rng.normal(size=(steps, n))
+    w = rng.normal(size=6)
+    beta = robot.model.damping
+    for flags, method in ((0, "cholesky"), (kernels.F_ABA, "aba")):
+        Q, QD = kernels.K.simulate_semi_implicit_euler(robot._PW, q0, qd0, tau, dt, steps, beta,
+                                                       w[None], flags)
+        q, qd = q0.copy(), qd0.copy()
+        for k in range(steps):
+            qdd = ref.forward_dynamics(q, qd, tau[k] - beta * qd, w, method=method)
+            qd = qd + dt * qdd
+            q = q + dt * qd
+        assert Q.shape == QD.shape == (steps + 1, n)
+        assert rel(Q[-1], q) <= TOL and rel(QD[-1], qd) <= 1e-11
+    # a diverging run stops, and the rows from there on are NaN
+    Q, QD = kernels.K.simulate_semi_implicit_euler(robot._PW, q0, qd0, np.full((1, n), 1e200), dt,
+                                                   steps, beta, np.zeros((0, 6)), 0)
+    assert np.all(np.isnan(Q[2:])) and np.all(np.isfinite(Q[0]))

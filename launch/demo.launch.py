@@ -10,7 +10,7 @@ Arguments:
   robot_state_publisher:=true  also start robot_state_publisher with the UR5e URDF: the
                                nodes then take the robot from its robot_description
                                topic, and RViz can show the arm (fixed frame base_link).
-  real_time_factor:=1.0        simulated s per wall s (0: as fast as possible)
+  real_time_factor:=1.0        simulated s per wall s (> 0)
 """
 import os
 import sys
@@ -41,7 +41,7 @@ def generate_launch_description():
         DeclareLaunchArgument("robot_state_publisher", default_value="false",
                               description="also start robot_state_publisher (UR5e)"),
         DeclareLaunchArgument("real_time_factor", default_value="1.0",
-                              description="simulated s per wall s; 0 = as fast as possible"),
+                              description="simulated s per wall s (> 0)"),
         Node(package="robot_state_publisher", executable="robot_state_publisher",
              parameters=[{"robot_description": ParameterValue(urdf, value_type=str)}],
              condition=IfCondition(with_rsp), output="screen"),

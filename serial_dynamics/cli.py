@@ -148,7 +148,7 @@ def main(argv=None):
             p.add_argument("--plot", metavar="PNG", default=None, help="write a plot of the tracking")
             p.add_argument("--json", metavar="PATH", default=None, help="write the numbers as JSON")
             p.add_argument("--real-time-factor", type=float, default=1.0,
-                           help="simulated s per wall s (0: as fast as possible)")
+                           help="simulated s per wall s (> 0; default 1)")
         if name == "simulate":
             _simulate_options(p)
     args = parser.parse_args(argv)

@@ -21,7 +21,7 @@ import time
 import numpy as np
 import rclpy
 from builtin_interfaces.msg import Duration
-from rclpy.executors import SingleThreadedExecutor
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from sensor_msgs.msg import JointState
 from std_srvs.srv import SetBool
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
@@ -82,13 +82,21 @@ def run_demo(urdf=None, base_link=None, tip_link=None, real_time_factor=1.0, att
 
     def spin_until(done, timeout, what):
         deadline = time.monotonic() + timeout
+        progress = (states[-1][1] if states else 0.0, time.monotonic())   # (stamp, when)
         while not done():
             for p in procs:
                 if not p.running():
                     raise DemoError(f"the {p.module} node exited ({p.proc.returncode}):\n"
                                     + p.output().strip())
-            if time.monotonic() > deadline:
+            now = time.monotonic()
+            if now > deadline:
                 raise DemoError(f"timed out waiting for {what}")
+            if states and states[-1][1] > progress[0]:
+                progress = (states[-1][1], now)
+            elif progress[0] > 0 and now - progress[1] > 10.0:      # running, then stuck
+                log_tail = procs[0].output().strip().splitlines()[-3:] if procs else []
+                raise DemoError(f"simulated time stopped at {states[-1][1]:.3f} s while waiting "
+                                f"for {what}" + "".join("\n  " + x for x in log_tail))
             executor.spin_once(timeout_sec=0.05)
 
     try:
@@ -111,7 +119,7 @@ def run_demo(urdf=None, base_link=None, tip_link=None, real_time_factor=1.0, att
                       for i in range(len(traj.t))]
         pub.publish(msg)
         t_end = t0 + traj.duration + SETTLE
-        spin_until(lambda: states[-1][1] >= t_end, 30.0 + 20.0 * (t_end / max(real_time_factor, 0.05)),
+        spin_until(lambda: states[-1][1] >= t_end, 60.0 + 5.0 * t_end / real_time_factor,
                    "the end of the trajectory")
     finally:
         node.destroy_node()
@@ -180,18 +188,26 @@ def plot(r, path):
 def run(args) -> int:
     """Entry point of ``serial-dynamics demo`` (args: urdf, base_link, tip_link and
     optionally plot, json, real_time_factor, attach)."""
+    rtf = getattr(args, "real_time_factor", 1.0)
+    if not rtf > 0:
+        print("serial-dynamics demo: error: the real-time factor must be > 0: the controller "
+              "runs in its own process and cannot keep pace with an unpaced simulation",
+              file=sys.stderr)
+        return 2
     if "ROS_DOMAIN_ID" not in os.environ and not getattr(args, "attach", False):
         # keep the demo's /clock off other ROS graphs on this network
         os.environ["ROS_DOMAIN_ID"] = str(1 + os.getpid() % 100)
-    print(f"serial_dynamics demo (ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}): simulator + "
+    print(f"serial_dynamics demo (ROS_DOMAIN_ID={os.environ.get('ROS_DOMAIN_ID', '0')}): simulator + "
           "computed-torque controller as separate processes", flush=True)
     try:
-        r = run_demo(args.urdf, args.base_link, args.tip_link,
-                     getattr(args, "real_time_factor", 1.0), getattr(args, "attach", False),
-                     log=lambda s: print(s, flush=True))
+        r = run_demo(args.urdf, args.base_link, args.tip_link, rtf,
+                     getattr(args, "attach", False), log=lambda s: print(s, flush=True))
     except (DemoError, ValueError, OSError) as exc:
         print(f"serial-dynamics demo: error: {exc}", file=sys.stderr)
         return 1
+    except (KeyboardInterrupt, ExternalShutdownException):
+        print("serial-dynamics demo: interrupted", file=sys.stderr)
+        return 130
     print(report(r))
     if getattr(args, "plot", None):
         plot(r, args.plot)
@@ -210,7 +226,7 @@ def add_arguments(p):
     p.add_argument("--plot", metavar="PNG", default=None, help="write a plot of the tracking")
     p.add_argument("--json", metavar="PATH", default=None, help="write the numbers as JSON")
     p.add_argument("--real-time-factor", type=float, default=1.0,
-                   help="simulated s per wall s (0: as fast as possible)")
+                   help="simulated s per wall s (> 0; default 1)")
     p.add_argument("--attach", action="store_true",
                    help="do not start nodes: use the simulator and controller already running")
 

@@ -953,6 +953,46 @@ def simulate_semi_implicit_euler(PW, q0, qd0, tau, dt, nsteps, viscous, w, flags
     return qs, qds
 
 
+# ------------------------------------------------------------------ Python-level helpers
+def simulate_fixed_step(robot, q0, qd0, tau, dt, nsteps, viscous=None, wrench=None,
+                        method="auto"):
+    """Semi-implicit Euler over ``nsteps`` steps of ``dt`` in one compiled loop:
+    qdd = FD(q, qd, tau_k - viscous * qd, wrench_k); qd += dt qdd; q += dt qd.
+
+    ``tau``: (n,) held constant or (nsteps, n) per step; ``viscous``: (n,) N m s/rad (default
+    none); ``wrench``: None, (6,) or (nsteps, 6) on the tip (base coordinates);
+    ``method``: "auto", "cholesky" or "aba". Returns (q, qd), each (nsteps + 1, n), the
+    initial state first; from a step whose state is not finite on, the rows are NaN.
+    """
+    n = robot.dof
+    vec = lambda x, name: _checked(np.ascontiguousarray(x, dtype=float), (n,), name)  # noqa: E731
+    q0, qd0 = vec(q0, "q0"), vec(qd0, "qd0")
+    viscous = np.zeros(n) if viscous is None else vec(viscous, "viscous")
+    tau = np.ascontiguousarray(np.atleast_2d(np.asarray(tau, dtype=float)))
+    _checked(tau, ((1, n), (nsteps, n)), "tau")
+    w = np.zeros((0, 6)) if wrench is None else np.ascontiguousarray(np.atleast_2d(np.asarray(wrench, dtype=float)))
+    _checked(w, ((0, 6), (1, 6), (nsteps, 6)), "wrench")
+    if method == "auto":
+        from .algorithms.aba import CROSSOVER
+        method = "aba" if n >= CROSSOVER else "cholesky"
+    if method not in ("cholesky", "aba"):
+        raise ValueError(f"method {method!r} unknown; use 'auto', 'cholesky' or 'aba'")
+    if not dt > 0 or int(nsteps) != nsteps or nsteps < 0:
+        raise ValueError(f"dt = {dt}, nsteps = {nsteps}: need dt > 0 and an integer nsteps >= 0")
+    PW = robot._PW if getattr(robot, "_PW", None) is not None else pack(robot.model)
+    return K.simulate_semi_implicit_euler(PW, q0, qd0, tau, float(dt), int(nsteps), viscous, w,
+                                          F_ABA if method == "aba" else 0)
+
+
+def _checked(a, shapes, name):
+    shapes = shapes if isinstance(shapes[0], tuple) else (shapes,)
+    if a.shape not in shapes:
+        raise ValueError(f"{name} has shape {a.shape}; expected one of {list(shapes)}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} has a NaN or Inf entry; give finite numbers")
+    return a
+
+
 # ------------------------------------------------------------------ signatures, lazy compile
 _f8 = types.float64
 _i8 = types.int64
@@ -992,3 +1032,12 @@ class _Kernels:
 
 
 K = _Kernels()
+
+
+if __name__ == "__main__":      # python -m serial_dynamics.kernels: fill the numba cache once
+    import time
+
+    from serial_dynamics import kernels     # the package module (its cache), not __main__'s copy
+    t0 = time.perf_counter()
+    kernels.K.load_all()
+    print(f"compiled or loaded {len(SIGNATURES)} kernels in {time.perf_counter() - t0:.1f} s")

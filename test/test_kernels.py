@@ -246,3 +246,24 @@ def test_fixed_step_loop_matches_a_python_loop():
     Q, QD = kernels.K.simulate_semi_implicit_euler(robot._PW, q0, qd0, np.full((1, n), 1e200), dt,
                                                    steps, beta, np.zeros((0, 6)), 0)
     assert np.all(np.isnan(Q[2:])) and np.all(np.isfinite(Q[0]))
+
+
+def test_simulate_fixed_step_wrapper():
+    robot = sd.default_robot()
+    n = robot.dof
+    q0 = np.array([0.1, -1.2, 1.0, -0.5, 0.3, 0.0])
+    tau = robot.gravity_torques(q0)
+    q, qd = kernels.simulate_fixed_step(robot, q0, np.zeros(n), tau, 1e-3, 200)
+    assert q.shape == (201, n) and np.max(np.abs(q - q0)) < 1e-9      # held by gravity torques
+    ref = Robot(robot.model, backend="numpy")                          # packs on the fly
+    beta = np.full(n, 0.7)
+    a, _ = kernels.simulate_fixed_step(robot, q0, np.ones(n), list(tau * 0.5), 1e-3, 50, beta)
+    b, _ = kernels.simulate_fixed_step(ref, q0, np.ones(n), np.tile(tau * 0.5, (50, 1)), 1e-3, 50, beta,
+                                       wrench=np.zeros(6), method="aba")
+    assert rel(a, b) <= TOL
+    with pytest.raises(ValueError, match="tau has shape"):
+        kernels.simulate_fixed_step(robot, q0, q0, np.zeros((3, n)), 1e-3, 50)
+    with pytest.raises(ValueError, match="q0 has a NaN"):
+        kernels.simulate_fixed_step(robot, q0 * np.nan, q0, tau, 1e-3, 50)
+    with pytest.raises(ValueError, match="method 'rk4' unknown"):
+        kernels.simulate_fixed_step(robot, q0, q0, tau, 1e-3, 50, method="rk4")

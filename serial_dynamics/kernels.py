@@ -27,7 +27,9 @@ single-state entry points take few arrays: ``PW`` is one array holding the packe
 written into ``out`` and the return value is a status: 0 = ok, 1 = a NaN/Inf in an input
 (the caller then raises the reference's ValueError naming it), 2 = wrong length. Flags:
 bit 0 = use qd, bit 1 = use qdd, bit 2 = use the tip wrench (single calls: stored by the
-caller in ``wrench_row(PW)``), bit 3 = forward dynamics by ABA instead of Cholesky. Batch
+caller in ``wrench_row(PW)``), bit 3 = forward dynamics by ABA instead of Cholesky, bit 4 =
+forward dynamics with joint armature (row 2n+4 of the scratch; the fixed-step loop uses it
+for implicit damping). Batch
 kernels take (N, n) inputs, or (1, n) to broadcast one row over the batch, and their own
 scratch memory (allocated once per call, outside the loop).
 
@@ -55,7 +57,7 @@ AV, AC, AIA, APA, AU, AD, AUU = 20, 26, 32, 68, 74, 80, 81   # ABA: v, c, IA (6x
 WRENCH = 60                                           # W[2n+1, WRENCH:+6]: tip wrench
 WW = 82
 
-F_QD, F_QDD, F_W, F_ABA = 1, 2, 4, 8
+F_QD, F_QDD, F_W, F_ABA, F_ARM = 1, 2, 4, 8, 16
 
 # Only fused multiply-add is allowed (about 4% faster); no other fast-math flag, so that NaN
 # and Inf propagate and the input checks (x * 0.0 is NaN iff x is NaN or Inf) hold.
@@ -69,8 +71,8 @@ ABA_CROSSOVER = 13
 @njit(cache=True, fastmath=_FM)
 def _workspace(n):
     """Scratch memory of one evaluation: n body rows, an n x n matrix, a vector, a scratch
-    row, sin q and cos q."""
-    return np.zeros((2 * n + 4, max(WW, n)))
+    row, sin q, cos q and joint armature."""
+    return np.zeros((2 * n + 5, max(WW, n)))
 
 
 @njit(cache=True, fastmath=_FM, inline="always")
@@ -96,7 +98,7 @@ def pack(model) -> np.ndarray:
     scratch memory of single calls (rows n+1 .. 3n+2). Never shared between threads
     (single-state kernels hold the GIL)."""
     n = model.dof
-    PW = np.zeros((3 * n + 5, max(WW, n, PWIDTH)))
+    PW = np.zeros((3 * n + 6, max(WW, n, PWIDTH)))
     P = PW[:n + 1]
     A_prev = np.eye(3)
     for i in range(n):
@@ -410,6 +412,9 @@ def _fd_cholesky(P, W, q, qd, tau, flags, out):
         b[i] = tau[i] - b[i]
     L = W[n:2 * n, :n]
     _crba_core(P, W, L)
+    if (flags & F_ARM) != 0:             # joint armature: M + diag(arm)
+        for i in range(n):
+            L[i, i] += W[2 * n + 4, i]
     _cholesky_solve(L, b, out)
     return chk
 
@@ -518,7 +523,9 @@ def _fd_aba(P, W, q, qd, tau, flags, out):
     for i in range(n - 1, -1, -1):
         IA = W[i, AIA:AIA + 36].reshape((6, 6))
         s = 2 if P[i, KIND] == 0.0 else 5
-        D = IA[s, s]                                        # D = S^T IA S
+        D = IA[s, s]                                        # D = S^T IA S (+ armature)
+        if (flags & F_ARM) != 0:
+            D += W[2 * n + 4, i]
         u = tau[i] - W[i, APA + s]                          # u = tau - S^T pA
         for a in range(6):
             W[i, AU + a] = IA[a, s]                         # U = IA S
@@ -915,11 +922,15 @@ def fd_batch(PW, q, qd, tau, w, flags, out):
 
 
 def simulate_semi_implicit_euler(PW, q0, qd0, tau, dt, nsteps, viscous, w, flags):
-    """Fixed-step loop: qdd = FD(q, qd, tau_k - viscous * qd [, w_k]); qd += dt qdd;
-    q += dt qd (semi-implicit Euler). ``tau`` (nsteps, n) or (1, n) held constant;
-    ``w`` (nsteps, 6), (1, 6) or (0, 6) for no wrench; ``flags``: F_ABA for the
-    articulated-body method, else Cholesky. Returns (q, qd), each (nsteps + 1, n) with the
-    initial state first; from the first step whose state is not finite on, rows are NaN."""
+    """Fixed-step loop of semi-implicit Euler: qd += dt qdd; q += dt qd, with
+    qdd = FD(q, qd, tau_k - viscous * qd [, w_k]). ``tau`` (nsteps, n) or (1, n) held
+    constant; ``w`` (nsteps, 6), (1, 6) or (0, 6) for no wrench. ``flags``: F_ABA for the
+    articulated-body method (else Cholesky); F_ARM to integrate the viscous damping
+    implicitly, as MuJoCo's Euler does: (M + dt diag(viscous)) qdd = tau - viscous qd - b,
+    i.e. the damping acts on the new velocity, which keeps it stable for any
+    dt viscous / M (explicit damping needs dt viscous / M_ii < 2). Returns (q, qd), each
+    (nsteps + 1, n) with the initial state first; from the first step whose state is not
+    finite on, rows are NaN."""
     n, P, _ = _split(PW)
     qs = np.full((nsteps + 1, n), np.nan)
     qds = np.full((nsteps + 1, n), np.nan)
@@ -930,7 +941,9 @@ def simulate_semi_implicit_euler(PW, q0, qd0, tau, dt, nsteps, viscous, w, flags
     qd = qd0.copy()
     qs[0] = q
     qds[0] = qd
-    flags = F_QD | (flags & F_ABA) | (F_W if w.shape[0] > 0 else 0)
+    flags = F_QD | (flags & (F_ABA | F_ARM)) | (F_W if w.shape[0] > 0 else 0)
+    for i in range(n):
+        W[2 * n + 4, i] = dt * viscous[i]
     ntau, nw = tau.shape[0] > 1, w.shape[0] > 1
     if w.shape[0] > 0:
         _set_wrench(W, n, w[0])
@@ -955,14 +968,17 @@ def simulate_semi_implicit_euler(PW, q0, qd0, tau, dt, nsteps, viscous, w, flags
 
 # ------------------------------------------------------------------ Python-level helpers
 def simulate_fixed_step(robot, q0, qd0, tau, dt, nsteps, viscous=None, wrench=None,
-                        method="auto"):
+                        method="auto", implicit_damping=True):
     """Semi-implicit Euler over ``nsteps`` steps of ``dt`` in one compiled loop:
     qdd = FD(q, qd, tau_k - viscous * qd, wrench_k); qd += dt qdd; q += dt qd.
 
     ``tau``: (n,) held constant or (nsteps, n) per step; ``viscous``: (n,) N m s/rad (default
     none); ``wrench``: None, (6,) or (nsteps, 6) on the tip (base coordinates);
-    ``method``: "auto", "cholesky" or "aba". Returns (q, qd), each (nsteps + 1, n), the
-    initial state first; from a step whose state is not finite on, the rows are NaN.
+    ``method``: "auto", "cholesky" or "aba"; ``implicit_damping``: the damping acts on the
+    new velocity, (M + dt diag(viscous)) qdd = tau - viscous qd - b (as MuJoCo's Euler;
+    stable for any step), else explicitly (stable only while dt viscous / M_ii < 2).
+    Returns (q, qd), each (nsteps + 1, n), the initial state first; from a step whose
+    state is not finite on, the rows are NaN.
     """
     n = robot.dof
     vec = lambda x, name: _checked(np.ascontiguousarray(x, dtype=float), (n,), name)  # noqa: E731
@@ -980,8 +996,8 @@ def simulate_fixed_step(robot, q0, qd0, tau, dt, nsteps, viscous=None, wrench=No
     if not dt > 0 or int(nsteps) != nsteps or nsteps < 0:
         raise ValueError(f"dt = {dt}, nsteps = {nsteps}: need dt > 0 and an integer nsteps >= 0")
     PW = robot._PW if getattr(robot, "_PW", None) is not None else pack(robot.model)
-    return K.simulate_semi_implicit_euler(PW, q0, qd0, tau, float(dt), int(nsteps), viscous, w,
-                                          F_ABA if method == "aba" else 0)
+    flags = (F_ABA if method == "aba" else 0) | (F_ARM if implicit_damping else 0)
+    return K.simulate_semi_implicit_euler(PW, q0, qd0, tau, float(dt), int(nsteps), viscous, w, flags)
 
 
 def _checked(a, shapes, name):

@@ -232,7 +232,7 @@ def test_fixed_step_loop_matches_a_python_loop():
     tau = rng.normal(size=(steps, n))
     w = rng.normal(size=6)
     beta = robot.model.damping
-    for flags, method in ((0, "cholesky"), (kernels.F_ABA, "aba")):
+    for flags, method in ((0, "cholesky"), (kernels.F_ABA, "aba")):      # explicit damping
         Q, QD = kernels.K.simulate_semi_implicit_euler(robot._PW, q0, qd0, tau, dt, steps, beta,
                                                        w[None], flags)
         q, qd = q0.copy(), qd0.copy()
@@ -241,6 +241,17 @@ def test_fixed_step_loop_matches_a_python_loop():
             qd = qd + dt * qdd
             q = q + dt * qd
         assert Q.shape == QD.shape == (steps + 1, n)
+        assert rel(Q[-1], q) <= TOL and rel(QD[-1], qd) <= 1e-11
+    # implicit damping: (M + dt diag(beta)) qdd = tau - beta qd - b
+    for flags in (kernels.F_ARM, kernels.F_ARM | kernels.F_ABA):
+        Q, QD = kernels.K.simulate_semi_implicit_euler(robot._PW, q0, qd0, tau, dt, steps, beta * 50,
+                                                       w[None], flags)
+        q, qd = q0.copy(), qd0.copy()
+        for k in range(steps):
+            M = ref.mass_matrix(q) + dt * np.diag(beta * 50)
+            qdd = np.linalg.solve(M, tau[k] - beta * 50 * qd - ref.bias_torques(q, qd, w))
+            qd = qd + dt * qdd
+            q = q + dt * qd
         assert rel(Q[-1], q) <= TOL and rel(QD[-1], qd) <= 1e-11
     # a diverging run stops, and the rows from there on are NaN
     Q, QD = kernels.K.simulate_semi_implicit_euler(robot._PW, q0, qd0, np.full((1, n), 1e200), dt,

@@ -63,9 +63,6 @@ F_QD, F_QDD, F_W, F_ABA, F_ARM = 1, 2, 4, 8, 16
 # and Inf propagate and the input checks (x * 0.0 is NaN iff x is NaN or Inf) hold.
 _FM = {"contract"}
 
-# Forward dynamics: the articulated-body method is used from this many joints on,
-# the Cholesky route below it ("auto"). Measured by bench/bench_speed.py (docs/speed.md).
-ABA_CROSSOVER = 13
 
 
 @njit(cache=True, fastmath=_FM)

@@ -25,8 +25,9 @@ from .kinematics import joint_transforms
 from .rnea import _tip_rotation, _wrench_batch
 
 # forward_dynamics(method="auto") uses ABA from this many joints on and the Cholesky route
-# below; measured with the compiled kernels by bench/bench_speed.py (see docs/speed.md).
-CROSSOVER = 13
+# below: with the compiled kernels, single calls, ABA overtakes CRBA + Cholesky between 28
+# and 32 joints (bench/bench_speed.py, docs/speed.md).
+CROSSOVER = 30
 
 
 def spatial_inertia(mass, com, inertia):

@@ -407,7 +407,7 @@ def main():
     for robot_name, what, a, b, peer, target in rows:
         ratio = a / b
         met = "" if target is None else ("yes" if ratio <= target else f"**no** (+{(ratio / target - 1) * 100:.0f} %)")
-        lines.append(f"| {robot_name} | {what} | {fmt_t(a)} | {peer} | {fmt_t(b)} | {ratio:.2g} | "
+        lines.append(f"| {robot_name} | {what} | {fmt_t(a)} | {peer} | {fmt_t(b)} | {ratio:.3g} | "
                      f"{'' if target is None else f'≤ {target:g}'} | {met} |")
     lines += ["", f"Simulation check: after 10 s our trajectory and MuJoCo's differ by {sim_err:.1e} rad "
               "(both integrate the joint damping implicitly: MuJoCo's Euler does, and so does "

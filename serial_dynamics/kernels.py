@@ -807,8 +807,9 @@ def _rnea_block(P, n, flags, QV, WB, RB, PB, FB, ST, TB):
 
 @njit(cache=True, fastmath=_FM)
 def _rnea_batch_blocks(PW, q, qd, qdd, w, flags, out):
-    """rnea_batch by blocks of B samples; a block with a NaN/Inf or a huge angle goes
-    through the one-sample kernel (which checks and reduces huge angles exactly)."""
+    """rnea_batch by blocks of B samples; a block with a NaN/Inf or a huge angle, and a
+    tail of fewer than B/4 samples, go through the one-sample kernel (which checks, and
+    reduces huge angles exactly)."""
     N = out.shape[0]
     n, P, _ = _split(PW)
     W = _workspace(n)
@@ -819,8 +820,8 @@ def _rnea_batch_blocks(PW, q, qd, qdd, w, flags, out):
     use_qd, use_qdd, use_w = (flags & F_QD) != 0, (flags & F_QDD) != 0, (flags & F_W) != 0
     bad = 0
     for k0 in range(0, N, L):
-        ok = True
-        for b in range(L):                   # gather the block (the last one padded)
+        ok = N - k0 >= L // 4                # a short tail: one sample at a time
+        for b in range(L if ok else 0):      # gather the block (the last one padded)
             k = min(k0 + b, N - 1)
             for i in range(n):
                 x = q[k if nq else 0, i]

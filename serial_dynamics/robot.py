@@ -19,6 +19,7 @@ reference (same ValueError messages) and calls the batch kernels.
 from __future__ import annotations
 
 import os
+import threading
 
 import numpy as np
 
@@ -52,6 +53,7 @@ class Robot:
         self._k = None
         self._rnea = self._crba = self._fd = _no_fast_path
         self._PW, self._wrow = None, np.zeros(6)
+        self._wrench_lock = threading.Lock()
         if backend == "numba":
             from . import kernels
             self._k = kernels.K                  # all entry points, compiled on first use
@@ -103,8 +105,8 @@ class Robot:
         """tau = M(q) qdd + b(q, qd) - J^T w  (rigid body; no friction). N m / N."""
         out = _empty(self._n)
         try:
-            if self._rnea(self._PW, q, qd, qdd,
-                          3 if wrench is None else 3 | self._set_wrench(wrench), out) == 0:
+            if (self._rnea(self._PW, q, qd, qdd, 3, out) if wrench is None else
+                    self._with_wrench(self._rnea, wrench, q, qd, qdd, 3, out)) == 0:
                 return out
         except TypeError:
             pass
@@ -130,8 +132,8 @@ class Robot:
         """b(q, qd) - J^T w = C(q, qd) qd + g(q) - J^T w."""
         out = _empty(self._n)
         try:
-            if self._rnea(self._PW, q, qd, q,
-                          1 if wrench is None else 1 | self._set_wrench(wrench), out) == 0:
+            if (self._rnea(self._PW, q, qd, q, 1, out) if wrench is None else
+                    self._with_wrench(self._rnea, wrench, q, qd, q, 1, out)) == 0:
                 return out
         except TypeError:
             pass
@@ -159,9 +161,8 @@ class Robot:
         if flags is not None:
             out = _empty(self._n)
             try:
-                if self._fd(self._PW, q, qd, tau,
-                            flags if wrench is None else flags | self._set_wrench(wrench),
-                            out) == 0:
+                if (self._fd(self._PW, q, qd, tau, flags, out) if wrench is None else
+                        self._with_wrench(self._fd, wrench, q, qd, tau, flags, out)) == 0:
                     return out
             except TypeError:
                 pass
@@ -198,14 +199,18 @@ class Robot:
             raise ValueError("wrench has a NaN or Inf entry; give finite numbers")
         return out[0] if single else out
 
-    def _set_wrench(self, wrench):
-        """Single-state calls: put a (6,) wrench where the kernel reads it and return the
-        flag; anything but a flat 6-vector raises TypeError (-> the general path)."""
+    def _with_wrench(self, kernel, wrench, a, b, c, flags, out):
+        """Single-state kernel call with a tip wrench, which the kernel reads from the robot's
+        scratch memory: written and used under a lock, so that two threads cannot swap
+        wrenches in between (the kernels hold the GIL while they run, so calls without a
+        wrench need no lock). Anything but a flat 6-vector raises TypeError (-> the
+        general path)."""
         w = np.asarray(wrench, dtype=float)
-        if w.shape != (6,):
+        if w.shape != (6,) or self._PW is None:
             raise TypeError
-        self._wrow[:] = w
-        return _W
+        with self._wrench_lock:
+            self._wrow[:] = w
+            return kernel(self._PW, a, b, c, flags | _W, out)
 
     def _wrench_rows(self, wrench, N, flags):
         if wrench is None:

@@ -278,3 +278,31 @@ def test_simulate_fixed_step_wrapper():
         kernels.simulate_fixed_step(robot, q0 * np.nan, q0, tau, 1e-3, 50)
     with pytest.raises(ValueError, match="method 'rk4' unknown"):
         kernels.simulate_fixed_step(robot, q0, q0, tau, 1e-3, 50, method="rk4")
+
+
+def test_wrench_calls_from_two_threads_do_not_mix():
+    import sys
+    import threading
+    robot = sd.default_robot()
+    q, qd, qdd, _, _ = states(robot, seed=8)
+    wrenches = [np.r_[50.0, 0, 0, 0, 0, 0], np.r_[0, 0, -80.0, 0, 5.0, 0]]
+    expect = [robot.inverse_dynamics(q, qd, qdd, w).copy() for w in wrenches]
+    bad = []
+
+    def worker(k):
+        for _ in range(3000):
+            if not np.array_equal(robot.inverse_dynamics(q, qd, qdd, wrenches[k]), expect[k]):
+                bad.append(k)
+            robot.inverse_dynamics(q, qd, qdd)                 # no wrench in between
+
+    old = sys.getswitchinterval()
+    sys.setswitchinterval(1e-6)
+    try:
+        threads = [threading.Thread(target=worker, args=(k,)) for k in (0, 1)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+    finally:
+        sys.setswitchinterval(old)
+    assert not bad

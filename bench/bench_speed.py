@@ -28,7 +28,7 @@ sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.dirname(HERE))
 
 import serial_dynamics as sd                                  # noqa: E402
-from serial_dynamics import Robot, kernels                    # noqa: E402
+from serial_dynamics import kernels                           # noqa: E402
 from serial_dynamics.algorithms import aba as aba_module      # noqa: E402
 from serial_dynamics.robots.synthetic import chain_urdf       # noqa: E402
 from _report import stamp, write_section                      # noqa: E402

@@ -231,7 +231,12 @@ class Robot:
         return kinematics.jacobian(self.model, q, link)
 
     def kinetic_energy(self, q, qd):
-        return energy.kinetic_energy(self.model, q, qd)
+        """T = 1/2 qd^T M(q) qd (J), with this robot's (compiled) mass matrix."""
+        if self._k is None:
+            return energy.kinetic_energy(self.model, q, qd)
+        single, (q, qd) = as_batch(self.model, ("q", q), ("qd", qd))
+        T = 0.5 * np.einsum("ni,nij,nj->n", qd, self.mass_matrix(_rows(q)), qd)
+        return T[0] if single else T
 
     def potential_energy(self, q):
         return energy.potential_energy(self.model, q)

@@ -371,8 +371,9 @@ def main():
                f"{ill['cond'] * 2.2e-16:.1e} |",
                f"| QR of P = H T | {ill['qr']:.1e} | |",
                f"| Cholesky, NumPy reference path | {ill['cholesky, NumPy path']:.1e} | |", "",
-               "(The NumPy CRBA sums inertias about the base origin, which cancels the rotational "
-               "inertia of the 1e-5 kg rod 1.5 m out; the compiled kernel does not.)", ""]
+               "(The NumPy reference forms the last joint's tiny torque, a 1e-5 kg rod spun about "
+               "its own axis, from moments about the body origin, with some round-off "
+               "cancellation; the compiled kernels do not.)", ""]
     md += [f"### Model fidelity: fast pick-and-place ({T_move:g} s, quintic, UR5e)", "",
            f"Rest to rest from q = {QA.tolist()} to {QB.tolist()} rad (peak joint speed "
            f"{np.max(np.abs(desired(T_move / 2, T_move)[1])):.2f} rad/s, about the UR5e's "

@@ -396,7 +396,7 @@ def main():
     print("scaling done", flush=True)
 
     lines = [stamp(), "",
-             "Regenerate with `python bench/bench_speed.py` (about 5 minutes; the machine may be shared "
+             "Regenerate with `python bench/bench_speed.py` (about 1 minute; the machine may be shared "
              "with other jobs, so every ratio is from interleaved rounds of ours and the peer's). "
              f"Peers: Pinocchio {pin.__version__}, MuJoCo {mujoco.__version__}. Panda = "
              "example-robot-data `panda.urdf` to `panda_link8` (7 joints, fingers held and lumped), "

@@ -26,6 +26,7 @@ body ``body`` (``-1``: the base).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from types import MappingProxyType
 
 import numpy as np
 
@@ -70,7 +71,7 @@ class Model:
     effort_limit: np.ndarray    # (n,) N m or N, inf where absent
     damping: np.ndarray         # (n,) URDF <dynamics damping>, N m s/rad or N s/m
     friction: np.ndarray        # (n,) URDF <dynamics friction>, N m or N
-    frames: dict = field(default_factory=dict)
+    frames: MappingProxyType = field(default_factory=lambda: MappingProxyType({}))
 
     @property
     def dof(self) -> int:
@@ -104,7 +105,8 @@ class Model:
             lower=full(lower, -np.inf), upper=full(upper, np.inf),
             velocity_limit=full(velocity_limit, np.inf), effort_limit=full(effort_limit, np.inf),
             damping=full(damping, 0.0), friction=full(friction, 0.0),
-            frames=dict(frames or {}),
+            frames=MappingProxyType({link: (int(b), _frozen(R, (3, 3)), _frozen(p, (3,)))
+                                     for link, (b, R, p) in (frames or {}).items()}),
         )
         model.validate(check_mass_matrix=check_mass_matrix)
         return model

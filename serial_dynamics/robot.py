@@ -29,6 +29,7 @@ from .dissipation import Dissipation
 from .model import Model
 
 _empty = np.empty                          # one global lookup on the fast paths
+_NOT_FAST = (TypeError, AttributeError)    # inputs the single-state fast path does not take
 BACKENDS = ("numba", "numpy")
 FD_METHODS = ("auto", "cholesky", "aba", "qr")
 _QD, _QDD, _W, _ABA = 1, 2, 4, 8          # kernel flags (kernels.F_QD, F_QDD, F_W, F_ABA)
@@ -98,17 +99,18 @@ class Robot:
     # ------------------------------------------------------------- dynamics
     # Each method first tries the single-state fast path: a float64 C-contiguous (n,) state
     # goes straight to the kernel, which checks lengths and NaN/Inf and returns 0 on
-    # success. Anything else -- other types (TypeError from the kernel's signature), a
-    # batch, a bad value, the reference backend -- takes the general path, which validates
+    # success. Anything else -- a batch (caught by the ndim test: letting numba reject it
+    # costs ~65 us), other types (TypeError from the kernel's signature, AttributeError for
+    # lists), a bad value, the reference backend -- takes the general path, which validates
     # like the reference and raises its ValueError.
     def inverse_dynamics(self, q, qd, qdd, wrench=None):
         """tau = M(q) qdd + b(q, qd) - J^T w  (rigid body; no friction). N m / N."""
         out = _empty(self._n)
         try:
-            if (self._rnea(self._PW, q, qd, qdd, 3, out) if wrench is None else
-                    self._with_wrench(self._rnea, wrench, q, qd, qdd, 3, out)) == 0:
+            if q.ndim == 1 and (self._rnea(self._PW, q, qd, qdd, 3, out) if wrench is None else
+                                self._with_wrench(self._rnea, wrench, q, qd, qdd, 3, out)) == 0:
                 return out
-        except TypeError:
+        except _NOT_FAST:
             pass
         return self._rnea_general((("q", q), ("qd", qd), ("qdd", qdd)), wrench)
 
@@ -116,9 +118,9 @@ class Robot:
         """M(q), the generalized inertia matrix."""
         out = _empty(self._nn)
         try:
-            if self._crba(self._PW, q, out) == 0:
+            if q.ndim == 1 and self._crba(self._PW, q, out) == 0:
                 return out
-        except TypeError:
+        except _NOT_FAST:
             pass
         if self._k is None:
             return mass_matrix.mass_matrix(self.model, q)
@@ -132,10 +134,10 @@ class Robot:
         """b(q, qd) - J^T w = C(q, qd) qd + g(q) - J^T w."""
         out = _empty(self._n)
         try:
-            if (self._rnea(self._PW, q, qd, q, 1, out) if wrench is None else
-                    self._with_wrench(self._rnea, wrench, q, qd, q, 1, out)) == 0:
+            if q.ndim == 1 and (self._rnea(self._PW, q, qd, q, 1, out) if wrench is None else
+                                self._with_wrench(self._rnea, wrench, q, qd, q, 1, out)) == 0:
                 return out
-        except TypeError:
+        except _NOT_FAST:
             pass
         return self._rnea_general((("q", q), ("qd", qd), ("qdd", None)), wrench)
 
@@ -143,9 +145,9 @@ class Robot:
         """g(q): the torques that hold the chain still (the textbook's gamma is -g)."""
         out = _empty(self._n)
         try:
-            if self._rnea(self._PW, q, q, q, 0, out) == 0:
+            if q.ndim == 1 and self._rnea(self._PW, q, q, q, 0, out) == 0:
                 return out
-        except TypeError:
+        except _NOT_FAST:
             pass
         return self._rnea_general((("q", q), ("qd", None), ("qdd", None)), None)
 
@@ -161,10 +163,11 @@ class Robot:
         if flags is not None:
             out = _empty(self._n)
             try:
-                if (self._fd(self._PW, q, qd, tau, flags, out) if wrench is None else
-                        self._with_wrench(self._fd, wrench, q, qd, tau, flags, out)) == 0:
+                if q.ndim == 1 and (self._fd(self._PW, q, qd, tau, flags, out) if wrench is None
+                                    else self._with_wrench(self._fd, wrench, q, qd, tau, flags,
+                                                           out)) == 0:
                     return out
-            except TypeError:
+            except _NOT_FAST:
                 pass
         if self._k is None or flags is None:
             if method == "auto":

@@ -1039,10 +1039,17 @@ class _Kernels:
         setattr(self, name, disp)
         return disp
 
-    def load_all(self):
-        for name in SIGNATURES:
+    def load_all(self, names=None):
+        """Compile or load ``names`` (default: every entry point)."""
+        for name in SIGNATURES if names is None else names:
             getattr(self, name)
         return self
+
+
+# What Robot.warmup() loads: the Robot methods' kernels. The whole-loop simulation kernel
+# (7.5 s of a cold compile: it re-specializes the forward-dynamics tree for its writable
+# arrays) is left to its first use by sd.simulate; the nodes never call it.
+ROBOT_KERNELS = ("rnea", "crba", "fd", "rnea_batch", "crba_batch", "fd_batch")
 
 
 K = _Kernels()

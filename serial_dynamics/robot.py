@@ -248,11 +248,13 @@ class Robot:
         return self.kinetic_energy(q, qd) + self.potential_energy(q)
 
     def warmup(self):
-        """Compile or load every fast path once (numba backend: every kernel, single and
-        batch, from the numba cache when it is warm), so that the first real call is fast.
+        """Compile or load every fast path once (numba backend: every kernel of the Robot
+        methods, single and batch, from the numba cache when it is warm), so that the first
+        real call is fast.
         Nodes call this before they report ready. Returns self."""
         if self._k is not None:
-            self._k.load_all()
+            from .kernels import ROBOT_KERNELS
+            self._k.load_all(ROBOT_KERNELS)
             self._rnea, self._crba, self._fd = self._k.rnea, self._k.crba, self._k.fd
         q = np.zeros(self.dof)
         qb = np.zeros((2, self.dof))

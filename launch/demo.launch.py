@@ -26,7 +26,7 @@ from launch_ros.actions import Node
 from launch_ros.parameter_descriptions import ParameterValue
 
 from serial_dynamics.robots import builtin_path
-from serial_dynamics.ros.interpolate import UR5E_PICK_AND_PLACE
+from serial_dynamics.trajectory import UR5E_PICK_AND_PLACE
 
 
 def generate_launch_description():

@@ -24,9 +24,10 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from trajectory_msgs.msg import JointTrajectory
 
+from serial_dynamics.trajectory import Waypoints
+
 from . import common
 from .common import Rejected, StartupError
-from .interpolate import Trajectory
 
 PARAMETERS = {
     **common.ROBOT_PARAMETERS,
@@ -54,7 +55,7 @@ class ComputedTorqueController(Node):
         self.compensate = p["compensate_dissipation"]
         self.wrap = np.array([k == "continuous" for k in robot.joint_types])
         self.state = None           # (t, q, qd) of the latest good joint state
-        self.reference = None       # (t0, Trajectory) in force
+        self.reference = None       # (t0, Waypoints) in force
         robot.warmup()
         self.reject = common.Rejections(self.get_logger())
         self.pub = self.create_publisher(Float64MultiArray, "effort_commands", common.QOS_DEPTH)
@@ -87,7 +88,7 @@ class ComputedTorqueController(Node):
             t = now
         self.state = (t, q, qd)
         if self.reference is None:                  # hold where the arm is
-            self.reference = (t, Trajectory([0.0], q[None]))
+            self.reference = (t, Waypoints([0.0], q[None]))
 
     def on_trajectory(self, msg):
         try:
@@ -106,7 +107,7 @@ class ComputedTorqueController(Node):
             q0, qd0, qdd0 = self.desired(start)
             t, q = np.r_[0.0, t], np.vstack([q0, q])
             qd, qdd = np.vstack([qd0, qd]), np.vstack([qdd0, qdd])
-        self.reference = (start, Trajectory(t, q, qd if have_v else None,
+        self.reference = (start, Waypoints(t, q, qd if have_v else None,
                                             qdd if have_a else None))
 
     def on_timer(self):

@@ -28,9 +28,9 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 import serial_dynamics as sd
 from serial_dynamics.simulate import FixedStepIntegrator
+from serial_dynamics.trajectory import pick_and_place
 
 from . import common
-from .interpolate import pick_and_place
 from .processes import NodeProcess
 
 LEAD, SETTLE = 0.5, 0.5        # s of simulated time before the trajectory and after its end

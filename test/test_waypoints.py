@@ -1,9 +1,9 @@
-"""Trajectory sampling between waypoints (what the controller and the demo use)."""
+"""Waypoint sampling (what the computed-torque controller node and the demo use)."""
 import numpy as np
 import pytest
 
 import serial_dynamics as sd
-from serial_dynamics.ros.interpolate import Trajectory, pick_and_place
+from serial_dynamics.trajectory import Waypoints, pick_and_place
 
 rng = np.random.default_rng(5)
 T = np.array([0.0, 0.4, 1.0, 1.7])
@@ -12,7 +12,7 @@ Q, QD, QDD = rng.normal(size=(3, 4, 2))
 
 @pytest.mark.parametrize("kind", ["linear", "cubic", "quintic"])
 def test_waypoints_are_met_and_derivatives_are_consistent(kind):
-    traj = Trajectory(T, Q, None if kind == "linear" else QD, QDD if kind == "quintic" else None)
+    traj = Waypoints(T, Q, None if kind == "linear" else QD, QDD if kind == "quintic" else None)
     q, qd, qdd = traj.sample(T[:-1])
     np.testing.assert_allclose(q, Q[:-1], atol=1e-12)
     if kind != "linear":
@@ -31,13 +31,13 @@ def test_waypoints_are_met_and_derivatives_are_consistent(kind):
 
 
 def test_before_and_after_and_scalar_time():
-    traj = Trajectory(T, Q, QD, QDD)
+    traj = Waypoints(T, Q, QD, QDD)
     q, qd, qdd = traj.sample(-1.0)
     assert q.shape == (2,) and np.array_equal(q, Q[0]) and np.array_equal(qd, QD[0])
     q, qd, qdd = traj.sample(5.0)
     assert np.array_equal(q, Q[-1]) and not qd.any() and not qdd.any()   # holds, at rest
     with pytest.raises(ValueError):
-        Trajectory([0.0, 0.0], Q[:2])
+        Waypoints([0.0, 0.0], Q[:2])
 
 
 def test_pick_and_place_is_within_the_ur5e_limits():

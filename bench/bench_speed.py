@@ -413,7 +413,7 @@ def main():
               "(both integrate the joint damping implicitly: MuJoCo's Euler does, and so does "
               "`kernels.simulate_fixed_step` by default). roboticstoolbox-python: " + rtb_note + ".", ""]
     lines += ["**First call in a fresh process** (import + URDF load; the first `inverse_dynamics`; "
-              "then `Robot.warmup()`, which compiles or loads all 7 kernels):", "",
+              "then `Robot.warmup()`, which compiles or loads the 6 kernels of the Robot methods; the whole-loop simulation kernel compiles on first use by `sd.simulate`):", "",
               "| numba cache | import + load | first inverse_dynamics | warmup (all kernels) |",
               "|---|---:|---:|---:|"]
     for label, (t_load, t_first, t_warm) in first.items():

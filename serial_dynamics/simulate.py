@@ -754,7 +754,7 @@ class _EnergyGuard:
         self.eq, self.method, self.dt, self.enabled = eq, method, dt, enabled
         if enabled:
             r = eq.robot
-            self.T0 = float(_kinetic(r, q0, qd0))
+            self.T0 = float(r.kinetic_energy(q0, qd0))
             self.E0 = self.T0 + float(r.potential_energy(q0))
             self.static = _energy_scale_static(r)
             self.wmax = 0.0
@@ -764,7 +764,7 @@ class _EnergyGuard:
             return
         r = self.eq.robot
         self.wmax = max(self.wmax, abs(float(W[0])), abs(float(W[2])))
-        E = float(_kinetic(r, q, qd) + r.potential_energy(q))
+        E = float(r.kinetic_energy(q, qd) + r.potential_energy(q))
         excess = E - self.E0 - float(W[0]) - float(W[2])
         scale = self.T0 + self.static + self.wmax + 1e-9
         if excess > 0.5 * scale:
@@ -776,16 +776,10 @@ class _EnergyGuard:
                 f"{name!r} at {qd[j]:.4g}. {_advice(self.method, self.dt)}", t, name, "energy")
 
 
-def _kinetic(robot, q, qd):
-    """T = 1/2 qd^T M(q) qd through robot.mass_matrix (the compiled path when there is one)."""
-    M = robot.mass_matrix(q)
-    return 0.5 * np.einsum("...i,...ij,...j->...", qd, M, qd)
-
-
 def _finish(eq, ts, Q, QD, QDD, TAU, DELTA, W, stats, names):
     robot = eq.robot
     Q, QD = np.asarray(Q), np.asarray(QD)
-    kinetic = np.asarray(_kinetic(robot, Q, QD), dtype=float).reshape(-1)
+    kinetic = np.asarray(robot.kinetic_energy(Q, QD), dtype=float).reshape(-1)
     potential = np.asarray(robot.potential_energy(Q), dtype=float).reshape(-1)
     W = np.asarray(W).reshape(-1, 3)
     stats.dynamics_calls, stats.dynamics_states = eq.calls, eq.states

@@ -399,3 +399,14 @@ def test_compiled_loop_equals_step_by_step(ur5e):
     for name in ("q", "qd", "qdd", "tau", "delta", "work_actuators", "work_dissipation"):
         a, b = getattr(fast, name), getattr(slow, name)
         assert np.max(np.abs(a - b)) <= 1e-9 * max(1.0, np.max(np.abs(b))), name
+
+
+def test_offline_demo_conserves_energy(capsys):
+    """The demo without rclpy: a 1 s free swing of the UR5e; its energy must be conserved."""
+    import argparse
+    import re
+
+    from serial_dynamics import cli
+    assert cli.cmd_offline_demo(argparse.Namespace(urdf=None, base_link=None, tip_link=None)) == 0
+    drift = float(re.search(r"energy drift over the swing: (\S+) J", capsys.readouterr().out)[1])
+    assert drift < 1e-7

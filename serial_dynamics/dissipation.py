@@ -86,20 +86,21 @@ class Dissipation:
         """Breakaway torque at rest, tau_c + eps."""
         return self.coulomb + self.stribeck
 
-    def _kinetic(self, speed):
-        return self.coulomb + self.stribeck * np.exp(-self.stribeck_rate * speed)
+    def sliding_friction(self, qd):
+        """Magnitude of the Coulomb friction while sliding, tau_c + eps e^(-gamma |qd|)."""
+        return self.coulomb + self.stribeck * np.exp(-self.stribeck_rate * np.abs(qd))
 
     def torque(self, qd):
         """delta(qd): dissipative joint torques (they oppose the motion); sgn(0) = 0."""
         qd = np.asarray(qd, dtype=float)
-        return -self.viscous * qd - self._kinetic(np.abs(qd)) * np.sign(qd)
+        return -self.viscous * qd - self.sliding_friction(qd) * np.sign(qd)
 
     def smooth_torque(self, qd, v_eps=1e-3):
         """delta with sgn(qd) regularized to tanh(qd / v_eps): continuous, for adaptive
         integrators. The error against ``torque`` is below 2 tau_s e^{-2|qd|/v_eps}
         (1 - tanh x = 2 e^{-2x} / (1 + e^{-2x}))."""
         qd = np.asarray(qd, dtype=float)
-        return -self.viscous * qd - self._kinetic(np.abs(qd)) * np.tanh(qd / v_eps)
+        return -self.viscous * qd - self.sliding_friction(qd) * np.tanh(qd / v_eps)
 
     def function(self, qd):
         """Delta(qd) summed over the joints (W); delta = -dDelta/dqd. (N, n) gives (N,)."""

@@ -175,12 +175,7 @@ class _Equations:
             return self.diss.smooth_torque(qd, self.v_eps)
         if sign is None:
             return self.diss.torque(qd)
-        return -self.beta * qd - self.kinetic(qd) * sign
-
-    def kinetic(self, qd):
-        """Magnitude of the Coulomb friction while sliding, tau_c + eps e^(-gamma |qd|)."""
-        d = self.diss
-        return d.coulomb + d.stribeck * np.exp(-d.stribeck_rate * np.abs(qd))
+        return -self.beta * qd - self.diss.sliding_friction(qd) * sign
 
     # -- dynamics through the facade
     def fd(self, q, qd, tau, w=None):
@@ -387,7 +382,7 @@ class FixedStepIntegrator:
                 # only the smooth viscous and rigid-body terms, not the kink of |qd| at zero
                 # nor the negative slope of the Stribeck rise
                 v_mid = qd + dt / 2 * qdd0
-                coulomb = np.where(sign != 0, -eq.kinetic(np.maximum(sign * v_mid, 0.0)) * sign,
+                coulomb = np.where(sign != 0, -eq.diss.sliding_friction(np.maximum(sign * v_mid, 0.0)) * sign,
                                    0.0)
             q1, qd1, dW = self._midpoint(t, q, qd, torque_fn, wrench_fn, stuck, sign, coulomb,
                                          energy, power)

@@ -23,6 +23,7 @@ import rclpy
 from builtin_interfaces.msg import Duration
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
@@ -34,6 +35,8 @@ from . import common
 from .processes import NodeProcess
 
 LEAD, SETTLE = 0.5, 0.5        # s of simulated time before the trajectory and after its end
+RESEND = 0.05                  # s of wall time between sends of the trajectory before it starts
+NOT_FOLLOWED = 0.1             # rad: a larger tracking error means the controller did not follow
 STARTUP_TIMEOUT = 150.0        # s of wall time for the nodes to come up (a first run compiles)
 
 
@@ -77,6 +80,9 @@ def run_demo(urdf=None, base_link=None, tip_link=None, real_time_factor=1.0, att
         JointState, "joint_states",
         lambda m: states.append((time.monotonic(), common.stamp_seconds(m.header.stamp),
                                  np.array(m.position), np.array(m.effort))), common.QOS_DEPTH)
+    efforts = []       # wall s of each effort command seen: the controller runs and has a state
+    node.create_subscription(Float64MultiArray, "effort_commands",
+                             lambda m: efforts.append(time.monotonic()), common.QOS_DEPTH)
     pub = node.create_publisher(JointTrajectory, "desired_trajectory", common.QOS_DEPTH)
     pause = node.create_client(SetBool, "simulator/pause")
 
@@ -109,6 +115,9 @@ def run_demo(urdf=None, base_link=None, tip_link=None, real_time_factor=1.0, att
         future = pause.call_async(SetBool.Request(data=False))
         spin_until(future.done, 10.0, "the simulator to resume")
         spin_until(lambda: states[-1][1] > 0.0, 10.0, "simulated time to advance")
+        # the controller refuses a trajectory before its first joint state; its effort
+        # commands say it has one
+        spin_until(lambda: efforts, 10.0, "the controller's first effort command")
         t0 = states[-1][1] + LEAD
         msg = JointTrajectory(joint_names=robot.joint_names)
         msg.header.stamp.sec, msg.header.stamp.nanosec = int(t0), int(round((t0 % 1) * 1e9))
@@ -117,7 +126,14 @@ def run_demo(urdf=None, base_link=None, tip_link=None, real_time_factor=1.0, att
                                            accelerations=traj.qdd[i].tolist(),
                                            time_from_start=_duration(traj.t[i]))
                       for i in range(len(traj.t))]
+        # A message sent once can be lost while the controller's side of discovery is
+        # still matching our publisher; resend until the trajectory starts. The copies are
+        # identical and start at the absolute stamp t0, so each replaces the last.
+        resend = node.create_timer(RESEND, lambda: pub.publish(msg))
         pub.publish(msg)
+        spin_until(lambda: states[-1][1] >= t0, 10.0 + 5.0 * LEAD / real_time_factor,
+                   "the trajectory to start")
+        node.destroy_timer(resend)
         t_end = t0 + traj.duration + SETTLE
         spin_until(lambda: states[-1][1] >= t_end, 60.0 + 5.0 * t_end / real_time_factor,
                    "the end of the trajectory")
@@ -136,14 +152,22 @@ def run_demo(urdf=None, base_link=None, tip_link=None, real_time_factor=1.0, att
     q_ref = traj.sample(stamp - t0)[0]
     err = q - q_ref
     rtf = (stamp[-1] - stamp[0]) / (wall[-1] - wall[0])
+    worst = np.max(np.abs(err[on]), axis=0)
+    if worst.max() > NOT_FOLLOWED:
+        j = int(np.argmax(worst))
+        tail = procs[1].output().strip().splitlines()[-5:] if procs else []
+        log(f"warning: the arm did not follow the trajectory ({worst[j]:.3f} rad off on "
+            f"{robot.joint_names[j]}); the controller's log ends:"
+            + "".join("\n  " + x for x in tail))
     return dict(robot=robot.model.name, joints=robot.joint_names, t0=t0,
                 stamp=stamp.tolist(), q=q.tolist(), q_ref=q_ref.tolist(),
                 rms=np.sqrt(np.mean(err[on] ** 2, axis=0)).tolist(),
-                max=np.max(np.abs(err[on]), axis=0).tolist(),
+                max=worst.tolist(),
                 peak_effort=np.max(np.abs(effort[on]), axis=0).tolist(),
                 effort_limit=robot.effort_limit.tolist(), samples=int(on.sum()),
                 simulated=float(stamp[-1] - stamp[0]), wall=float(wall[-1] - wall[0]),
-                real_time_factor=float(rtf), target_real_time_factor=real_time_factor)
+                real_time_factor=float(rtf), target_real_time_factor=real_time_factor,
+                followed=bool(worst.max() <= NOT_FOLLOWED))
 
 
 def report(r) -> str:
@@ -216,7 +240,7 @@ def run(args) -> int:
         with open(args.json, "w") as fh:
             json.dump({k: v for k, v in r.items() if k not in ("stamp", "q", "q_ref")}, fh,
                       indent=1)
-    return 0
+    return 0 if r["followed"] else 1
 
 
 def add_arguments(p):

@@ -23,6 +23,7 @@ from serial_dynamics.ros.processes import NodeProcess  # noqa: E402
 # robot parameters for every node started here: the embedded UR5e, without waiting for a
 # robot_description topic
 NO_TOPIC = {"robot_description_timeout": 0.0}
+MATCH_SETTLE = 0.5                                  # s, see Ros.wait_matched
 HOME = [0.0, -1.571, 1.571, -1.571, -1.571, 0.0]   # UR5e, elbow up
 
 
@@ -45,6 +46,14 @@ class Ros:
             if time.monotonic() > deadline:
                 raise AssertionError(f"timed out after {timeout} s waiting for {what}")
             self.executor.spin_once(timeout_sec=0.02)
+
+    def wait_matched(self, *publishers, also=lambda: True, timeout=150.0, what="a node"):
+        """Until each publisher has a subscriber (and ``also()``), then MATCH_SETTLE s more:
+        a publisher sees the match before the subscriber's side of discovery has matched it
+        back, and a message sent in between can be lost."""
+        self.spin_until(lambda: all(p.get_subscription_count() > 0 for p in publishers)
+                        and also(), timeout, what)
+        self.spin_for(MATCH_SETTLE)
 
     def spin_for(self, seconds):
         deadline = time.monotonic() + seconds

@@ -31,8 +31,7 @@ class Ctl:
         self.states = ros.node.create_publisher(JointState, "/ctl/joint_states", 10)
         self.traj = ros.node.create_publisher(JointTrajectory, "/ctl/desired_trajectory", 10)
         self.efforts = Latest(ros, Float64MultiArray, "/ctl/effort_commands")
-        ros.spin_until(lambda: self.states.get_subscription_count() > 0
-                       and self.traj.get_subscription_count() > 0, 150, "the controller")
+        ros.wait_matched(self.states, self.traj, what="the controller")
 
     def state(self, q, qd, names=NAMES, extra=()):
         pos = dict(zip(NAMES, q))

@@ -21,8 +21,7 @@ class Client:
         self.pub = ros.node.create_publisher(JointTrajectory, f"{ns}inverse_dynamics/request", 10)
         self.wrench = ros.node.create_publisher(WrenchStamped, f"{ns}inverse_dynamics/tip_wrench", 10)
         self.responses = Latest(ros, JointTrajectory, f"{ns}inverse_dynamics/response")
-        ros.spin_until(lambda: self.pub.get_subscription_count() > 0
-                       and self.wrench.get_subscription_count() > 0, 150, f"{proc.module} node")
+        ros.wait_matched(self.pub, self.wrench, what=f"{proc.module} node")
 
     def send(self, msg):
         self.count += 1

@@ -33,8 +33,8 @@ class Sim:
         self.joint = ros.node.create_publisher(JointState, "joint_commands", 10)
         self.reset_client = ros.node.create_client(Trigger, "simulator/reset")
         self.pause_client = ros.node.create_client(SetBool, "simulator/pause")
-        ros.spin_until(lambda: self.states.msgs and self.effort.get_subscription_count() > 0
-                       and self.joint.get_subscription_count() > 0, 150, "the simulator")
+        ros.wait_matched(self.effort, self.joint, also=lambda: self.states.msgs,
+                         what="the simulator")
 
     def pause(self, on=True):
         assert self.ros.call(self.pause_client, SetBool.Request(data=on)).success
@@ -68,7 +68,7 @@ def inverse_dynamics(ros):
     proc = ros.start("inverse_dynamics")
     pub = ros.node.create_publisher(JointTrajectory, "inverse_dynamics/request", 10)
     responses = Latest(ros, JointTrajectory, "inverse_dynamics/response")
-    ros.spin_until(lambda: pub.get_subscription_count() > 0, 150, "the inverse-dynamics node")
+    ros.wait_matched(pub, what="the inverse-dynamics node")
     yield pub, responses
     responses.destroy()
     proc.stop()
@@ -227,8 +227,7 @@ def test_a_diverging_simulation_pauses_and_the_node_keeps_serving(ros):
     pub = ros.node.create_publisher(Float64MultiArray, "/div/effort_commands", 10)
     reset = ros.node.create_client(Trigger, "/div/simulator/reset")
     try:
-        ros.spin_until(lambda: states.msgs and pub.get_subscription_count() > 0, 150,
-                       "the simulator")
+        ros.wait_matched(pub, also=lambda: states.msgs, what="the simulator")
         pub.publish(Float64MultiArray(data=[0.0] * 5 + [1e7]))   # unclamped: wrist_3 explodes
         wait_for_log(ros, proc, "paused at the last good state")
         assert ros.call(reset, Trigger.Request()).success

@@ -120,12 +120,20 @@ def single_calls(name, robot, pm, rounds):
     agree(robot.forward_dynamics(q, qd, tau), pin.aba(m, d, pq, pv, pt)[iv], "aba", 1e-8)
     agree(robot.gravity_torques(q), pin.computeGeneralizedGravity(m, d, pq)[iv], "gravity")
     rows = []
+    n = robot.dof
+    o1, o2, o3 = np.empty(n), np.empty((n, n)), np.empty(n)   # out=: no allocation, as pin's data
     for label, ours, peer, peer_name, target in [
         ("inverse dynamics, one state", lambda: robot.inverse_dynamics(q, qd, qdd),
          lambda: pin.rnea(m, d, pq, pv, pa), "pinocchio.rnea", 1.0),
+        ("inverse dynamics, one state, `out=`", lambda: robot.inverse_dynamics(q, qd, qdd, out=o1),
+         lambda: pin.rnea(m, d, pq, pv, pa), "pinocchio.rnea", 1.0),
         ("mass matrix, one state", lambda: robot.mass_matrix(q),
          lambda: pin.crba(m, d, pq), "pinocchio.crba (upper triangle only)", 1.0),
+        ("mass matrix, one state, `out=`", lambda: robot.mass_matrix(q, out=o2),
+         lambda: pin.crba(m, d, pq), "pinocchio.crba (upper triangle only)", 1.0),
         ("forward dynamics, one state", lambda: robot.forward_dynamics(q, qd, tau),
+         lambda: pin.aba(m, d, pq, pv, pt), "pinocchio.aba", 1.0),
+        ("forward dynamics, one state, `out=`", lambda: robot.forward_dynamics(q, qd, tau, out=o3),
          lambda: pin.aba(m, d, pq, pv, pt), "pinocchio.aba", 1.0),
         ("gravity torques, one state", lambda: robot.gravity_torques(q),
          lambda: pin.computeGeneralizedGravity(m, d, pq), "pinocchio.computeGeneralizedGravity", None),
@@ -409,7 +417,10 @@ def main():
         met = "" if target is None else ("yes" if ratio <= target else f"**no** (+{(ratio / target - 1) * 100:.0f} %)")
         lines.append(f"| {robot_name} | {what} | {fmt_t(a)} | {peer} | {fmt_t(b)} | {ratio:.3g} | "
                      f"{'' if target is None else f'≤ {target:g}'} | {met} |")
-    lines += ["", f"Simulation check: after 10 s our trajectory and MuJoCo's differ by {sim_err:.1e} rad "
+    lines += ["", "*`out=`*: the result is written into an array the caller keeps, as Pinocchio writes into "
+              "its `Data` (a 1 kHz loop then allocates nothing); without it each call returns a new array, "
+              "whose allocation is the difference between the two rows.", ""]
+    lines += [f"Simulation check: after 10 s our trajectory and MuJoCo's differ by {sim_err:.1e} rad "
               "(both integrate the joint damping implicitly: MuJoCo's Euler does, and so does "
               "`kernels.simulate_fixed_step` by default). roboticstoolbox-python: " + rtb_note + ".", ""]
     lines += ["**First call in a fresh process** (import + URDF load; the first `inverse_dynamics`; "

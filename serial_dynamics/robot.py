@@ -103,88 +103,91 @@ class Robot:
     # costs ~65 us), other types (TypeError from the kernel's signature, AttributeError for
     # lists), a bad value, the reference backend -- takes the general path, which validates
     # like the reference and raises its ValueError.
-    def inverse_dynamics(self, q, qd, qdd, wrench=None):
+    # ``out``: an array of the result's shape (float64, writable) to write the result into
+    # instead of a new one, as NumPy's out= (a 1 kHz loop then allocates nothing); returned.
+    # After an error its contents are undefined.
+    def inverse_dynamics(self, q, qd, qdd, wrench=None, out=None):
         """tau = M(q) qdd + b(q, qd) - J^T w  (rigid body; no friction). N m / N."""
-        out = _empty(self._n)
+        o = _empty(self._n) if out is None else out
         try:
-            if q.ndim == 1 and (self._rnea(self._PW, q, qd, qdd, 3, out) if wrench is None else
-                                self._with_wrench(self._rnea, wrench, q, qd, qdd, 3, out)) == 0:
-                return out
+            if q.ndim == 1 and (self._rnea(self._PW, q, qd, qdd, 3, o) if wrench is None else
+                                self._with_wrench(self._rnea, wrench, q, qd, qdd, 3, o)) == 0:
+                return o
         except _NOT_FAST:
             pass
-        return self._rnea_general((("q", q), ("qd", qd), ("qdd", qdd)), wrench)
+        return _into(out, self._rnea_general((("q", q), ("qd", qd), ("qdd", qdd)), wrench))
 
-    def mass_matrix(self, q):
+    def mass_matrix(self, q, out=None):
         """M(q), the generalized inertia matrix."""
-        out = _empty(self._nn)
+        o = _empty(self._nn) if out is None else out
         try:
-            if q.ndim == 1 and self._crba(self._PW, q, out) == 0:
-                return out
+            if q.ndim == 1 and self._crba(self._PW, q, o) == 0:
+                return o
         except _NOT_FAST:
             pass
         if self._k is None:
-            return mass_matrix.mass_matrix(self.model, q)
+            return _into(out, mass_matrix.mass_matrix(self.model, q))
         single, (q,) = as_batch(self.model, ("q", q))
         q = _rows(q)
-        out = np.empty((q.shape[0], self._n, self._n))
-        self._k.crba_batch(self._PW, q, out)
-        return out[0] if single else out
+        M = np.empty((q.shape[0], self._n, self._n))
+        self._k.crba_batch(self._PW, q, M)
+        return _into(out, M[0] if single else M)
 
-    def bias_torques(self, q, qd, wrench=None):
+    def bias_torques(self, q, qd, wrench=None, out=None):
         """b(q, qd) - J^T w = C(q, qd) qd + g(q) - J^T w."""
-        out = _empty(self._n)
+        o = _empty(self._n) if out is None else out
         try:
-            if q.ndim == 1 and (self._rnea(self._PW, q, qd, q, 1, out) if wrench is None else
-                                self._with_wrench(self._rnea, wrench, q, qd, q, 1, out)) == 0:
-                return out
+            if q.ndim == 1 and (self._rnea(self._PW, q, qd, q, 1, o) if wrench is None else
+                                self._with_wrench(self._rnea, wrench, q, qd, q, 1, o)) == 0:
+                return o
         except _NOT_FAST:
             pass
-        return self._rnea_general((("q", q), ("qd", qd), ("qdd", None)), wrench)
+        return _into(out, self._rnea_general((("q", q), ("qd", qd), ("qdd", None)), wrench))
 
-    def gravity_torques(self, q):
+    def gravity_torques(self, q, out=None):
         """g(q): the torques that hold the chain still (the textbook's gamma is -g)."""
-        out = _empty(self._n)
+        o = _empty(self._n) if out is None else out
         try:
-            if q.ndim == 1 and self._rnea(self._PW, q, q, q, 0, out) == 0:
-                return out
+            if q.ndim == 1 and self._rnea(self._PW, q, q, q, 0, o) == 0:
+                return o
         except _NOT_FAST:
             pass
-        return self._rnea_general((("q", q), ("qd", None), ("qdd", None)), None)
+        return _into(out, self._rnea_general((("q", q), ("qd", None), ("qdd", None)), None))
 
     def coriolis_matrix(self, q, qd):
         """C(q, qd) from the natural orthogonal complement: C qd + g = b, Mdot - 2C skew."""
         return noc.coriolis_matrix(self.model, q, qd)
 
-    def forward_dynamics(self, q, qd, tau, wrench=None, method="auto"):
+    def forward_dynamics(self, q, qd, tau, wrench=None, method="auto", out=None):
         """qdd for applied torques tau (rigid body). ``method``: "auto" (Cholesky for short
         chains, articulated bodies from ``algorithms.aba.CROSSOVER`` joints on),
         "cholesky", "aba" (O(n)) or "qr" (for ill-conditioned chains)."""
         flags = self._fd_auto if method == "auto" else _FD_FLAGS.get(method)
         if flags is not None:
-            out = _empty(self._n)
+            o = _empty(self._n) if out is None else out
             try:
-                if q.ndim == 1 and (self._fd(self._PW, q, qd, tau, flags, out) if wrench is None
+                if q.ndim == 1 and (self._fd(self._PW, q, qd, tau, flags, o) if wrench is None
                                     else self._with_wrench(self._fd, wrench, q, qd, tau, flags,
-                                                           out)) == 0:
-                    return out
+                                                           o)) == 0:
+                    return o
             except _NOT_FAST:
                 pass
         if self._k is None or flags is None:
             if method == "auto":
                 method = "aba" if flags & _ABA else "cholesky"
             if method == "aba":
-                return aba.forward_dynamics(self.model, q, qd, tau, wrench)
+                return _into(out, aba.forward_dynamics(self.model, q, qd, tau, wrench))
             if method not in FD_METHODS:
                 raise ValueError(f"forward-dynamics method {method!r} unknown; use one of "
                                  f"{FD_METHODS}")
-            return forward.forward_dynamics(self.model, q, qd, tau, wrench, method)
+            return _into(out, forward.forward_dynamics(self.model, q, qd, tau, wrench, method))
         single, (q, qd, tau) = as_batch(self.model, ("q", q), ("qd", qd), ("tau", tau))
         w, flags = self._wrench_rows(wrench, q.shape[0], flags)
         q, qd, tau = _rows(q), _rows(qd), _rows(tau)
-        out = np.empty((max(q.shape[0], qd.shape[0], tau.shape[0]), self._n))
-        if self._k.fd_batch(self._PW, q, qd, tau, w, flags, out) != 0:
+        qdd = np.empty((max(q.shape[0], qd.shape[0], tau.shape[0]), self._n))
+        if self._k.fd_batch(self._PW, q, qd, tau, w, flags, qdd) != 0:
             raise ValueError("wrench has a NaN or Inf entry; give finite numbers")
-        return out[0] if single else out
+        return _into(out, qdd[0] if single else qdd)
 
     # general path: validate like the reference, then one batch kernel call
     def _rnea_general(self, named, wrench):
@@ -285,6 +288,22 @@ def _rows(a):
     if a.strides[0] == 0:
         a = a[:1]
     return np.ascontiguousarray(a, dtype=float)
+
+
+def _into(out, result):
+    """``result``, or ``result`` written into the caller's ``out`` (checked) and ``out``."""
+    if out is None:
+        return result
+    if not (isinstance(out, np.ndarray) and out.shape == result.shape
+            and out.dtype == np.float64 and out.flags.writeable):
+        got = (f"{out.dtype} array of shape {out.shape}" if isinstance(out, np.ndarray)
+               else type(out).__name__)
+        raise ValueError(f"out must be a writable float64 array of shape {result.shape} "
+                         f"(the result's); got a {got}"
+                         + ("" if not isinstance(out, np.ndarray) or out.flags.writeable
+                            else " that is read-only"))
+    out[...] = result
+    return out
 
 
 def _no_fast_path(*args):

@@ -7,6 +7,7 @@ forward-dynamics solvers (the reference's own Cholesky and ABA included) differ 
 cond * eps: there the test asserts the backward error |ID(q, qd, qdd) - tau| /
 (|M qdd| + |b| + |tau|) to 1e-12 and the forward error to 10 cond eps.
 """
+import re
 import warnings
 
 import numpy as np
@@ -130,6 +131,41 @@ def test_inputs_of_any_kind(pair):
     assert robot.inverse_dynamics(q[None], qd, qdd).shape == (1, robot.dof)
     zeros = np.zeros(robot.dof, dtype=int)
     assert rel(robot.gravity_torques(zeros), ref.gravity_torques(zeros.astype(float))) <= TOL
+
+
+@pytest.mark.parametrize("backend", ["numba", "numpy"])
+@pytest.mark.parametrize("batch", [None, 5])
+def test_out_receives_the_result(backend, batch):
+    robot = Robot(sd.default_robot().model, backend=backend)
+    q, qd, qdd, tau, w = states(robot, seed=8, batch=batch)
+    shape = q.shape
+    calls = {
+        "inverse_dynamics": (lambda **o: robot.inverse_dynamics(q, qd, qdd, w, **o), shape),
+        "mass_matrix": (lambda **o: robot.mass_matrix(q, **o), shape + (6,)),
+        "bias_torques": (lambda **o: robot.bias_torques(q, qd, **o), shape),
+        "gravity_torques": (lambda **o: robot.gravity_torques(q, **o), shape),
+        "forward_dynamics": (lambda **o: robot.forward_dynamics(q, qd, tau, **o), shape),
+        "forward_dynamics qr": (lambda **o: robot.forward_dynamics(q, qd, tau, method="qr", **o),
+                                shape),
+    }
+    for name, (call, shape_out) in calls.items():
+        expect = call()
+        out = np.full(shape_out, np.nan)
+        assert call(out=out) is out, name
+        np.testing.assert_array_equal(out, expect, err_msg=name)
+        fortran = np.full(shape_out, np.nan, order="F")                # -> the general path
+        np.testing.assert_array_equal(call(out=fortran), expect, err_msg=name)
+    read_only = np.zeros(shape)
+    read_only.setflags(write=False)
+    short = shape[:-1] + (5,)
+    for bad, why in ((np.zeros(short), f"float64 array of shape {short}"),
+                     (np.zeros(shape, dtype=np.float32), f"float32 array of shape {shape}"),
+                     (read_only, f"float64 array of shape {shape} that is read-only"),
+                     ([0.0] * 6, "list")):
+        with pytest.raises(ValueError, match=re.escape(
+                f"out must be a writable float64 array of shape {shape} (the result's); "
+                f"got a {why}") + "$"):
+            robot.inverse_dynamics(q, qd, qdd, out=bad)
 
 
 def test_huge_angles_take_exact_argument_reduction(pair):

@@ -209,6 +209,19 @@ def _joint(P, W, i, qi, n):
             W[i, WP + r] = P[i, PP + r] + qi * P[i, RP + 3 * r + 2]
 
 
+@njit(cache=True, fastmath=_FM, inline="always")
+def _to_parent(W, j, fx, fy, fz, nx, ny, nz):
+    """A force pair (f, n) about body j's origin, in its frame, carried into its parent's
+    frame: f' = R_j f, n' = R_j n + p_j x f' (spatial force transform, Featherstone 2008)."""
+    r0, r1, r2, r3, r4, r5, r6, r7, r8 = (W[j, WR], W[j, WR + 1], W[j, WR + 2],
+                                          W[j, WR + 3], W[j, WR + 4], W[j, WR + 5],
+                                          W[j, WR + 6], W[j, WR + 7], W[j, WR + 8])
+    px, py, pz = W[j, WP], W[j, WP + 1], W[j, WP + 2]
+    fx, fy, fz = r0 * fx + r1 * fy + r2 * fz, r3 * fx + r4 * fy + r5 * fz, r6 * fx + r7 * fy + r8 * fz
+    nx, ny, nz = r0 * nx + r1 * ny + r2 * nz, r3 * nx + r4 * ny + r5 * nz, r6 * nx + r7 * ny + r8 * nz
+    return fx, fy, fz, nx + py * fz - pz * fy, ny + pz * fx - px * fz, nz + px * fy - py * fx
+
+
 @njit(cache=True, fastmath=_FM)
 def _rnea_core(P, W, q, qd, qdd, flags, tau):
     """Recursive Newton-Euler (same equations as algorithms/rnea.py). Fills W's joint
@@ -279,15 +292,8 @@ def _rnea_core(P, W, q, qd, qdd, flags, tau):
         fx, fy, fz, mx, my, mz = -fx, -fy, -fz, -mx, -my, -mz
         mx, my, mz = mx + tpy * fz - tpz * fy, my + tpz * fx - tpx * fz, mz + tpx * fy - tpy * fx
     for i in range(n - 1, -1, -1):
-        if i < n - 1:               # outboard joint's force into body i's frame: f = R f, m = R m + p x f
-            j = i + 1
-            r0, r1, r2, r3, r4, r5, r6, r7, r8 = (W[j, WR], W[j, WR + 1], W[j, WR + 2],
-                                                  W[j, WR + 3], W[j, WR + 4], W[j, WR + 5],
-                                                  W[j, WR + 6], W[j, WR + 7], W[j, WR + 8])
-            px, py, pz = W[j, WP], W[j, WP + 1], W[j, WP + 2]
-            fx, fy, fz = r0 * fx + r1 * fy + r2 * fz, r3 * fx + r4 * fy + r5 * fz, r6 * fx + r7 * fy + r8 * fz
-            mx, my, mz = r0 * mx + r1 * my + r2 * mz, r3 * mx + r4 * my + r5 * mz, r6 * mx + r7 * my + r8 * mz
-            mx, my, mz = mx + py * fz - pz * fy, my + pz * fx - px * fz, mz + px * fy - py * fx
+        if i < n - 1:               # the outboard joint's force into body i's frame
+            fx, fy, fz, mx, my, mz = _to_parent(W, i + 1, fx, fy, fz, mx, my, mz)
         fx, fy, fz = fx + W[i, WF], fy + W[i, WF + 1], fz + W[i, WF + 2]
         mx, my, mz = mx + W[i, WN], my + W[i, WN + 1], mz + W[i, WN + 2]
         tau[i] = mz if P[i, KIND] == 0.0 else fz          # tau_i = e_z . (n | f)
@@ -313,14 +319,8 @@ def _crba_core(P, W, M):
             fx, fy, fz, nx, ny, nz = 0.0, 0.0, m, hy, -hx, 0.0
             M[i, i] = fz
         j = i
-        while j > 1:                # carry F into the parent frame: f = R f, n = R n + p x f
-            r0, r1, r2, r3, r4, r5, r6, r7, r8 = (W[j, WR], W[j, WR + 1], W[j, WR + 2],
-                                                  W[j, WR + 3], W[j, WR + 4], W[j, WR + 5],
-                                                  W[j, WR + 6], W[j, WR + 7], W[j, WR + 8])
-            px, py, pz = W[j, WP], W[j, WP + 1], W[j, WP + 2]
-            fx, fy, fz = r0 * fx + r1 * fy + r2 * fz, r3 * fx + r4 * fy + r5 * fz, r6 * fx + r7 * fy + r8 * fz
-            nx, ny, nz = r0 * nx + r1 * ny + r2 * nz, r3 * nx + r4 * ny + r5 * nz, r6 * nx + r7 * ny + r8 * nz
-            nx, ny, nz = nx + py * fz - pz * fy, ny + pz * fx - px * fz, nz + px * fy - py * fx
+        while j > 1:                # carry F into the parent frame
+            fx, fy, fz, nx, ny, nz = _to_parent(W, j, fx, fy, fz, nx, ny, nz)
             j -= 1
             M[j, i] = nz if P[j, KIND] == 0.0 else fz     # M_ji = S_j . F
             M[i, j] = M[j, i]

@@ -118,8 +118,9 @@ def sim_rtf(node, executor, seconds, rtf):
     try:
         spin_until(executor, lambda: efforts and pub.get_subscription_count() > 0
                    and pause.service_is_ready(), 150, "the simulator")
-        pub.publish(Float64MultiArray(data=g))
-        spin_until(executor, lambda: efforts[-1] == g, 10, "the command")
+        # resent until applied: the first message can be lost while discovery completes
+        spin_until(executor, lambda: pub.publish(Float64MultiArray(data=g)) or efforts[-1] == g,
+                   10, "the command")
         future = pause.call_async(SetBool.Request(data=False))
         spin_until(executor, future.done, 10, "the simulator to resume")
         spin_until(executor, lambda: stamps[-1][1] > 0, 10, "simulated time")

@@ -69,7 +69,8 @@ def cmd_simulate(args):
     qd0 = _vector(args.qd0, n, "qd0")
     torque = _vector(args.torque, n, "torque")
     kw = dict(method=args.method, dissipation=not args.no_dissipation,
-              output_dt=args.output_dt, progress=not args.quiet)
+              output_dt=args.output_dt, progress=not args.quiet,
+              position_limits=args.position_limits)
     if args.method in FIXED_STEP:
         if args.rtol is not None or args.atol is not None:
             raise ValueError(f"--rtol/--atol are for the adaptive methods; {args.method} "
@@ -122,6 +123,8 @@ def _simulate_options(p):
     p.add_argument("--qd0", default=None, help="initial speeds, comma separated (0)")
     p.add_argument("--torque", default=None, help="constant joint torques (0)")
     p.add_argument("--no-dissipation", action="store_true", help="no joint friction")
+    p.add_argument("--position-limits", action="store_true",
+                   help="hard stops at the URDF joint limits (fixed-step methods)")
     p.add_argument("--output-dt", type=float, default=None,
                    help="output spacing, s (every step; 0.01 with --plot/--csv)")
     p.add_argument("--plot", default=None, metavar="OUT.png", help="plot q, tau and energy")

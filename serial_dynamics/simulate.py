@@ -19,6 +19,8 @@ Methods (see docs/simulation.md):
   "rk4" (classical Runge-Kutta), "implicit_midpoint" (symplectic, A-stable, Newton with
   a batched finite-difference Jacobian). Coulomb friction with stick-slip: a joint at
   rest sticks while the torque that holds it is within its static friction.
+  ``position_limits=True`` adds hard stops at the URDF joint limits (plastic impacts,
+  ``FixedStepIntegrator._stop``).
 
 Energies are integrated alongside: the work of the actuators int tau.qd dt, of the
 dissipation int delta.qd dt (<= 0) and of the tip wrench int (J^T w).qd dt, so that
@@ -286,12 +288,13 @@ class FixedStepIntegrator:
     Newton with a Jacobian from one batched call over 2n+1 perturbed states, typically
     2 calls a step). Coulomb friction: stick-slip, see ``_Equations.modes``; a sliding
     joint whose speed crosses zero within a step stops there (no chattering).
+    ``position_limits``: hard stops at the joints' finite URDF limits, see ``_stop``.
     """
 
     METHODS = FIXED_STEP
 
     def __init__(self, robot, method="semi_implicit_euler", dt=1e-3, dissipation=True, *,
-                 newton_tol=1e-10, max_newton=10):
+                 position_limits=False, newton_tol=1e-10, max_newton=10):
         if method not in self.METHODS:
             raise ValueError(f"fixed-step method {method!r} unknown; use one of {self.METHODS}")
         if not dt > 0:
@@ -305,12 +308,18 @@ class FixedStepIntegrator:
         self.jacobians = 0
         self.stages = 0          # right-hand-side evaluations (a Jacobian batch counts 1)
         self._lean = method == "semi_implicit_euler" and not self.eq.coulomb_on
+        self.lower = np.asarray(robot.lower, dtype=float)
+        self.upper = np.asarray(robot.upper, dtype=float)
+        self.stops = bool(position_limits) and bool(np.any(np.isfinite(self.lower))
+                                                    or np.any(np.isfinite(self.upper)))
+        self.impacts = 0         # steps in which a joint reached a stop
 
     def step(self, q, qd, tau, wrench=None, t=None):
         """Advance (q, qd) by dt under constant torques ``tau`` (n,) and ``wrench`` (6,) or
         None. Raises SimulationError on divergence (``t``, if given, names the time)."""
         eq, dt = self.eq, self.dt
-        if self._lean:   # the real-time path: one forward-dynamics call
+        if self._lean and not (self.stops and self._on_stop(q).any()):
+            # the real-time path: one forward-dynamics call
             q, qd = np.asarray(q, dtype=float), np.asarray(qd, dtype=float)
             tau = np.asarray(tau, dtype=float)
             if eq.viscous_on:
@@ -319,6 +328,8 @@ class FixedStepIntegrator:
             qd_new = qd + dt * eq.fd(q, qd, tau, wrench)   # semi-implicit (symplectic) Euler:
             q_new = q + dt * qd_new                          # velocity first, then position
             eq.check_state(dt if t is None else t + dt, q_new, qd_new, self.method, dt)
+            if self.stops:
+                q_new, qd_new, _ = self._stop(q_new, qd_new, False)
             return q_new, qd_new
         tau = np.asarray(tau, dtype=float)
         w = None if wrench is None else np.asarray(wrench, dtype=float)
@@ -343,6 +354,10 @@ class FixedStepIntegrator:
         else:
             stuck, sign = None, None
             qdd0, delta0 = eq.accel(q, qd, tau0, w0)
+        if self.stops:
+            stuck, qdd0, delta0 = self._hold(q, qd, tau0, w0, stuck, sign, qdd0, delta0)
+            if stuck is not None:
+                qd = np.where(stuck, 0.0, qd)
         self.stages += 1
         dW = np.zeros(3)
 
@@ -389,11 +404,86 @@ class FixedStepIntegrator:
         if eq.coulomb_on:   # a sliding joint whose speed crossed zero stops (and may stick)
             moving = eq.coulomb & (sign != 0)
             qd1 = np.where(moving & (qd1 * sign <= 0.0), 0.0, qd1)
-            if stuck is not None:
-                qd1 = np.where(stuck, 0.0, qd1)
-                q1 = np.where(stuck, q, q1)
+        if stuck is not None:
+            qd1 = np.where(stuck, 0.0, qd1)
+            q1 = np.where(stuck, q, q1)
         eq.check_state(t + dt, q1, qd1, method, dt)
+        if self.stops:
+            q1, qd1, dE = self._stop(q1, qd1, energy)
+            dW[1] += dE
         return q1, qd1, (tau0, delta0, qdd0, dW)
+
+    def _on_stop(self, q):
+        """+1 / -1 for joints on (or beyond) their upper / lower limit, else 0."""
+        return np.where(q >= self.upper, 1.0, np.where(q <= self.lower, -1.0, 0.0))
+
+    def _hold(self, q, qd, tau, w, stuck, sign, qdd, delta):
+        """At the start of a step: joints at rest on a stop are held there (qdd = 0, as
+        joints stuck by friction) while the stop pushes; one that the stop would have to
+        pull is let go, largest pull first. Returns (stuck, qdd, delta) with the held
+        joints added to ``stuck`` and the stops' holding torques to ``delta``."""
+        side = self._on_stop(q)
+        held = (side != 0.0) & (np.abs(qd) <= REST_SPEED)
+        if not held.any():
+            return stuck, qdd, delta
+        eq, robot = self.eq, self.eq.robot
+        base = np.zeros(eq.n, dtype=bool) if stuck is None else stuck
+        qd = np.where(held, 0.0, qd)
+        eq.calls += 2
+        eq.states += 2
+        M, b = robot.mass_matrix(q), robot.bias_torques(q, qd, w)
+        d0 = eq.delta(qd, sign)
+        for _ in range(int(held.sum()) + 1):
+            qdd, delta = _held(M, tau + d0 - b, base | held, d0)
+            pull = np.where(held & ~base, (delta - d0) * side, 0.0)   # > 0: pulls outward
+            i = int(np.argmax(pull))
+            if pull[i] <= 0.0:
+                break
+            held[i] = False
+        stuck = base | held
+        return (stuck if stuck.any() else None), qdd, delta
+
+    def _stop(self, q, qd, energy):
+        """Hard stops at the joint limits, after a step: a joint beyond a limit is put back
+        on it, and if it moves outward it stops in a plastic impact. The impulse acts at
+        the stopped joints S only: M (qd+ - qd) = S^T lambda with qd+_S = 0, so that
+        qd+_F = qd_F + M_FF^-1 M_FS qd_S on the free joints F (impulsive dynamics,
+        Featherstone 2008, ch. 11). A stop only pushes: a joint whose impulse would pull
+        it onto the stop is released, largest pull first (as in ``_Equations.modes``),
+        and a joint on its stop that the impulse would push through it is stopped too.
+        At the next step ``_hold`` holds a stopped joint on its stop. Returns (q, qd, dE): dE = E(after) - E(before),
+        the work of the stops (kinetic energy lost, and the potential energy of the
+        position reset), counted with the dissipated work; 0.0 unless ``energy``."""
+        side = np.where(q > self.upper, 1.0, np.where(q < self.lower, -1.0, 0.0))   # beyond
+        if not side.any():
+            return q, qd, 0.0
+        self.impacts += 1
+        robot = self.eq.robot
+        E0 = float(robot.kinetic_energy(q, qd) + robot.potential_energy(q)) if energy else 0.0
+        q = np.clip(q, self.lower, self.upper)
+        stopped = (side != 0.0) & (qd * side > 0.0)           # moving outward
+        if stopped.any():
+            on = self._on_stop(q)                             # beyond before, or already on
+            M = robot.mass_matrix(q)
+            for _ in range(2 * self.eq.n):                    # active set over the stops
+                free = ~stopped
+                v = qd.copy()
+                v[stopped] = 0.0
+                if free.any():
+                    v[free] += np.linalg.solve(M[np.ix_(free, free)],
+                                               M[np.ix_(free, stopped)] @ qd[stopped])
+                pull = np.where(stopped, (M @ (v - qd)) * on, 0.0)   # impulse > 0: pulls
+                if np.any(pull > 0.0):
+                    stopped[int(np.argmax(pull))] = False
+                    continue
+                kicked = free & (v * on > 0.0)                # pushed out through its stop
+                if not kicked.any():
+                    break
+                stopped |= kicked
+            qd = v
+        dE = (float(robot.kinetic_energy(q, qd) + robot.potential_energy(q)) - E0
+              if energy else 0.0)
+        return q, qd, dE
 
     def _midpoint(self, t, q, qd, torque_fn, wrench_fn, stuck, sign, coulomb, energy, power):
         eq, dt, n = self.eq, self.dt, self.eq.n
@@ -661,7 +751,7 @@ class _Progress:
 def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853", rtol=None,
              atol=None, dt=None, dissipation=True, wrench=None, output_dt=None,
              max_step=np.inf, first_step=None, friction_smoothing=1e-4, check_energy=True,
-             progress=False) -> SimulationResult:
+             position_limits=False, progress=False) -> SimulationResult:
     """Simulate ``duration`` seconds of motion from (q0, qd0) (zeros by default).
 
     torque: None (zero), a scalar or (n,) constant, (K, n) samples uniformly spaced over
@@ -680,6 +770,8 @@ def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853"
     output_dt: spacing of the output samples (default: every step of the solver).
     check_energy: raise SimulationError when the energy balance is violated by more than
         half the energy scale (energy growing without input).
+    position_limits: hard stops at the finite URDF joint limits (plastic impacts; their
+        work is counted in W_diss); fixed-step methods only.
     progress: True for a progress bar on stderr (shown when the run lasts over 1 s), or a
         callable(fraction).
     """
@@ -697,6 +789,12 @@ def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853"
                              f"{robot.joint_names})")
         if not np.all(np.isfinite(x)):
             raise ValueError(f"{name} has a NaN or Inf entry")
+    outside = np.flatnonzero((q0 < robot.lower) | (q0 > robot.upper))
+    if position_limits and outside.size:
+        j = outside[0]
+        raise ValueError(f"q0: {robot.joint_names[j]} = {q0[j]:g} is outside its limits "
+                         f"[{robot.lower[j]:g}, {robot.upper[j]:g}]; start inside them, or "
+                         "simulate without position_limits")
     torque_fn, torque_kind = _input_fn(torque, n, "torque", duration, robot.joint_names)
     wrench_fn, wrench_kind = _input_fn(wrench, 6, "wrench", duration, robot.joint_names)
     if wrench_kind == "zero":
@@ -711,11 +809,14 @@ def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853"
                 raise ValueError(f"{method!r} is a fixed-step method: give dt, not rtol/atol")
             dt = DEFAULT_DT if dt is None else float(dt)
             compiled = (method == "semi_implicit_euler" and robot.backend == "numba"
-                        and not callable(torque) and wrench_fn is None)
+                        and not callable(torque) and wrench_fn is None and not position_limits)
             run = _run_compiled if compiled else _run_fixed
             out = run(robot, duration, q0, qd0, torque_fn, wrench_fn, method, dt, dissipation,
-                      output_dt, check_energy, bar)
+                      output_dt, check_energy, bar, position_limits)
         else:
+            if position_limits:
+                raise ValueError(f"position_limits needs a fixed-step method "
+                                 f"{list(FIXED_STEP)}: {method!r} has no impact events")
             if dt is not None:
                 raise ValueError(f"{method!r} is adaptive: give rtol/atol (and max_step), "
                                  "not dt; dt is for the fixed-step methods "
@@ -784,8 +885,8 @@ def _finish(eq, ts, Q, QD, QDD, TAU, DELTA, W, stats, names):
 
 
 def _run_fixed(robot, duration, q0, qd0, torque_fn, wrench_fn, method, dt, dissipation,
-               output_dt, check_energy, bar):
-    integ = FixedStepIntegrator(robot, method, dt, dissipation)
+               output_dt, check_energy, bar, position_limits=False):
+    integ = FixedStepIntegrator(robot, method, dt, dissipation, position_limits=position_limits)
     eq = integ.eq
     nsteps = int(np.ceil(duration / dt - 1e-9))
     every = 1 if output_dt is None else max(1, int(round(output_dt / dt)))
@@ -816,12 +917,14 @@ def _run_fixed(robot, duration, q0, qd0, torque_fn, wrench_fn, method, dt, dissi
     guard(t, q, qd, W)
     stats = SolverStats(method, steps=nsteps, nfev=integ.stages, njev=integ.jacobians,
                         nlu=integ.jacobians, newton_iterations=integ.newton_iterations,
-                        message=f"fixed step dt = {dt:g} s")
+                        message=f"fixed step dt = {dt:g} s"
+                        + (f"; a joint reached a stop in {integ.impacts} steps"
+                           if integ.impacts else ""))
     return _finish(eq, ts, Q, QD, QDD, TAU, DELTA, WS, stats, robot.joint_names)
 
 
 def _run_compiled(robot, duration, q0, qd0, torque_fn, wrench_fn, method, dt, dissipation,
-                  output_dt, check_energy, bar):
+                  output_dt, check_energy, bar, position_limits=False):
     """Semi-implicit Euler in one compiled loop (kernels.simulate_fixed_step), for torques
     known in advance (not state feedback), no tip wrench and no Coulomb friction; the same
     steps, explicit damping and work quadrature as FixedStepIntegrator. Falls back to the

@@ -14,8 +14,10 @@ from . import _f, _inertial, _joint, _v
 
 def chain_urdf(n, *, masses=1.0, lengths=0.3, radius=0.02, axes=("z", "y", "x"),
                kinds="revolute", damping=0.0, friction=0.0, effort=1000.0, velocity=100.0,
-               name="chain") -> str:
-    """URDF XML of an n-joint serial chain; array arguments are per joint or scalar."""
+               limits=None, name="chain") -> str:
+    """URDF XML of an n-joint serial chain; array arguments are per joint or scalar.
+    ``limits``: None (revolute joints are continuous) or (lower, upper) of the revolute
+    joints, one pair or one per joint (rad)."""
     per = lambda v: np.broadcast_to(np.asarray(v), (n,))  # noqa: E731
     masses, lengths, damping, friction = per(masses), per(lengths), per(damping), per(friction)
     kinds = [kinds] * n if isinstance(kinds, str) else list(kinds)
@@ -28,11 +30,16 @@ def chain_urdf(n, *, masses=1.0, lengths=0.3, radius=0.02, axes=("z", "y", "x"),
         out.append(f'<link name="link{i + 1}">{_inertial(m, (L / 2, 0, 0), I)}</link>')
         xyz = (0, 0, 0) if i == 0 else (float(lengths[i - 1]), 0, 0)
         kind = kinds[i]
-        limit = (f'<limit lower="-1.0" upper="1.0" effort="{_f(effort)}" velocity="{_f(velocity)}"/>'
-                 if kind == "prismatic" else f'<limit effort="{_f(effort)}" velocity="{_f(velocity)}"/>')
+        lo, hi = (-1.0, 1.0) if kind == "prismatic" else (None, None)
+        if kind == "revolute" and limits is not None:
+            lo, hi = np.broadcast_to(np.asarray(limits, dtype=float), (n, 2))[i]
+        bounds = "" if lo is None else f'lower="{_f(lo)}" upper="{_f(hi)}" '
+        limit = f'<limit {bounds}effort="{_f(effort)}" velocity="{_f(velocity)}"/>'
+        if kind == "revolute" and lo is None:
+            kind = "continuous"
         dyn = f'<dynamics damping="{_f(damping[i])}" friction="{_f(friction[i])}"/>'
         out.append(_joint(f"joint{i + 1}", parent, f"link{i + 1}", xyz,
-                          unit[axes[i % len(axes)]], kind="continuous" if kind == "revolute" else kind,
+                          unit[axes[i % len(axes)]], kind=kind,
                           limit=limit, dynamics=dyn))
         parent = f"link{i + 1}"
     out.append('<link name="tip"/>')

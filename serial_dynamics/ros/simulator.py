@@ -33,6 +33,8 @@ PARAMETERS = {
     "initial_positions": ("double[]", None, "joint positions at start and after ~/reset "
                           "(rad; m), base to tip ([] = zeros)"),
     "dissipation.enabled": ("bool", True, "add the joint dissipation (friction) torques"),
+    "position_limits": ("bool", True, "hard stops at the URDF joint limits (a joint that "
+                        "reaches one stops there: plastic impact)"),
     "integrator": ("string", "semi_implicit_euler", "fixed-step method of "
                    "serial_dynamics.simulate.FixedStepIntegrator"),
     "sim_dt": ("double", 0.001, "integration step (s)"),
@@ -77,7 +79,8 @@ class Simulator(Node):
         self.dt_ns = round(p["sim_dt"] * 1e9)
         try:
             self.integrator = FixedStepIntegrator(robot, p["integrator"], self.dt_ns * 1e-9,
-                                                  p["dissipation.enabled"])
+                                                  p["dissipation.enabled"],
+                                                  position_limits=p["position_limits"])
         except ValueError as exc:
             raise StartupError(str(exc)) from None
         dt = self.integrator.dt

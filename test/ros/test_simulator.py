@@ -137,6 +137,28 @@ def test_gravity_torques_from_the_inverse_dynamics_node_hold_the_arm(ros, sim, i
         sim.reset()
 
 
+def test_a_joint_driven_into_its_limit_stops_and_rests_there(ros, sim):
+    # position_limits is on by default: wrist_3 (limit 2 pi) is driven at +2 N m while
+    # gravity torques hold the rest of the arm
+    sim.reset()
+    tau = sim.robot.gravity_torques(HOME)
+    tau[5] += 2.0
+    upper = sim.robot.upper[5]
+    timer = ros.node.create_timer(0.05, lambda: sim.send(tau))  # within command_timeout
+    try:
+        sim.wait_effort(tau)
+        sim.pause(False)
+        first = sim.states.wait(lambda m: m.position[5] >= upper, what="wrist_3 at its limit")
+        seen = [first]
+        while ns(seen[-1]) < ns(first) + 1000 * DT_NS:         # 1 s on the stop
+            seen.append(sim.states.wait())
+        assert all(m.position[5] == upper and m.velocity[5] == 0.0 for m in seen)
+        assert all(np.array_equal(m.effort, tau) for m in seen)
+    finally:
+        ros.node.destroy_timer(timer)
+        sim.reset()
+
+
 def test_command_timeout_returns_effort_to_zero_with_one_warning(ros, sim):
     sim.reset()
     before = sim.proc.output().count("command_timeout")

@@ -168,7 +168,9 @@ Python overhead is in the round trip).
 
 **Simulator** (UR5e, `sim_dt` = 1 ms, semi-implicit Euler, joint_states at 100 Hz and /clock
 at 1 kHz): real-time factor achieved over {args.seconds:g} s of wall time, from the simulated
-stamps of joint_states against their wall-clock arrival.
+stamps of joint_states against their wall-clock arrival. The joint stops (`position_limits`,
+on by default) cost about 3.5 µs a step: as fast as possible, 44.6 without them in an
+earlier run of this script on 2026-11-21.
 
 | real_time_factor asked | achieved | simulated s | wall s |
 | ---: | ---: | ---: | ---: |

@@ -318,7 +318,7 @@ class FixedStepIntegrator:
         """Advance (q, qd) by dt under constant torques ``tau`` (n,) and ``wrench`` (6,) or
         None. Raises SimulationError on divergence (``t``, if given, names the time)."""
         eq, dt = self.eq, self.dt
-        if self._lean and not (self.stops and self._on_stop(q).any()):
+        if self._lean and not (self.stops and ((q >= self.upper) | (q <= self.lower)).any()):
             # the real-time path: one forward-dynamics call
             q, qd = np.asarray(q, dtype=float), np.asarray(qd, dtype=float)
             tau = np.asarray(tau, dtype=float)
@@ -454,9 +454,10 @@ class FixedStepIntegrator:
         At the next step ``_hold`` holds a stopped joint on its stop. Returns (q, qd, dE): dE = E(after) - E(before),
         the work of the stops (kinetic energy lost, and the potential energy of the
         position reset), counted with the dissipated work; 0.0 unless ``energy``."""
-        side = np.where(q > self.upper, 1.0, np.where(q < self.lower, -1.0, 0.0))   # beyond
-        if not side.any():
+        hi, lo = q > self.upper, q < self.lower                                  # beyond
+        if not (hi.any() or lo.any()):
             return q, qd, 0.0
+        side = hi * 1.0 - lo
         self.impacts += 1
         robot = self.eq.robot
         E0 = float(robot.kinetic_energy(q, qd) + robot.potential_energy(q)) if energy else 0.0

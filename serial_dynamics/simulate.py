@@ -451,9 +451,10 @@ class FixedStepIntegrator:
         Featherstone 2008, ch. 11). A stop only pushes: a joint whose impulse would pull
         it onto the stop is released, largest pull first (as in ``_Equations.modes``),
         and a joint on its stop that the impulse would push through it is stopped too.
-        At the next step ``_hold`` holds a stopped joint on its stop. Returns (q, qd, dE): dE = E(after) - E(before),
-        the work of the stops (kinetic energy lost, and the potential energy of the
-        position reset), counted with the dissipated work; 0.0 unless ``energy``."""
+        At the next step ``_hold`` holds a stopped joint on its stop. Returns (q, qd, dE),
+        dE = E(after) - E(before): the work of the stops (kinetic energy lost, and the
+        potential energy of the position reset), counted with the dissipated work; 0.0
+        unless ``energy``."""
         hi, lo = q > self.upper, q < self.lower                                  # beyond
         if not (hi.any() or lo.any()):
             return q, qd, 0.0
@@ -790,8 +791,8 @@ def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853"
                              f"{robot.joint_names})")
         if not np.all(np.isfinite(x)):
             raise ValueError(f"{name} has a NaN or Inf entry")
-    outside = np.flatnonzero((q0 < robot.lower) | (q0 > robot.upper))
-    if position_limits and outside.size:
+    outside = np.flatnonzero((q0 < robot.lower) | (q0 > robot.upper)) if position_limits else []
+    if len(outside):
         j = outside[0]
         raise ValueError(f"q0: {robot.joint_names[j]} = {q0[j]:g} is outside its limits "
                          f"[{robot.lower[j]:g}, {robot.upper[j]:g}]; start inside them, or "

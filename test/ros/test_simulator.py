@@ -4,6 +4,8 @@ The simulator publishes /clock here, so joint_states stamps are simulated time: 
 count of integration steps (k * 1 ms), which makes the checks below exact and free of
 wall-clock timing.
 """
+from contextlib import contextmanager
+
 import numpy as np
 import pytest
 from sensor_msgs.msg import JointState
@@ -53,6 +55,26 @@ class Sim:
     def wait_effort(self, effort):
         return self.states.wait(lambda m: np.array_equal(m.effort, effort),
                                 what=f"applied effort {list(effort)}")
+
+    @contextmanager
+    def running_with(self, effort):
+        """Resume with ``effort`` applied, resent every 50 ms (within command_timeout);
+        reset afterwards."""
+        timer = self.ros.node.create_timer(0.05, lambda: self.send(effort))
+        try:
+            self.wait_effort(effort)
+            self.pause(False)
+            yield
+        finally:
+            self.ros.node.destroy_timer(timer)
+            self.reset()
+
+    def states_over(self, first, steps):
+        """joint_states from ``first`` to ``steps`` integration steps later."""
+        seen = [first]
+        while ns(seen[-1]) < ns(first) + steps * DT_NS:
+            seen.append(self.states.wait())
+        return seen
 
 
 @pytest.fixture(scope="module")
@@ -111,7 +133,7 @@ def test_zero_effort_falls_as_the_library_predicts(sim):
     np.testing.assert_allclose(later.velocity, qd, rtol=0, atol=1e-9)
 
 
-def test_gravity_torques_from_the_inverse_dynamics_node_hold_the_arm(ros, sim, inverse_dynamics):
+def test_gravity_torques_from_the_inverse_dynamics_node_hold_the_arm(sim, inverse_dynamics):
     request, responses = inverse_dynamics
     rest = sim.reset()
     msg = JointTrajectory(joint_names=sim.robot.joint_names,
@@ -121,42 +143,26 @@ def test_gravity_torques_from_the_inverse_dynamics_node_hold_the_arm(ros, sim, i
     g = np.array(responses.wait(lambda m: m.header.frame_id == "hold").points[0].effort)
     np.testing.assert_allclose(g, sim.robot.gravity_torques(HOME), rtol=1e-12, atol=1e-12)
     assert np.max(np.abs(g)) > 1.0
-    timer = ros.node.create_timer(0.05, lambda: sim.send(g))   # within command_timeout
-    try:
-        sim.wait_effort(g)
-        sim.pause(False)
+    with sim.running_with(g):
         start = sim.states.wait(lambda m: ns(m) > ns(rest))
-        seen = [start]
-        while ns(seen[-1]) < ns(start) + 2000 * DT_NS:         # 2 s of simulated time
-            seen.append(sim.states.wait())
+        seen = sim.states_over(start, 2000)                    # 2 s of simulated time
         drift = max(np.max(np.abs(np.array(m.position) - HOME)) for m in seen)
         assert drift < 1e-3
         assert all(np.array_equal(m.effort, g) for m in seen)
-    finally:
-        ros.node.destroy_timer(timer)
-        sim.reset()
 
 
-def test_a_joint_driven_into_its_limit_stops_and_rests_there(ros, sim):
+def test_a_joint_driven_into_its_limit_stops_and_rests_there(sim):
     # position_limits is on by default: wrist_3 (limit 2 pi) is driven at +2 N m while
     # gravity torques hold the rest of the arm
     sim.reset()
     tau = sim.robot.gravity_torques(HOME)
     tau[5] += 2.0
     upper = sim.robot.upper[5]
-    timer = ros.node.create_timer(0.05, lambda: sim.send(tau))  # within command_timeout
-    try:
-        sim.wait_effort(tau)
-        sim.pause(False)
+    with sim.running_with(tau):
         first = sim.states.wait(lambda m: m.position[5] >= upper, what="wrist_3 at its limit")
-        seen = [first]
-        while ns(seen[-1]) < ns(first) + 1000 * DT_NS:         # 1 s on the stop
-            seen.append(sim.states.wait())
+        seen = sim.states_over(first, 1000)                    # 1 s on the stop
         assert all(m.position[5] == upper and m.velocity[5] == 0.0 for m in seen)
         assert all(np.array_equal(m.effort, tau) for m in seen)
-    finally:
-        ros.node.destroy_timer(timer)
-        sim.reset()
 
 
 def test_command_timeout_returns_effort_to_zero_with_one_warning(ros, sim):

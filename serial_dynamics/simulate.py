@@ -810,11 +810,13 @@ def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853"
             if rtol is not None or atol is not None:
                 raise ValueError(f"{method!r} is a fixed-step method: give dt, not rtol/atol")
             dt = DEFAULT_DT if dt is None else float(dt)
-            compiled = (method == "semi_implicit_euler" and robot.backend == "numba"
-                        and not callable(torque) and wrench_fn is None and not position_limits)
-            run = _run_compiled if compiled else _run_fixed
-            out = run(robot, duration, q0, qd0, torque_fn, wrench_fn, method, dt, dissipation,
-                      output_dt, check_energy, bar, position_limits)
+            args = (robot, duration, q0, qd0, torque_fn, wrench_fn, method, dt, dissipation,
+                    output_dt, check_energy, bar)
+            if (method == "semi_implicit_euler" and robot.backend == "numba"
+                    and not callable(torque) and wrench_fn is None and not position_limits):
+                out = _run_compiled(*args)          # the compiled loop has no stops
+            else:
+                out = _run_fixed(*args, position_limits)
         else:
             if position_limits:
                 raise ValueError(f"position_limits needs a fixed-step method "
@@ -926,7 +928,7 @@ def _run_fixed(robot, duration, q0, qd0, torque_fn, wrench_fn, method, dt, dissi
 
 
 def _run_compiled(robot, duration, q0, qd0, torque_fn, wrench_fn, method, dt, dissipation,
-                  output_dt, check_energy, bar, position_limits=False):
+                  output_dt, check_energy, bar):
     """Semi-implicit Euler in one compiled loop (kernels.simulate_fixed_step), for torques
     known in advance (not state feedback), no tip wrench and no Coulomb friction; the same
     steps, explicit damping and work quadrature as FixedStepIntegrator. Falls back to the

@@ -153,7 +153,8 @@ def run_demo(urdf=None, base_link=None, tip_link=None, real_time_factor=1.0, att
     err = q - q_ref
     rtf = (stamp[-1] - stamp[0]) / (wall[-1] - wall[0])
     worst = np.max(np.abs(err[on]), axis=0)
-    if worst.max() > NOT_FOLLOWED:
+    followed = bool(worst.max() <= NOT_FOLLOWED)
+    if not followed:
         j = int(np.argmax(worst))
         tail = procs[1].output().strip().splitlines()[-5:] if procs else []
         log(f"warning: the arm did not follow the trajectory ({worst[j]:.3f} rad off on "
@@ -167,7 +168,7 @@ def run_demo(urdf=None, base_link=None, tip_link=None, real_time_factor=1.0, att
                 effort_limit=robot.effort_limit.tolist(), samples=int(on.sum()),
                 simulated=float(stamp[-1] - stamp[0]), wall=float(wall[-1] - wall[0]),
                 real_time_factor=float(rtf), target_real_time_factor=real_time_factor,
-                followed=bool(worst.max() <= NOT_FOLLOWED))
+                followed=followed)
 
 
 def report(r) -> str:

@@ -27,8 +27,8 @@ sys.path.insert(0, os.path.dirname(HERE))
 
 import serial_dynamics as sd                                   # noqa: E402
 from serial_dynamics.robots.synthetic import stiff_chain_urdf   # noqa: E402
-from serial_dynamics.simulate import SimulationError            # noqa: E402
-from serial_dynamics.simulate import simulate as run            # noqa: E402
+from serial_dynamics.sim.driver import simulate as run          # noqa: E402
+from serial_dynamics.sim.methods import SimulationError         # noqa: E402
 
 from _report import stamp, write_section                        # noqa: E402
 
@@ -287,7 +287,7 @@ def plot(panels, path):
         ax.set_ylabel(f"error of {what} at the final time")
         ax.set_title(title, fontsize=10)
         ax.grid(True, which="both", alpha=0.3)
-    fig.suptitle("serial_dynamics.simulate: work-precision (adaptive: solid, rtol sweep; "
+    fig.suptitle("sd.simulate: work-precision (adaptive: solid, rtol sweep; "
                  "fixed step: dashed, dt sweep)", fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)

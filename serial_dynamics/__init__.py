@@ -10,7 +10,7 @@ from .dissipation import Dissipation
 from .model import Model, ModelError
 from .robot import Robot
 from .robots import builtin_path, builtin_robot, default_robot
-from .simulate import SimulationError, simulate   # binds sd.simulate to the function, not the module
+from .sim.driver import SimulationError, simulate   # sd.simulate is the function
 from .urdf import HeldJointsWarning, URDFError, load_model
 
 __all__ = ["load_urdf", "Robot", "Model", "Dissipation", "URDFError", "ModelError",

@@ -37,7 +37,7 @@ def cmd_demo(args):
 
 
 def cmd_offline_demo(args):
-    from .simulate import simulate
+    from .sim.driver import simulate
     robot = _load(args)
     cmd_info(args)
     res = simulate(robot, 1.0, method="DOP853", rtol=1e-10, atol=1e-10)
@@ -62,7 +62,7 @@ def _vector(text, n, name):
 
 def cmd_simulate(args):
     """Simulate a run, print its statistics and energy balance; --plot, --csv."""
-    from .simulate import FIXED_STEP, SimulationError, simulate
+    from .sim.driver import FIXED_STEP, SimulationError, simulate
     robot = _load(args)
     n = robot.dof
     q0 = _vector(args.q0, n, "q0")
@@ -112,7 +112,7 @@ def cmd_simulate(args):
 
 
 def _simulate_options(p):
-    from .simulate import DEFAULT_DT, METHODS
+    from .sim.methods import DEFAULT_DT, METHODS
     p.add_argument("--duration", type=float, default=3.0, help="simulated time, s (3)")
     p.add_argument("--method", default="DOP853", choices=METHODS, help="integrator (DOP853)")
     p.add_argument("--dt", type=float, default=None,

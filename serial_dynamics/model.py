@@ -21,7 +21,25 @@ joint motion leaves its axis fixed). Inertia of body ``i``: ``mass[i]``, center 
 center of mass, in body ``i``'s axes. ``gravity`` is in the base frame.
 ``tip_R, tip_p`` place the tip frame (where a tip wrench acts) in the last body.
 ``frames`` maps every named link of the model to ``(body, R, p)``: its placement in
-body ``body`` (``-1``: the base).
+body ``body``'s link frame (``-1``: the base).
+
+The algorithms' frames (one convention for every algorithm; docs/conventions.md)
+--------------------------------------------------------------------------------
+The fields above are the chain *as given* (URDF link frames). ``build`` derives from them,
+once, the chain in **joint frames**, which every algorithm (NumPy reference and compiled
+core alike) uses: joint frame ``i`` has body ``i``'s origin and its z axis along joint
+``i``'s axis, ``x_link = A[i] x_joint`` (``A[i] = 1`` when the URDF axis is already +z).
+
+    Xtree_R[i], Xtree_p[i]   joint frame i in joint frame i-1 at q = 0 (frame -1: the base)
+    body i in body i-1       R = Xtree_R Rz(q), p = Xtree_p        (revolute)
+                             R = Xtree_R,       p = Xtree_p + q Xtree_R e_z  (prismatic)
+    c[i], I_c[i]             center of mass and rotational inertia about it
+    h[i] = m c, I_O[i]       first moment and rotational inertia about the body origin
+    Xtip_R, Xtip_p           the tip frame in joint frame n-1
+    jframes                  ``frames`` with every placement in joint frames
+
+so the joint's motion subspace is always S = e_z (angular, revolute) or e_z (linear,
+prismatic), as in Featherstone's *Rigid Body Dynamics Algorithms* (2008), Ch. 4.
 """
 from __future__ import annotations
 
@@ -30,7 +48,8 @@ from types import MappingProxyType
 
 import numpy as np
 
-REVOLUTE, PRISMATIC = 0, 1
+from .algorithms.crba import mass_matrix as _mass_matrix
+from .joints import PRISMATIC, REVOLUTE  # noqa: F401  (re-exported)
 
 
 class ModelError(ValueError):
@@ -72,6 +91,17 @@ class Model:
     damping: np.ndarray         # (n,) URDF <dynamics damping>, N m s/rad or N s/m
     friction: np.ndarray        # (n,) URDF <dynamics friction>, N m or N
     frames: MappingProxyType = field(default_factory=lambda: MappingProxyType({}))
+    # -- derived by build(): the chain in joint frames (the algorithms' convention)
+    A: np.ndarray = None        # (n, 3, 3) joint frame i's axes in link frame i
+    Xtree_R: np.ndarray = None  # (n, 3, 3)
+    Xtree_p: np.ndarray = None  # (n, 3)
+    h: np.ndarray = None        # (n, 3) m c, joint frame
+    c: np.ndarray = None        # (n, 3) center of mass, joint frame
+    I_c: np.ndarray = None      # (n, 3, 3) rotational inertia about the center of mass, joint frame
+    I_O: np.ndarray = None      # (n, 3, 3) rotational inertia about the body origin, joint frame
+    Xtip_R: np.ndarray = None   # (3, 3)
+    Xtip_p: np.ndarray = None   # (3,)
+    jframes: MappingProxyType = None
 
     @property
     def dof(self) -> int:
@@ -108,6 +138,8 @@ class Model:
             frames=MappingProxyType({link: (int(b), _frozen(R, (3, 3)), _frozen(p, (3,)))
                                      for link, (b, R, p) in (frames or {}).items()}),
         )
+        for key, value in _joint_frames(model).items():
+            object.__setattr__(model, key, value)     # derived once, before anyone sees it
         model.validate(check_mass_matrix=check_mass_matrix)
         return model
 
@@ -144,14 +176,12 @@ class Model:
 
         Checked at q = 0 and at two seeded random configurations within the limits.
         """
-        from .algorithms.mass_matrix import mass_matrix  # local: algorithms import model
-
         rng = np.random.default_rng(0)
         lo = np.where(np.isfinite(self.lower), self.lower, -np.pi)
         hi = np.where(np.isfinite(self.upper), self.upper, np.pi)
         qs = np.vstack([np.clip(np.zeros(self.dof), lo, hi), rng.uniform(lo, hi, (2, self.dof))])
         for q in qs:
-            M = mass_matrix(self, q)
+            M = _mass_matrix(self, q)
             scale = max(np.max(np.abs(np.diag(M))), 1e-300)
             for i in np.flatnonzero(np.diag(M) <= 1e-16 * scale):   # zero to working precision
                 raise ModelError(
@@ -183,3 +213,38 @@ def check_inertia(link: str, mass: float, inertia: np.ndarray, rtol: float = 1e-
     if ev[0] + ev[1] < ev[2] - 1e-6 * scale:
         raise ModelError(f"link {link!r}: principal moments {np.round(ev, 9).tolist()} violate "
                          "the triangle inequality I1 + I2 >= I3; no rigid body has them")
+
+
+def axis_frame(axis) -> np.ndarray:
+    """A rotation A with A e_z = axis (the identity when the axis is already +z)."""
+    a = np.asarray(axis, dtype=float)
+    if np.array_equal(a, [0.0, 0.0, 1.0]):
+        return np.eye(3)
+    helper = np.array([0.0, 0.0, 1.0]) if abs(a[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    b1 = np.cross(helper, a)
+    b1 /= np.linalg.norm(b1)
+    return np.column_stack([b1, np.cross(a, b1), a])
+
+
+def _joint_frames(model) -> dict:
+    """The chain in joint frames (module docstring), derived from the chain as given."""
+    n = model.dof
+    A = np.array([axis_frame(a) for a in model.axis])
+    A_prev = np.concatenate([np.eye(3)[None], A[:-1]])          # frame -1 is the base
+    At_prev = np.swapaxes(A_prev, 1, 2)
+    c = np.einsum("nji,nj->ni", A, model.com)                   # A^T c
+    Ic = np.swapaxes(A, 1, 2) @ model.inertia @ A               # A^T I_c A
+    cc = np.einsum("ni,nj->nij", c, c)
+    eye = np.eye(3)[None]
+    I_O = Ic + model.mass[:, None, None] * (np.einsum("ni,ni->n", c, c)[:, None, None] * eye - cc)
+    jframes = {link: (b, R if b < 0 else A[b].T @ R, p if b < 0 else A[b].T @ p)
+               for link, (b, R, p) in model.frames.items()}
+    return dict(
+        A=_frozen(A, (n, 3, 3)), Xtree_R=_frozen(At_prev @ model.R_parent @ A, (n, 3, 3)),
+        Xtree_p=_frozen(np.einsum("nji,nj->ni", A_prev, model.p_parent), (n, 3)),
+        c=_frozen(c, (n, 3)), I_c=_frozen(0.5 * (Ic + np.swapaxes(Ic, 1, 2)), (n, 3, 3)),
+        h=_frozen(model.mass[:, None] * c, (n, 3)), I_O=_frozen(0.5 * (I_O + np.swapaxes(I_O, 1, 2))),
+        Xtip_R=_frozen(A[-1].T @ model.tip_R, (3, 3)), Xtip_p=_frozen(A[-1].T @ model.tip_p, (3,)),
+        jframes=MappingProxyType({k: (int(b), _frozen(R, (3, 3)), _frozen(p, (3,)))
+                                  for k, (b, R, p) in jframes.items()}))
+

@@ -1,39 +1,52 @@
-"""``Robot``: the friendly facade over a ``Model`` and the algorithms.
+"""``Robot``: the thin facade over a ``Model`` and the algorithms.
 
 It holds the immutable model and the dissipation model, checks inputs, and calls the
 algorithm functions. Every state argument accepts ``(n,)`` or a batch ``(N, n)``.
 
 Backends: ``"numba"`` (default) runs inverse dynamics, the mass matrix, bias and gravity
 torques and forward dynamics (Cholesky and articulated-body routes) through the compiled
-kernels of ``kernels.py``; ``"numpy"`` runs the readable reference implementations of
-``algorithms/`` (the tests compare the two). Choose per robot with
+core (``serial_dynamics/core/``); ``"numpy"`` runs the readable reference implementations
+of ``algorithms/`` (the tests compare the two). Choose per robot with
 ``Robot(model, backend="numpy")`` or for the process with the environment variable
 ``SERIAL_DYNAMICS_BACKEND=numpy``. Everything else (Coriolis matrix, kinematics,
 energies, forward dynamics by QR) always runs the reference code.
 
-The single-state path is kept lean: a float64 C-contiguous (n,) state goes straight to
-the compiled kernel, which checks lengths and NaN/Inf itself; anything else (lists,
-batches, other dtypes, errors) takes the general path, which validates like the
-reference (same ValueError messages) and calls the batch kernels.
+Paths. A single state given as float64 ``(n,)`` ndarrays goes straight to the compiled
+entry point, which checks lengths and NaN/Inf itself (the types are checked here, before
+the call); anything else (lists, batches, other dtypes, a bad
+value) takes the general path, which validates like the reference (same ValueError
+messages) and calls the batch kernels. A batch of at least ``PARALLEL_MIN`` states is
+split over the machine's cores (the batch kernels release the GIL; each chunk is a
+whole number of SIMD blocks, so the results are those of one serial call).
+
+Thread safety: the model is immutable and every compiled call allocates its own scratch
+memory (``core/data.py``), so one ``Robot`` may be called from several threads at once.
 """
 from __future__ import annotations
 
 import os
-import threading
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from .algorithms import aba, energy, forward, kinematics, mass_matrix, noc, rnea
+from .algorithms import aba, crba, energy, forward, kinematics, noc, rnea
 from .algorithms._batch import as_batch
+from .core import K, UNCHECKED as U, layout
+from .core import flags as F
 from .dissipation import Dissipation
 from .model import Model
 
 _empty = np.empty                          # one global lookup on the fast paths
-_NOT_FAST = (TypeError, AttributeError)    # inputs the single-state fast path does not take
+_nd, _f8 = np.ndarray, np.dtype(np.float64)
+_NO_WRENCH = np.zeros((1, 6))              # stands in for w in batch calls without one
+_QD_QDD, _QD = F.QD | F.QDD, F.QD         # flags, as module constants (no attribute lookup)
 BACKENDS = ("numba", "numpy")
 FD_METHODS = ("auto", "cholesky", "aba", "qr")
-_QD, _QDD, _W, _ABA = 1, 2, 4, 8          # kernel flags (kernels.F_QD, F_QDD, F_W, F_ABA)
-_FD_FLAGS = {"cholesky": _QD, "aba": _QD | _ABA}
+_FD_FLAGS = {"cholesky": F.QD, "aba": F.QD | F.ABA}
+PARALLEL_MIN = 2048                        # states; below it one thread is faster (docs/speed.md)
+ROBOT_KERNELS = ("rnea", "rnea_wrench", "crba", "fd", "fd_wrench", "rnea_batch", "crba_batch",
+                 "fd_batch")
+_pool = None
 
 
 class Robot:
@@ -49,20 +62,9 @@ class Robot:
         self._n, self._nn = model.dof, (model.dof, model.dof)
         # forward_dynamics(method="auto"): articulated bodies from aba.CROSSOVER joints on
         self._fd_auto = _FD_FLAGS["aba" if model.dof >= aba.CROSSOVER else "cholesky"]
-        # Single-state fast paths: compiled kernels (set up on first call), or, with the
-        # reference backend, stand-ins that send every call to the general path.
-        self._k = None
-        self._rnea = self._crba = self._fd = _no_fast_path
-        self._PW, self._wrow = None, np.zeros(6)
-        self._wrench_lock = threading.Lock()
-        if backend == "numba":
-            from . import kernels
-            self._k = kernels.K                  # all entry points, compiled on first use
-            self._PW = kernels.pack(model)       # packed model + scratch of single calls
-            self._wrow = kernels.wrench_row(self._PW)
-            self._w1 = np.zeros((1, 6))          # placeholder when there is no wrench
-            for attr, name in (("_rnea", "rnea"), ("_crba", "crba"), ("_fd", "fd")):
-                setattr(self, attr, _FirstCall(self, attr, name))
+        self._compiled = backend == "numba"
+        self._P = layout.pack(model) if self._compiled else None   # the model, compiled layout
+        self._out = None                  # the last ``out=`` array found writable float64
 
     backend = property(lambda self: self._backend, doc='"numba" (compiled) or "numpy" (reference)')
 
@@ -97,61 +99,61 @@ class Robot:
                 f"{self.tip_link!r}, joints={self.joint_names})")
 
     # ------------------------------------------------------------- dynamics
-    # Each method first tries the single-state fast path: a float64 C-contiguous (n,) state
-    # goes straight to the kernel, which checks lengths and NaN/Inf and returns 0 on
-    # success. Anything else -- a batch (caught by the ndim test: letting numba reject it
-    # costs ~65 us), other types (TypeError from the kernel's signature, AttributeError for
-    # lists), a bad value, the reference backend -- takes the general path, which validates
-    # like the reference and raises its ValueError.
+    # Fast path: a single state of float64 (n,) ndarrays goes straight to the compiled
+    # entry point without numba's type dispatch (``core.UNCHECKED``), so the types are
+    # checked here first -- inline in the common case, as a function call costs ~60 ns.
+    # The entry point checks lengths and NaN/Inf itself and returns 0 when it wrote the
+    # result; otherwise (and for anything else: lists, batches, other dtypes) the general
+    # path validates like the reference and raises its ValueError naming the culprit.
     # ``out``: an array of the result's shape (float64, writable) to write the result into
     # instead of a new one, as NumPy's out= (a 1 kHz loop then allocates nothing); returned.
     # After an error its contents are undefined.
     def inverse_dynamics(self, q, qd, qdd, wrench=None, out=None):
         """tau = M(q) qdd + b(q, qd) - J^T w  (rigid body; no friction). N m / N."""
-        o = _empty(self._n) if out is None else out
-        try:
-            if q.ndim == 1 and (self._rnea(self._PW, q, qd, qdd, 3, o) if wrench is None else
-                                self._with_wrench(self._rnea, wrench, q, qd, qdd, 3, o)) == 0:
+        if (self._compiled and q.__class__ is qd.__class__ is qdd.__class__ is _nd
+                and q.ndim == qd.ndim == qdd.ndim == 1 and q.dtype is qd.dtype is qdd.dtype is _f8
+                and (out is None or out is self._out or self._checked_out(out, 1))):
+            o = _empty(self._n) if out is None else out
+            if (U.rnea(self._P, q, qd, qdd, _QD_QDD, o) if wrench is None else
+                    U.rnea_wrench(self._P, q, qd, qdd, wrench, _QD_QDD, o) if _vector(wrench)
+                    else 3) == 0:
                 return o
-        except _NOT_FAST:
-            pass
         return _into(out, self._rnea_general((("q", q), ("qd", qd), ("qdd", qdd)), wrench))
 
     def mass_matrix(self, q, out=None):
         """M(q), the generalized inertia matrix."""
-        o = _empty(self._nn) if out is None else out
-        try:
-            if q.ndim == 1 and self._crba(self._PW, q, o) == 0:
+        if (self._compiled and q.__class__ is _nd and q.ndim == 1 and q.dtype is _f8
+                and (out is None or out is self._out or self._checked_out(out, 2))):
+            o = _empty(self._nn) if out is None else out
+            if U.crba(self._P, q, o) == 0:
                 return o
-        except _NOT_FAST:
-            pass
-        if self._k is None:
-            return _into(out, mass_matrix.mass_matrix(self.model, q))
+        if not self._compiled:
+            return _into(out, crba.mass_matrix(self.model, q))
         single, (q,) = as_batch(self.model, ("q", q))
         q = _rows(q)
         M = np.empty((q.shape[0], self._n, self._n))
-        self._k.crba_batch(self._PW, q, M)
+        _parallel(K.crba_batch, self._P, q.shape[0], (q,), (), M)
         return _into(out, M[0] if single else M)
 
     def bias_torques(self, q, qd, wrench=None, out=None):
         """b(q, qd) - J^T w = C(q, qd) qd + g(q) - J^T w."""
-        o = _empty(self._n) if out is None else out
-        try:
-            if q.ndim == 1 and (self._rnea(self._PW, q, qd, q, 1, o) if wrench is None else
-                                self._with_wrench(self._rnea, wrench, q, qd, q, 1, o)) == 0:
+        if (self._compiled and q.__class__ is qd.__class__ is _nd and q.ndim == qd.ndim == 1
+                and q.dtype is qd.dtype is _f8
+                and (out is None or out is self._out or self._checked_out(out, 1))):
+            o = _empty(self._n) if out is None else out
+            if (U.rnea(self._P, q, qd, q, _QD, o) if wrench is None else
+                    U.rnea_wrench(self._P, q, qd, q, wrench, _QD, o) if _vector(wrench)
+                    else 3) == 0:
                 return o
-        except _NOT_FAST:
-            pass
         return _into(out, self._rnea_general((("q", q), ("qd", qd), ("qdd", None)), wrench))
 
     def gravity_torques(self, q, out=None):
         """g(q): the torques that hold the chain still (the textbook's gamma is -g)."""
-        o = _empty(self._n) if out is None else out
-        try:
-            if q.ndim == 1 and self._rnea(self._PW, q, q, q, 0, o) == 0:
+        if (self._compiled and q.__class__ is _nd and q.ndim == 1 and q.dtype is _f8
+                and (out is None or out is self._out or self._checked_out(out, 1))):
+            o = _empty(self._n) if out is None else out
+            if U.rnea(self._P, q, q, q, 0, o) == 0:
                 return o
-        except _NOT_FAST:
-            pass
         return _into(out, self._rnea_general((("q", q), ("qd", None), ("qdd", None)), None))
 
     def coriolis_matrix(self, q, qd):
@@ -163,18 +165,17 @@ class Robot:
         chains, articulated bodies from ``algorithms.aba.CROSSOVER`` joints on),
         "cholesky", "aba" (O(n)) or "qr" (for ill-conditioned chains)."""
         flags = self._fd_auto if method == "auto" else _FD_FLAGS.get(method)
-        if flags is not None:
+        if (flags is not None and self._compiled and q.__class__ is qd.__class__ is tau.__class__ is _nd
+                and q.ndim == qd.ndim == tau.ndim == 1 and q.dtype is qd.dtype is tau.dtype is _f8
+                and (out is None or out is self._out or self._checked_out(out, 1))):
             o = _empty(self._n) if out is None else out
-            try:
-                if q.ndim == 1 and (self._fd(self._PW, q, qd, tau, flags, o) if wrench is None
-                                    else self._with_wrench(self._fd, wrench, q, qd, tau, flags,
-                                                           o)) == 0:
-                    return o
-            except _NOT_FAST:
-                pass
-        if self._k is None or flags is None:
+            if (U.fd(self._P, q, qd, tau, flags, o) if wrench is None else
+                    U.fd_wrench(self._P, q, qd, tau, wrench, flags, o) if _vector(wrench)
+                    else 3) == 0:
+                return o
+        if not self._compiled or flags is None:
             if method == "auto":
-                method = "aba" if flags & _ABA else "cholesky"
+                method = "aba" if flags & F.ABA else "cholesky"
             if method == "aba":
                 return _into(out, aba.forward_dynamics(self.model, q, qd, tau, wrench))
             if method not in FD_METHODS:
@@ -184,44 +185,42 @@ class Robot:
         single, (q, qd, tau) = as_batch(self.model, ("q", q), ("qd", qd), ("tau", tau))
         w, flags = self._wrench_rows(wrench, q.shape[0], flags)
         q, qd, tau = _rows(q), _rows(qd), _rows(tau)
-        qdd = np.empty((max(q.shape[0], qd.shape[0], tau.shape[0]), self._n))
-        if self._k.fd_batch(self._PW, q, qd, tau, w, flags, qdd) != 0:
+        N = max(q.shape[0], qd.shape[0], tau.shape[0])
+        qdd = np.empty((N, self._n))
+        if _parallel(K.fd_batch, self._P, N, (q, qd, tau, w), (flags,), qdd) != 0:
             raise ValueError("wrench has a NaN or Inf entry; give finite numbers")
         return _into(out, qdd[0] if single else qdd)
 
     # general path: validate like the reference, then one batch kernel call
     def _rnea_general(self, named, wrench):
-        if self._k is None:
+        if not self._compiled:
             return rnea.inverse_dynamics(self.model, *(x for _, x in named), wrench)
         single, (q, qd, qdd) = as_batch(self.model, *named)   # raises the reference's ValueError
         N = q.shape[0]
-        flags = (_QD if named[1][1] is not None else 0) | (_QDD if named[2][1] is not None else 0)
+        flags = (F.QD if named[1][1] is not None else 0) | (F.QDD if named[2][1] is not None else 0)
         q = _rows(q)
-        qd = _rows(qd) if flags & _QD else q             # unused by the kernel when absent
-        qdd = _rows(qdd) if flags & _QDD else q
+        qd = _rows(qd) if flags & F.QD else q             # unused by the kernel when absent
+        qdd = _rows(qdd) if flags & F.QDD else q
         w, flags = self._wrench_rows(wrench, N, flags)
         out = np.empty((N, self._n))
-        if self._k.rnea_batch(self._PW, q, qd, qdd, w, flags, out) != 0:
+        if _parallel(K.rnea_batch, self._P, N, (q, qd, qdd, w), (flags,), out) != 0:
             raise ValueError("wrench has a NaN or Inf entry; give finite numbers")
         return out[0] if single else out
 
-    def _with_wrench(self, kernel, wrench, a, b, c, flags, out):
-        """Single-state kernel call with a tip wrench, which the kernel reads from the robot's
-        scratch memory: written and used under a lock, so that two threads cannot swap
-        wrenches in between (the kernels hold the GIL while they run, so calls without a
-        wrench need no lock). Anything but a flat 6-vector raises TypeError (-> the
-        general path)."""
-        w = np.asarray(wrench, dtype=float)
-        if w.shape != (6,) or self._PW is None:
-            raise TypeError
-        with self._wrench_lock:
-            self._wrow[:] = w
-            return kernel(self._PW, a, b, c, flags | _W, out)
+    def _checked_out(self, out, ndim):
+        """True when ``out`` is a writable float64 ndarray of ``ndim`` dimensions; it is
+        then remembered, so that a loop passing the same ``out`` every call skips this
+        check (~80 ns) next time. (Its length is checked by the compiled code.)"""
+        if out.__class__ is _nd and out.ndim == ndim and out.dtype is _f8 and out.flags.writeable:
+            self._out = out
+            return True
+        return False
 
-    def _wrench_rows(self, wrench, N, flags):
+    @staticmethod
+    def _wrench_rows(wrench, N, flags):
         if wrench is None:
-            return self._w1, flags
-        return _rows(rnea._wrench_batch(wrench, N)), flags | _W
+            return _NO_WRENCH, flags
+        return _rows(rnea._wrench_batch(wrench, N)), flags | F.WRENCH
 
     def dissipation_torques(self, qd):
         """delta(qd) of the current dissipation model (oppose the motion)."""
@@ -238,7 +237,7 @@ class Robot:
 
     def kinetic_energy(self, q, qd):
         """T = 1/2 qd^T M(q) qd (J), with this robot's (compiled) mass matrix."""
-        if self._k is None:
+        if not self._compiled:
             return energy.kinetic_energy(self.model, q, qd)
         single, (q, qd) = as_batch(self.model, ("q", q), ("qd", qd))
         T = 0.5 * np.einsum("ni,nij,nj->n", qd, self.mass_matrix(_rows(q)), qd)
@@ -253,12 +252,9 @@ class Robot:
     def warmup(self):
         """Compile or load every fast path once (numba backend: every kernel of the Robot
         methods, single and batch, from the numba cache when it is warm), so that the first
-        real call is fast.
-        Nodes call this before they report ready. Returns self."""
-        if self._k is not None:
-            from .kernels import ROBOT_KERNELS
-            self._k.load_all(ROBOT_KERNELS)
-            self._rnea, self._crba, self._fd = self._k.rnea, self._k.crba, self._k.fd
+        real call is fast. Nodes call this before they report ready. Returns self."""
+        if self._compiled:
+            K.load_all(ROBOT_KERNELS)
         q = np.zeros(self.dof)
         qb = np.zeros((2, self.dof))
         w = np.zeros(6)
@@ -280,6 +276,30 @@ class Robot:
         lo = np.where(np.isfinite(self.lower), self.lower, -np.pi)
         hi = np.where(np.isfinite(self.upper), self.upper, np.pi)
         return rng.uniform(lo, hi, shape), rng.uniform(-speed, speed, shape)
+
+
+def _vector(a):
+    """True when ``a`` is a float64 one-dimensional ndarray."""
+    return a.__class__ is _nd and a.ndim == 1 and a.dtype is _f8
+
+
+def _parallel(kernel, P, N, arrays, extra, out):
+    """Run a batch kernel over ``N`` states, split into one chunk per core when the batch
+    is large: chunks are whole numbers of SIMD blocks (``layout.B``), so every state is
+    computed exactly as in one serial call. ``arrays``: the (N, ...) or broadcast (1, ...)
+    inputs; ``extra``: the arguments after them (flags). Returns the kernels' status
+    (0 ok, 1 NaN/Inf)."""
+    global _pool
+    workers = min(os.cpu_count() or 1, 8)
+    if N < PARALLEL_MIN or workers < 2:
+        return kernel(P, *arrays, *extra, out)
+    if _pool is None:
+        _pool = ThreadPoolExecutor(workers, thread_name_prefix="serial_dynamics")
+    step = -(-N // workers // layout.B) * layout.B
+    rows = lambda a, k: a if a.shape[0] == 1 else a[k:k + step]   # noqa: E731
+    futures = [_pool.submit(kernel, P, *[rows(a, k) for a in arrays], *extra, out[k:k + step])
+               for k in range(0, N, step)]
+    return max(f.result() for f in futures)
 
 
 def _rows(a):
@@ -304,21 +324,3 @@ def _into(out, result):
                             else " that is read-only"))
     out[...] = result
     return out
-
-
-def _no_fast_path(*args):
-    """Fast-path stand-in of the reference backend: every call takes the general path."""
-    raise TypeError
-
-
-class _FirstCall:
-    """Stands in for a kernel until the first call, which compiles it (or loads it from
-    the numba cache) and puts the compiled kernel itself on the robot."""
-
-    def __init__(self, robot, attr, name):
-        self.robot, self.attr, self.name = robot, attr, name
-
-    def __call__(self, *args):
-        kernel = getattr(self.robot._k, self.name)
-        setattr(self.robot, self.attr, kernel)
-        return kernel(*args)

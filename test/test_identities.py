@@ -87,7 +87,7 @@ def test_twist_shaping_gives_the_body_twists(robot):
 
     def com(q):
         R, o = (x[0] for x in kinematics.body_poses(m, q[None]))
-        return o + np.einsum("nij,nj->ni", R, m.com)
+        return o + np.einsum("nij,nj->ni", R, m.c)
 
     for q, qd, _ in states(robot, 3, seed=1):
         t = (noc.twist_shaping(m, q) @ qd).reshape(robot.dof, 6)

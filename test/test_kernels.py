@@ -14,7 +14,12 @@ import numpy as np
 import pytest
 
 import serial_dynamics as sd
-from serial_dynamics import Robot, kernels
+from serial_dynamics import Robot
+from serial_dynamics import core
+from serial_dynamics.core import flags as F
+from serial_dynamics.core.spatial import sincos
+from serial_dynamics.robot import ROBOT_KERNELS
+from serial_dynamics.sim.loop import _loop, simulate_fixed_step
 from serial_dynamics.algorithms import aba, forward, rnea
 from serial_dynamics.robots.synthetic import chain_urdf
 
@@ -237,10 +242,10 @@ def test_backends_and_the_environment_switch(monkeypatch):
 
 def test_warmup_loads_every_kernel_of_the_robot_methods():
     robot = sd.default_robot().warmup()
-    assert set(kernels.ROBOT_KERNELS) == set(kernels.SIGNATURES) - {"simulate_semi_implicit_euler"}
-    for name in kernels.ROBOT_KERNELS:
-        assert name in vars(kernels.K), name          # compiled (or loaded) entry point
-    assert robot._rnea is kernels.K.rnea and robot._fd is kernels.K.fd
+    assert set(ROBOT_KERNELS) == set(core.ENTRY_POINTS)
+    for name in ROBOT_KERNELS:
+        assert name in vars(core.K), name             # compiled (or loaded) entry point
+    assert robot.backend == "numba"
 
 
 def test_sincos_to_one_ulp():
@@ -249,7 +254,7 @@ def test_sincos_to_one_ulp():
     @njit
     def both(x, s, c):
         for i in range(x.shape[0]):
-            s[i], c[i] = kernels._sincos(x[i])
+            s[i], c[i] = sincos(x[i])
 
     rng = np.random.default_rng(0)
     x = np.concatenate([rng.uniform(-4, 4, 20000), rng.uniform(-9e4, 9e4, 20000),
@@ -269,9 +274,8 @@ def test_fixed_step_loop_matches_a_python_loop():
     tau = rng.normal(size=(steps, n))
     w = rng.normal(size=6)
     beta = robot.model.damping
-    for flags, method in ((0, "cholesky"), (kernels.F_ABA, "aba")):      # explicit damping
-        Q, QD = kernels.K.simulate_semi_implicit_euler(robot._PW, q0, qd0, tau, dt, steps, beta,
-                                                       w[None], flags)
+    for flags, method in ((0, "cholesky"), (F.ABA, "aba")):      # explicit damping
+        Q, QD = _loop()(robot._P, q0, qd0, tau, dt, steps, beta, w[None], flags)
         q, qd = q0.copy(), qd0.copy()
         for k in range(steps):
             qdd = ref.forward_dynamics(q, qd, tau[k] - beta * qd, w, method=method)
@@ -280,9 +284,8 @@ def test_fixed_step_loop_matches_a_python_loop():
         assert Q.shape == QD.shape == (steps + 1, n)
         assert rel(Q[-1], q) <= TOL and rel(QD[-1], qd) <= 1e-11
     # implicit damping: (M + dt diag(beta)) qdd = tau - beta qd - b
-    for flags in (kernels.F_ARM, kernels.F_ARM | kernels.F_ABA):
-        Q, QD = kernels.K.simulate_semi_implicit_euler(robot._PW, q0, qd0, tau, dt, steps, beta * 50,
-                                                       w[None], flags)
+    for flags in (F.DAMPING, F.DAMPING | F.ABA):
+        Q, QD = _loop()(robot._P, q0, qd0, tau, dt, steps, beta * 50, w[None], flags)
         q, qd = q0.copy(), qd0.copy()
         for k in range(steps):
             M = ref.mass_matrix(q) + dt * np.diag(beta * 50)
@@ -291,8 +294,7 @@ def test_fixed_step_loop_matches_a_python_loop():
             q = q + dt * qd
         assert rel(Q[-1], q) <= TOL and rel(QD[-1], qd) <= 1e-11
     # a diverging run stops, and the rows from there on are NaN
-    Q, QD = kernels.K.simulate_semi_implicit_euler(robot._PW, q0, qd0, np.full((1, n), 1e200), dt,
-                                                   steps, beta, np.zeros((0, 6)), 0)
+    Q, QD = _loop()(robot._P, q0, qd0, np.full((1, n), 1e200), dt, steps, beta, np.zeros((0, 6)), 0)
     assert np.all(np.isnan(Q[2:])) and np.all(np.isfinite(Q[0]))
 
 
@@ -301,20 +303,20 @@ def test_simulate_fixed_step_wrapper():
     n = robot.dof
     q0 = np.array([0.1, -1.2, 1.0, -0.5, 0.3, 0.0])
     tau = robot.gravity_torques(q0)
-    q, qd = kernels.simulate_fixed_step(robot, q0, np.zeros(n), tau, 1e-3, 200)
+    q, qd = simulate_fixed_step(robot, q0, np.zeros(n), tau, 1e-3, 200)
     assert q.shape == (201, n) and np.max(np.abs(q - q0)) < 1e-9      # held by gravity torques
     ref = Robot(robot.model, backend="numpy")                          # packs on the fly
     beta = np.full(n, 0.7)
-    a, _ = kernels.simulate_fixed_step(robot, q0, np.ones(n), list(tau * 0.5), 1e-3, 50, beta)
-    b, _ = kernels.simulate_fixed_step(ref, q0, np.ones(n), np.tile(tau * 0.5, (50, 1)), 1e-3, 50, beta,
+    a, _ = simulate_fixed_step(robot, q0, np.ones(n), list(tau * 0.5), 1e-3, 50, beta)
+    b, _ = simulate_fixed_step(ref, q0, np.ones(n), np.tile(tau * 0.5, (50, 1)), 1e-3, 50, beta,
                                        wrench=np.zeros(6), method="aba")
     assert rel(a, b) <= TOL
     with pytest.raises(ValueError, match="tau has shape"):
-        kernels.simulate_fixed_step(robot, q0, q0, np.zeros((3, n)), 1e-3, 50)
+        simulate_fixed_step(robot, q0, q0, np.zeros((3, n)), 1e-3, 50)
     with pytest.raises(ValueError, match="q0 has a NaN"):
-        kernels.simulate_fixed_step(robot, q0 * np.nan, q0, tau, 1e-3, 50)
+        simulate_fixed_step(robot, q0 * np.nan, q0, tau, 1e-3, 50)
     with pytest.raises(ValueError, match="method 'rk4' unknown"):
-        kernels.simulate_fixed_step(robot, q0, q0, tau, 1e-3, 50, method="rk4")
+        simulate_fixed_step(robot, q0, q0, tau, 1e-3, 50, method="rk4")
 
 
 def test_wrench_calls_from_two_threads_do_not_mix():

@@ -8,9 +8,10 @@ import pytest
 
 import serial_dynamics as sd
 from serial_dynamics.robots.synthetic import chain_urdf, stiff_chain_urdf
-from serial_dynamics.simulate import (ADAPTIVE, FIXED_STEP, METHODS, FixedStepIntegrator,
-                                      SimulationError, SimulationResult)
-from serial_dynamics.simulate import simulate as simulate_fn
+from serial_dynamics.sim.driver import simulate as simulate_fn
+from serial_dynamics.sim.fixed_step import FixedStepIntegrator
+from serial_dynamics.sim.methods import ADAPTIVE, FIXED_STEP, METHODS, SimulationError
+from serial_dynamics.sim.result import SimulationResult
 
 Q0 = np.array([0.3, -1.0, 0.8, -0.5, 0.4, 0.2])   # a generic UR5e posture
 

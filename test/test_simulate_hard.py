@@ -13,7 +13,7 @@ import pytest
 import serial_dynamics as sd
 from serial_dynamics.robots.synthetic import (chain_urdf, ill_conditioned_chain_urdf,
                                               stiff_chain_urdf)
-from serial_dynamics.simulate import SimulationError
+from serial_dynamics.sim.methods import SimulationError
 
 EPS = np.finfo(float).eps
 Q0 = np.array([0.3, -1.0, 0.8, -0.5, 0.4, 0.2])

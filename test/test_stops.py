@@ -12,7 +12,7 @@ import pytest
 
 import serial_dynamics as sd
 from serial_dynamics.robots.synthetic import chain_urdf
-from serial_dynamics.simulate import FixedStepIntegrator
+from serial_dynamics.sim.fixed_step import FixedStepIntegrator
 
 LIMITS = [(-3.0, 3.0), (-0.4, 0.4), (-3.0, 3.0)]
 Q0 = np.array([0.0, 0.3, 0.0])
@@ -52,7 +52,7 @@ def test_impulse_acts_at_the_stopped_joints_only_and_pushes(arm):
             q[0] = rng.choice([-3.01, 3.01])             # and sometimes joint 1 too
         qd = rng.normal(size=3) * 3
         side = np.sign(q) * (np.abs(q) > np.array([3.0, 0.4, 3.0]))
-        q1, qd1, dE = integ._stop(q, qd, True)
+        q1, qd1, dE = integ.stops.impact(q, qd, True)
         assert np.array_equal(q1, np.clip(q, lo, hi))
         M = arm.mass_matrix(q1)
         lam = M @ (qd1 - qd)                             # generalized impulse

@@ -1,5 +1,8 @@
-"""Small helpers shared by the algorithms: batching and 3-vector algebra on stacks."""
+"""Small helpers shared by the algorithms: batching, and 3-vector and spatial (6-vector)
+algebra on stacks of arrays."""
 import numpy as np
+
+from ..joints import PRISMATIC
 
 
 def as_batch(model, *states):
@@ -68,3 +71,52 @@ def rotation_about(axis, angle):
     K = skew(np.asarray(axis, dtype=float))
     s, c = np.sin(angle)[:, None, None], np.cos(angle)[:, None, None]
     return np.eye(3) + s * K + (1.0 - c) * (K @ K)
+
+
+def rot_z(angle):
+    """Rz(q) (N, 3, 3): rotation by ``angle`` (N,) about e_z, a revolute joint's motion."""
+    c, s = np.cos(angle), np.sin(angle)
+    R = np.zeros(np.shape(angle) + (3, 3))
+    R[..., 0, 0], R[..., 0, 1], R[..., 1, 0], R[..., 1, 1] = c, -s, s, c
+    R[..., 2, 2] = 1.0
+    return R
+
+
+# -- spatial algebra (Featherstone 2008, Ch. 2): angular part first, about the frame origin
+def rigid_body_inertia(mass, h, I_O):
+    """6x6 rigid-body inertia about the body origin from the mass m, first moment h = m c
+    and rotational inertia I_O about the origin: [[I_O, [h]x], [[h]x^T, m 1]] (eq. 2.63)."""
+    H = skew(np.asarray(h, dtype=float))
+    m = np.asarray(mass, dtype=float)[..., None, None]
+    out = np.zeros(np.shape(mass) + (6, 6))
+    out[..., :3, :3] = I_O
+    out[..., :3, 3:] = H
+    out[..., 3:, :3] = np.swapaxes(H, -1, -2)
+    out[..., 3:, 3:] = m * np.eye(3)
+    return out
+
+
+def motion_transform(R, p):
+    """X carrying motion vectors from the parent frame into the child frame, for the child
+    rotation R and origin p given in the parent: [[R^T, 0], [-R^T [p]x, R^T]] (Sec. 2.8)."""
+    Rt = np.swapaxes(R, -1, -2)
+    X = np.zeros(R.shape[:-2] + (6, 6))
+    X[..., :3, :3] = Rt
+    X[..., 3:, 3:] = Rt
+    X[..., 3:, :3] = -Rt @ skew(p)
+    return X
+
+
+def cross_motion(v):
+    """[v]x of a spatial motion vector v = (omega, u): [[omega x, 0], [u x, omega x]], Sec. 2.9."""
+    out = np.zeros(v.shape[:-1] + (6, 6))
+    W, U = skew(v[..., :3]), skew(v[..., 3:])
+    out[..., :3, :3] = W
+    out[..., 3:, 3:] = W
+    out[..., 3:, :3] = U
+    return out
+
+
+def motion_subspaces(model):
+    """S_i (n, 6) in joint frames: e_z angular (revolute), e_z linear (prismatic); Table 4.1."""
+    return np.eye(6)[np.where(model.kind == PRISMATIC, 5, 2)]

@@ -1,8 +1,9 @@
 """Forward dynamics by the articulated-body algorithm (ABA): O(n) in the number of joints.
 
-Featherstone, *Rigid Body Dynamics Algorithms* (2008), Sec. 7.3 and Table 7.1. Spatial
-vectors in Plücker coordinates, angular part first, each in its body's frame:
-motion (omega, v_O) with v_O the velocity of the body-frame origin, force (n_O, f).
+Featherstone, *Rigid Body Dynamics Algorithms* (2008), Sec. 7.3 and Table 7.1, in joint
+frames (see serial_dynamics/model.py and docs/conventions.md). Spatial vectors of body i are
+in joint frame i, angular part first, about its origin: motion (omega, v_O), force (n_O, f);
+S_i = e_z (angular for a revolute joint, linear for a prismatic one).
 
     pass 1 (outward)  v_i = X_i v_{i-1} + S_i qd_i       c_i = v_i x S_i qd_i
                       IA_i = I_i                          pA_i = v_i x* I_i v_i - f_ext_i
@@ -12,15 +13,15 @@ motion (omega, v_O) with v_O the velocity of the body-frame origin, force (n_O, 
     pass 3 (outward)  a'_i = X_i a_{i-1} + c_i            qdd_i = (u_i - U_i^T a'_i) / D_i
                       a_i = a'_i + S_i qdd_i              with a_{-1} = (0, -g)
 
-``X_i`` carries motion vectors from body i-1's frame to body i's; with body i's rotation R
-and origin p in body i-1, X = [[R^T, 0], [-R^T [p]x, R^T]]. Gravity is the base
-acceleration -g, as in the Newton-Euler recursion. The result is the same as the Cholesky
-route of ``forward.py`` (tests compare them); ABA wins for long chains (``CROSSOVER``).
+``X_i`` carries motion vectors from joint frame i-1 to joint frame i; with (R, p) body i in
+body i-1 (``kinematics.joint_transforms``), X = [[R^T, 0], [-R^T [p]x, R^T]]. Gravity is the
+base acceleration -g, as in the Newton-Euler recursion. The result is the same as the
+Cholesky route of ``forward.py`` (tests compare them); ABA wins for long chains (``CROSSOVER``).
 """
 import numpy as np
 
-from ..model import PRISMATIC
-from ._batch import as_batch, mtv, skew, unbatch
+from ._batch import (as_batch, cross_motion, motion_subspaces, motion_transform, mtv,
+                     rigid_body_inertia, skew, unbatch)
 from .kinematics import joint_transforms
 from .rnea import _tip_rotation, _wrench_batch
 
@@ -31,37 +32,13 @@ CROSSOVER = 30
 
 
 def spatial_inertia(mass, com, inertia):
-    """6x6 rigid-body inertia about the body origin: [[I_c + m [c]x [c]x^T, m [c]x],
-    [m [c]x^T, m 1]] (Featherstone 2008, eq. 2.63)."""
-    C = skew(np.asarray(com, dtype=float))
-    out = np.zeros(np.shape(mass) + (6, 6))
-    m = np.asarray(mass, dtype=float)[..., None, None]
-    out[..., :3, :3] = inertia + m * C @ np.swapaxes(C, -1, -2)
-    out[..., :3, 3:] = m * C
-    out[..., 3:, :3] = m * np.swapaxes(C, -1, -2)
-    out[..., 3:, 3:] = m * np.eye(3)
-    return out
-
-
-def motion_transform(R, p):
-    """X carrying motion vectors from the parent frame into the child frame, for the child
-    rotation R and origin p given in the parent: [[R^T, 0], [-R^T [p]x, R^T]]."""
-    Rt = np.swapaxes(R, -1, -2)
-    X = np.zeros(R.shape[:-2] + (6, 6))
-    X[..., :3, :3] = Rt
-    X[..., 3:, 3:] = Rt
-    X[..., 3:, :3] = -Rt @ skew(p)
-    return X
-
-
-def cross_motion(v):
-    """[v]x for a spatial motion vector v = (omega, u): [[omega x, 0], [u x, omega x]]."""
-    out = np.zeros(v.shape[:-1] + (6, 6))
-    W, U = skew(v[..., :3]), skew(v[..., 3:])
-    out[..., :3, :3] = W
-    out[..., 3:, 3:] = W
-    out[..., 3:, :3] = U
-    return out
+    """6x6 rigid-body inertia about the body origin from the center of mass ``com`` and the
+    rotational inertia ``inertia`` about it: [[I_c + m [c]x [c]x^T, m [c]x], [m [c]x^T, m 1]]
+    (Featherstone eq. 2.63); the algorithms use ``rigid_body_inertia(m, h, I_O)``."""
+    m, c = np.asarray(mass, dtype=float), np.asarray(com, dtype=float)
+    C = skew(c)
+    I_O = inertia + m[..., None, None] * C @ np.swapaxes(C, -1, -2)
+    return rigid_body_inertia(m, m[..., None] * c, I_O)
 
 
 def forward_dynamics(model, q, qd, tau, wrench=None, gravity=None):
@@ -77,13 +54,8 @@ def _aba(model, q, qd, tau, g, w):
     N, n = q.shape
     R, p = joint_transforms(model, q)
     X = motion_transform(R, p)                                   # (N, n, 6, 6)
-    S = np.zeros((n, 6))
-    for i in range(n):
-        if model.kind[i] == PRISMATIC:
-            S[i, 3:] = model.axis[i]
-        else:
-            S[i, :3] = model.axis[i]
-    I = spatial_inertia(model.mass, model.com, model.inertia)   # (n, 6, 6)
+    S = motion_subspaces(model)                                  # (n, 6)
+    I = rigid_body_inertia(model.mass, model.h, model.I_O)       # (n, 6, 6)
     mv6 = lambda A, x: np.einsum("...ij,...j->...i", A, x)      # noqa: E731
     mtv6 = lambda A, x: np.einsum("...ji,...j->...i", A, x)     # noqa: E731
     # --- pass 1, outward
@@ -93,14 +65,14 @@ def _aba(model, q, qd, tau, g, w):
     pA = np.empty((N, n, 6))
     for i in range(n):
         vJ = qd[:, i, None] * S[i]
-        v = mv6(X[:, i], v) + vJ
-        c[:, i] = mv6(cross_motion(v), vJ)
+        v = mv6(X[:, i], v) + vJ                                 # v_i = X_i v_{i-1} + S_i qd_i
+        c[:, i] = mv6(cross_motion(v), vJ)                       # c_i = v_i x S_i qd_i
         IA[:, i] = I[i]
         pA[:, i] = -mtv6(cross_motion(v), mv6(I[i], v))          # v x* I v = -[v]x^T I v
-    if w is not None:                                            # external wrench on the tip
-        R_tip = _tip_rotation(R)                                 # base <- last body
+    if w is not None:            # f_ext on the last body: w, in joint frame n-1, about its origin
+        R_tip = _tip_rotation(R)                                 # base <- joint frame n-1
         f = mtv(R_tip, w[:, :3])
-        m = mtv(R_tip, w[:, 3:]) + np.cross(model.tip_p, f)      # moment about the body origin
+        m = mtv(R_tip, w[:, 3:]) + np.cross(model.Xtip_p, f)
         pA[:, n - 1, :3] -= m
         pA[:, n - 1, 3:] -= f
     # --- pass 2, inward
@@ -108,21 +80,21 @@ def _aba(model, q, qd, tau, g, w):
     D = np.empty((N, n))
     u = np.empty((N, n))
     for i in range(n - 1, -1, -1):
-        U[:, i] = mv6(IA[:, i], S[i])
-        D[:, i] = U[:, i] @ S[i]
-        u[:, i] = tau[:, i] - pA[:, i] @ S[i]
+        U[:, i] = mv6(IA[:, i], S[i])                            # U_i = IA_i S_i
+        D[:, i] = U[:, i] @ S[i]                                 # D_i = S_i^T U_i
+        u[:, i] = tau[:, i] - pA[:, i] @ S[i]                    # u_i = tau_i - S_i^T pA_i
         if i > 0:
             Ia = IA[:, i] - U[:, i, :, None] * U[:, i, None, :] / D[:, i, None, None]
             pa = pA[:, i] + mv6(Ia, c[:, i]) + U[:, i] * (u[:, i] / D[:, i])[:, None]
             Xi = X[:, i]
-            IA[:, i - 1] += np.swapaxes(Xi, -1, -2) @ Ia @ Xi
-            pA[:, i - 1] += mtv6(Xi, pa)
+            IA[:, i - 1] += np.swapaxes(Xi, -1, -2) @ Ia @ Xi     # IA_{i-1} += X^T Ia X
+            pA[:, i - 1] += mtv6(Xi, pa)                         # pA_{i-1} += X^T pa
     # --- pass 3, outward
     a = np.zeros((N, 6))
-    a[:, 3:] = -g
+    a[:, 3:] = -g                                                # a_{-1} = (0, -g)
     qdd = np.empty((N, n))
     for i in range(n):
-        a = mv6(X[:, i], a) + c[:, i]
+        a = mv6(X[:, i], a) + c[:, i]                            # a'_i = X_i a_{i-1} + c_i
         qdd[:, i] = (u[:, i] - np.einsum("nk,nk->n", U[:, i], a)) / D[:, i]
-        a = a + qdd[:, i, None] * S[i]
+        a = a + qdd[:, i, None] * S[i]                           # a_i = a'_i + S_i qdd_i
     return qdd

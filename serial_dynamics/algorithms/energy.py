@@ -1,9 +1,10 @@
-"""Kinetic and potential energy of the chain."""
+"""Kinetic and potential energy of the chain (joint frames; see serial_dynamics/model.py and
+docs/conventions.md)."""
 import numpy as np
 
 from ._batch import as_batch, mv, unbatch
+from .crba import mass_matrix
 from .kinematics import body_poses
-from .mass_matrix import mass_matrix
 
 
 def kinetic_energy(model, q, qd):
@@ -16,5 +17,5 @@ def potential_energy(model, q):
     """V = -sum_i m_i g . c_i (J), zero with every center of mass at the base origin."""
     single, (q,) = as_batch(model, ("q", q))
     R0, o = body_poses(model, q)
-    c = o + mv(R0, model.com)
+    c = o + mv(R0, model.c)                                  # c_i = o_i + R0_i c[i]
     return unbatch(single, -np.einsum("i,nik,k->n", model.mass, c, model.gravity))

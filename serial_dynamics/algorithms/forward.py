@@ -6,13 +6,15 @@ Two routes (Angeles, *Fundamentals of Robotic Mechanical Systems*, Sec. 7.7):
 - ``"qr"``: for ill-conditioned chains. With H the block-diagonal square root of the 6n x 6n
   mass matrix (M_6n = H^T H), P = H T gives M = P^T P. The QR factor of P, P = Q R, gives
   M = R^T R without ever forming M, so the condition number is not squared.
+
+Both use the joint frames (see serial_dynamics/model.py and docs/conventions.md).
 """
 import numpy as np
 from scipy.linalg import solve_triangular
 
 from ._batch import as_batch, unbatch
+from .crba import mass_matrix
 from .kinematics import body_poses
-from .mass_matrix import mass_matrix
 from .noc import twist_shaping
 from .rnea import _rnea, _wrench_batch
 
@@ -38,9 +40,10 @@ def forward_dynamics(model, q, qd, tau, wrench=None, method="cholesky", gravity=
 
 
 def _P(model, q):
-    """P = H T, with H_i = diag(sqrt(I_i^body) R0_i^T, sqrt(m_i) 1), so H_i^T H_i = M_i."""
+    """P = H T, with H_i = diag(sqrt(I_c[i]) R0_i^T, sqrt(m_i) 1), so H_i^T H_i = M_i, the
+    body's block of the 6n x 6n mass matrix (``noc.mass_blocks``)."""
     N, n = q.shape
-    w, V = np.linalg.eigh(model.inertia)                                    # body-frame inertia
+    w, V = np.linalg.eigh(model.I_c)                                        # joint-frame inertia
     sqrtI = V @ (np.sqrt(np.clip(w, 0, None))[..., None] * np.swapaxes(V, -1, -2))
     R0 = body_poses(model, q)[0]
     T = twist_shaping(model, q).reshape(N, n, 6, n)

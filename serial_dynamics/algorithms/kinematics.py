@@ -1,46 +1,48 @@
-"""Forward kinematics: body poses, frame poses and Jacobians in the base frame."""
+"""Forward kinematics: joint transforms, body poses, frame poses and Jacobians.
+
+Bodies are in joint frames (see serial_dynamics/model.py and docs/conventions.md); poses of
+named links and Jacobians are returned in the base frame and do not depend on that choice.
+"""
 import numpy as np
 
-from ..model import PRISMATIC
-from ._batch import as_batch, mv, rotation_about, unbatch
+from ..joints import PRISMATIC
+from ._batch import as_batch, mv, rot_z, unbatch
 
 
 def joint_transforms(model, q):
-    """Per-joint (R, p): body i's rotation and origin in body i-1's frame. q: (N, n)."""
+    """Body i in body i-1 (N, n, 3, 3), (N, n, 3) for q (N, n) (Featherstone Table 4.1)."""
     N, n = q.shape
-    R = np.empty((N, n, 3, 3))
-    p = np.empty((N, n, 3))
+    R = np.repeat(model.Xtree_R[None], N, axis=0)
+    p = np.repeat(model.Xtree_p[None], N, axis=0)
     for i in range(n):
-        if model.kind[i] == PRISMATIC:   # X = (R0, p0) * (1, a q)
-            R[:, i] = model.R_parent[i]
-            p[:, i] = model.p_parent[i] + np.outer(q[:, i], model.R_parent[i] @ model.axis[i])
-        else:                            # X = (R0, p0) * (Rot(a, q), 0)
-            R[:, i] = model.R_parent[i] @ rotation_about(model.axis[i], q[:, i])
-            p[:, i] = model.p_parent[i]
+        if model.kind[i] == PRISMATIC:   # p = Xtree_p + q Xtree_R e_z
+            p[:, i] += q[:, i, None] * model.Xtree_R[i, :, 2]
+        else:                            # R = Xtree_R Rz(q)
+            R[:, i] = model.Xtree_R[i] @ rot_z(q[:, i])
     return R, p
 
 
 def body_poses(model, q):
-    """Body rotations (N, k, 3, 3) and origins (N, k, 3) in the base frame of the first k
-    bodies; q: (N, k), k <= n (a prefix of the chain)."""
+    """Joint frames of the first k bodies in the base frame: R0 (N, k, 3, 3) and origins
+    o (N, k, 3); q: (N, k), k <= n (a prefix of the chain)."""
     R, p = joint_transforms(model, q)
-    R0, p0 = np.empty_like(R), np.empty_like(p)
-    R0[:, 0], p0[:, 0] = R[:, 0], p[:, 0]
+    R0, o = np.empty_like(R), np.empty_like(p)
+    R0[:, 0], o[:, 0] = R[:, 0], p[:, 0]
     for i in range(1, q.shape[1]):
-        R0[:, i] = R0[:, i - 1] @ R[:, i]
-        p0[:, i] = p0[:, i - 1] + mv(R0[:, i - 1], p[:, i])
-    return R0, p0
+        R0[:, i] = R0[:, i - 1] @ R[:, i]              # R0_i = R0_{i-1} R_i
+        o[:, i] = o[:, i - 1] + mv(R0[:, i - 1], p[:, i])  # o_i = o_{i-1} + R0_{i-1} p_i
+    return R0, o
 
 
 def frame_of(model, link):
-    """(body, R, p) of a link of the model; ``None`` means the tip frame."""
+    """(body, R, p): ``link``'s placement in joint frame ``body`` (-1: base); ``None``: the tip."""
     if link is None:
         link = model.tip_link
     try:
-        return model.frames[link]
+        return model.jframes[link]
     except KeyError:
         raise ValueError(f"link {link!r} is not in the model; known links: "
-                         f"{sorted(model.frames)}") from None
+                         f"{sorted(model.jframes)}") from None
 
 
 def _frame_pose(model, q, link):
@@ -48,8 +50,8 @@ def _frame_pose(model, q, link):
     N = q.shape[0]
     if body < 0:
         return body, np.broadcast_to(Rf, (N, 3, 3)).copy(), np.broadcast_to(pf, (N, 3)).copy()
-    R0, p0 = body_poses(model, q[:, : body + 1])
-    return body, R0[:, body] @ Rf, p0[:, body] + mv(R0[:, body], pf)
+    R0, o = body_poses(model, q[:, : body + 1])
+    return body, R0[:, body] @ Rf, o[:, body] + mv(R0[:, body], pf)
 
 
 def forward_kinematics(model, q, link=None):
@@ -64,19 +66,20 @@ def forward_kinematics(model, q, link=None):
 def jacobian(model, q, link=None):
     """Geometric Jacobian (N, 6, n) of ``link``'s origin, [linear; angular], base frame.
 
-    Column j: revolute  [z_j x (o - o_j); z_j],  prismatic [z_j; 0].
+    Column j, with z_j = R0_j e_z the joint axis: revolute [z_j x (o - o_j); z_j],
+    prismatic [z_j; 0].
     """
     single, (q,) = as_batch(model, ("q", q))
     body, _, o = _frame_pose(model, q, link)
     N, n = q.shape
     J = np.zeros((N, 6, n))
     if body >= 0:
-        R0, p0 = body_poses(model, q[:, : body + 1])
+        R0, o_j = body_poses(model, q[:, : body + 1])
         for j in range(body + 1):
-            z = mv(R0[:, j], model.axis[j])
+            z = R0[:, j, :, 2]
             if model.kind[j] == PRISMATIC:
                 J[:, :3, j] = z
             else:
-                J[:, :3, j] = np.cross(z, o - p0[:, j])
+                J[:, :3, j] = np.cross(z, o - o_j[:, j])
                 J[:, 3:, j] = z
     return unbatch(single, J)

@@ -5,23 +5,27 @@ systems using a natural orthogonal complement", J. Appl. Mech. 55; Angeles,
 *Fundamentals of Robotic Mechanical Systems*, Sec. 7.5-7.6.
 
 The 6n-dimensional twist of the chain stacks, per body i, t_i = [omega_i; cdot_i]
-(angular velocity first, then the velocity of the center of mass), base frame.
-Then t = T(q) qd, with T the twist-shaping matrix, and K t = 0 for the constraint
-matrix K, so K T = 0. With M = diag(I_i, m_i 1) and W = diag([omega_i]x, 0):
+(angular velocity first, then the velocity of the center of mass), in BASE coordinates,
+as in the textbook. The geometry comes once from the joint frames (see
+serial_dynamics/model.py and docs/conventions.md): with R0_i, o_i the pose of joint frame i
+in the base, z_i = R0_i e_z, c_i = o_i + R0_i c[i] and the inertia about c_i in base axes
+R0_i I_c[i] R0_i^T. Then t = T(q) qd, with T the twist-shaping matrix, and K t = 0 for
+the constraint matrix K, so K T = 0. With M = diag(I_i, m_i 1) and W = diag([omega_i]x, 0):
 
     mass matrix        I = T^T M T
     Coriolis matrix    C = T^T M Tdot + T^T W M T
 """
 import numpy as np
 
-from ..model import PRISMATIC
+from ..joints import PRISMATIC
 from ._batch import as_batch, mv, skew, unbatch
 from .kinematics import body_poses
 
 
 def _geometry(model, q):
+    """Joint-frame poses R0, o; joint axes z_i = R0_i e_z; centers of mass c_i; base frame."""
     R0, o = body_poses(model, q)
-    return R0, o, mv(R0, model.axis), o + mv(R0, model.com)   # R0, origins, axes z, coms c
+    return R0, o, R0[..., 2], o + mv(R0, model.c)
 
 
 def _body_velocities(model, o, z, qd):
@@ -87,10 +91,10 @@ def _block_diag(blocks):
 
 
 def mass_blocks(model, q):
-    """Per-body 6x6 blocks diag(I_i, m_i 1) in the base frame, (N, n, 6, 6)."""
+    """Per-body 6x6 blocks diag(I_i, m_i 1) in the base frame, (N, n, 6, 6); I_i about c_i."""
     R0 = body_poses(model, q)[0]
     B = np.zeros(R0.shape[:2] + (6, 6))
-    B[..., :3, :3] = R0 @ model.inertia @ np.swapaxes(R0, -1, -2)
+    B[..., :3, :3] = R0 @ model.I_c @ np.swapaxes(R0, -1, -2)        # I_i = R0_i I_c R0_i^T
     B[..., 3:, 3:] = model.mass[:, None, None] * np.eye(3)
     return B
 

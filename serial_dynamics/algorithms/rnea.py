@@ -1,17 +1,22 @@
-"""Inverse dynamics by the recursive Newton-Euler algorithm (RNEA).
+"""Inverse dynamics by the recursive Newton-Euler algorithm (RNEA), in 3-vectors.
 
-Outward recursion for body velocities and accelerations, inward recursion for the
-forces between bodies (Angeles, *Fundamentals of Robotic Mechanical Systems*, 4th ed.,
-Sec. 7.5; Craig, *Introduction to Robotics*, Sec. 6.5). Vectors of body i are in body
-i's frame. Gravity enters as a base acceleration -g (Luh, Walker & Paul, 1980).
+Joint frames (see serial_dynamics/model.py and docs/conventions.md): every vector of body i
+is in joint frame i, moments about its origin. Outward recursion for the angular velocity
+omega, angular acceleration alpha and linear acceleration ``acc`` of the body origin; inward
+recursion for the force f and moment n that body i-1 exerts on body i. This is Featherstone,
+*Rigid Body Dynamics Algorithms* (2008), Table 5.1, written out in 3-vectors with the
+classical acceleration of the origin (Sec. 2.11) in place of the spatial one (Luh, Walker &
+Paul 1980). Gravity enters as the base acceleration acc_{-1} = -g (Sec. 5.3).
 
 Returns what the actuators must supply:  tau = M(q) qdd + b(q, qd) - J^T w.
 """
 import numpy as np
 
-from ..model import PRISMATIC
+from ..joints import PRISMATIC
 from ._batch import as_batch, mtv, mv, unbatch
 from .kinematics import joint_transforms
+
+E_Z = np.array([0.0, 0.0, 1.0])   # every joint's axis, in its joint frame
 
 
 def inverse_dynamics(model, q, qd, qdd, wrench=None, gravity=None):
@@ -38,47 +43,45 @@ def _wrench_batch(wrench, N):
 def _rnea(model, q, qd, qdd, g, w):
     N, n = q.shape
     R, p = joint_transforms(model, q)
-    a, kind = model.axis, model.kind
-    omega = np.zeros((N, 3))          # angular velocity of the previous body
-    alpha = np.zeros((N, 3))          # its angular acceleration
-    acc = np.broadcast_to(-g, (N, 3))  # linear acceleration of its origin; base: -g
-    F = np.empty((N, n, 3))           # net force on body i (Newton)
-    Nm = np.empty((N, n, 3))          # net moment about its center of mass (Euler)
-    # --- outward recursion: body velocities and accelerations
+    omega = np.zeros((N, 3))            # angular velocity of body i-1
+    alpha = np.zeros((N, 3))            # its angular acceleration
+    acc = np.broadcast_to(-g, (N, 3))   # linear acceleration of its origin; base: -g
+    fB = np.empty((N, n, 3))            # rate of change of momentum of body i: force
+    nB = np.empty((N, n, 3))            # and moment about its origin
+    # --- outward: velocities and accelerations
     for i in range(n):
-        # origin acceleration of body i, carried from body i-1: a + alpha x p + w x (w x p)
-        acc = mtv(R[:, i], acc + np.cross(alpha, p[:, i]) + np.cross(omega, np.cross(omega, p[:, i])))
-        omega, alpha = mtv(R[:, i], omega), mtv(R[:, i], alpha)
-        qd_a, qdd_a = qd[:, i, None] * a[i], qdd[:, i, None] * a[i]
-        if kind[i] == PRISMATIC:      # relative sliding: Coriolis 2 w x v_rel + a_rel
-            acc = acc + 2.0 * np.cross(omega, qd_a) + qdd_a
-        else:                         # relative spin: alpha += w x qd a + qdd a
-            alpha = alpha + np.cross(omega, qd_a) + qdd_a
-            omega = omega + qd_a
-        c = model.com[i]
-        acc_c = acc + np.cross(alpha, c) + np.cross(omega, np.cross(omega, c))
-        I = model.inertia[i]
-        F[:, i] = model.mass[i] * acc_c                                    # f = m a_c
-        Nm[:, i] = alpha @ I.T + np.cross(omega, omega @ I.T)              # n = I alpha + w x I w
-    # --- inward recursion: forces between bodies; tip load -w acts on the environment
-    f, m = np.zeros((N, 3)), np.zeros((N, 3))
-    if w is not None:
-        R_tip = _tip_rotation(R)                 # base <- last body
+        # body i-1's motion at body i's origin, in joint frame i
+        acc = acc + np.cross(alpha, p[:, i]) + np.cross(omega, np.cross(omega, p[:, i]))
+        acc, omega, alpha = mtv(R[:, i], acc), mtv(R[:, i], omega), mtv(R[:, i], alpha)
+        qd_z, qdd_z = qd[:, i, None] * E_Z, qdd[:, i, None] * E_Z
+        if model.kind[i] == PRISMATIC:   # sliding along e_z: acc += 2 w x qd e_z + qdd e_z
+            acc = acc + 2.0 * np.cross(omega, qd_z) + qdd_z
+        else:                            # spin about e_z: alpha += w x qd e_z + qdd e_z
+            alpha = alpha + np.cross(omega, qd_z) + qdd_z
+            omega = omega + qd_z
+        # Newton-Euler about the body origin: f = m acc + alpha x h + w x (w x h),
+        # n = I_O alpha + w x I_O w + h x acc
+        m, h, I_O = model.mass[i], model.h[i], model.I_O[i]
+        fB[:, i] = m * acc + np.cross(alpha, h) + np.cross(omega, np.cross(omega, h))
+        nB[:, i] = alpha @ I_O.T + np.cross(omega, omega @ I_O.T) + np.cross(h, acc)
+    # --- inward: joint forces; the tip load -w acts on the environment
+    f, nm = np.zeros((N, 3)), np.zeros((N, 3))
+    if w is not None:                    # -w in joint frame n-1, moment about its origin
+        R_tip = _tip_rotation(R)         # base <- joint frame n-1
         f = -mtv(R_tip, w[:, :3])
-        m = -mtv(R_tip, w[:, 3:]) + np.cross(model.tip_p, f)   # moment about body origin
+        nm = -mtv(R_tip, w[:, 3:]) + np.cross(model.Xtip_p, f)
     tau = np.empty((N, n))
     for i in range(n - 1, -1, -1):
-        if i < n - 1:   # carry the outboard joint's force into body i's frame
-            f_out, m_out = mv(R[:, i + 1], f), mv(R[:, i + 1], m)
-            m = m_out + np.cross(p[:, i + 1], f_out)
-            f = f_out
-        f = f + F[:, i]
-        m = m + Nm[:, i] + np.cross(model.com[i], F[:, i])
-        tau[:, i] = (f if kind[i] == PRISMATIC else m) @ a[i]              # tau_i = a_i . (f|n)_i
+        if i < n - 1:                    # child's load into frame i: f' = R f, n' = R n + p x f'
+            f = mv(R[:, i + 1], f)
+            nm = mv(R[:, i + 1], nm) + np.cross(p[:, i + 1], f)
+        f, nm = f + fB[:, i], nm + nB[:, i]
+        tau[:, i] = f[:, 2] if model.kind[i] == PRISMATIC else nm[:, 2]   # tau_i = S_i^T (n; f)
     return tau
 
 
 def _tip_rotation(R):
+    """R0 of the last joint frame (base <- joint frame n-1) from the joint rotations R."""
     R0 = R[:, 0]
     for i in range(1, R.shape[1]):
         R0 = R0 @ R[:, i]

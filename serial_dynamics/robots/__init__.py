@@ -19,6 +19,11 @@ import os
 
 import numpy as np
 
+# The lower-level modules, not the package: ``serial_dynamics/__init__`` imports this
+# module, so importing ``load_urdf`` from the package here would be an import cycle.
+from ..robot import Robot
+from ..urdf import load_model
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 BUILTIN = ("ur5e", "planar_3r", "spatial_3r")
 DEFAULT = "ur5e"
@@ -156,9 +161,9 @@ def builtin_path(name: str = DEFAULT) -> str:
 
 
 def builtin_robot(name: str = DEFAULT, **kwargs):
-    """Load a built-in robot (keyword arguments as for ``load_urdf``)."""
-    from .. import load_urdf
-    return load_urdf(builtin_path(name), **kwargs)
+    """Load a built-in robot (keyword arguments as for ``load_urdf``: base_link, tip_link,
+    gravity); what ``serial_dynamics.load_urdf(builtin_path(name), **kwargs)`` returns."""
+    return Robot(load_model(builtin_path(name), **kwargs))
 
 
 def default_robot(**kwargs):

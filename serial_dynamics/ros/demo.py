@@ -28,7 +28,7 @@ from std_srvs.srv import SetBool
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 import serial_dynamics as sd
-from serial_dynamics.simulate import FixedStepIntegrator
+from serial_dynamics.sim.fixed_step import FixedStepIntegrator
 from serial_dynamics.trajectory import pick_and_place
 
 from . import common

@@ -23,7 +23,8 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool, Trigger
 
-from serial_dynamics.simulate import FixedStepIntegrator, SimulationError
+from serial_dynamics.sim.fixed_step import FixedStepIntegrator
+from serial_dynamics.sim.methods import SimulationError
 
 from . import common
 from .common import Rejected, StartupError
@@ -36,7 +37,7 @@ PARAMETERS = {
     "position_limits": ("bool", True, "hard stops at the URDF joint limits (a joint that "
                         "reaches one stops there: plastic impact)"),
     "integrator": ("string", "semi_implicit_euler", "fixed-step method of "
-                   "serial_dynamics.simulate.FixedStepIntegrator"),
+                   "serial_dynamics.sim.fixed_step.FixedStepIntegrator"),
     "sim_dt": ("double", 0.001, "integration step (s)"),
     "real_time_factor": ("double", 1.0, "simulated s per wall-clock s; 0 = as fast as possible"),
     "publish_rate": ("double", 100.0, "joint_states rate (Hz of simulated time)"),

@@ -13,7 +13,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 
 def test_core_library_does_not_import_rclpy():
     code = ("import sys, numpy as np, serial_dynamics as sd, serial_dynamics.cli, "
-            "serial_dynamics.simulate, serial_dynamics.trajectory\n"
+            "serial_dynamics.sim.driver, serial_dynamics.trajectory\n"
             "r = sd.default_robot(); r.warmup(); r.inverse_dynamics(np.zeros(6), np.zeros(6), np.zeros(6))\n"
             "bad = sorted(m for m in sys.modules if m.startswith(('rclpy', 'rcl_', 'std_msgs', 'sensor_msgs')))\n"
             "assert not bad, bad")

@@ -14,7 +14,7 @@ from std_srvs.srv import SetBool, Trigger
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 import serial_dynamics as sd
-from serial_dynamics.simulate import FixedStepIntegrator
+from serial_dynamics.sim.fixed_step import FixedStepIntegrator
 
 from conftest import HOME, Latest, wait_for_log
 

@@ -1,0 +1,35 @@
+"""Generalized inertia (mass) matrix by the composite-rigid-body algorithm (CRBA).
+
+Featherstone, *Rigid Body Dynamics Algorithms* (2008), Sec. 6.2 and Table 6.2, in joint
+frames (see serial_dynamics/model.py and docs/conventions.md): the composite inertia IC_i of
+bodies i..n-1 is a 6x6 spatial inertia about joint i's origin, in joint frame i, and
+S_i = e_z (angular for a revolute joint, linear for a prismatic one).
+
+    IC_i = I_i;   IC_{i-1} += Xup_i^T IC_i Xup_i           (composite bodies, inward)
+    F = IC_i S_i;  M_ii = S_i^T F;  F = Xup_j^T F, M_ij = S_j^T F   for j = i-1 .. 0
+
+with Xup_i the motion transform from joint frame i-1 to joint frame i.
+"""
+import numpy as np
+
+from ._batch import as_batch, motion_subspaces, motion_transform, rigid_body_inertia, unbatch
+from .kinematics import joint_transforms
+
+
+def mass_matrix(model, q):
+    """M(q), (n, n) or (N, n, n); symmetric positive definite for a valid model."""
+    single, (q,) = as_batch(model, ("q", q))
+    N, n = q.shape
+    Xup = motion_transform(*joint_transforms(model, q))            # (N, n, 6, 6)
+    S = motion_subspaces(model)                                     # (n, 6)
+    IC = np.repeat(rigid_body_inertia(model.mass, model.h, model.I_O)[None], N, axis=0)
+    M = np.empty((N, n, n))
+    for i in range(n - 1, -1, -1):
+        if i > 0:                                                   # IC_{i-1} += X^T IC_i X
+            IC[:, i - 1] += np.swapaxes(Xup[:, i], -1, -2) @ IC[:, i] @ Xup[:, i]
+        F = IC[:, i] @ S[i]                                         # F = IC_i S_i
+        M[:, i, i] = F @ S[i]                                       # M_ii = S_i^T F
+        for j in range(i - 1, -1, -1):
+            F = np.einsum("nki,nk->ni", Xup[:, j + 1], F)           # F = Xup_{j+1}^T F
+            M[:, i, j] = M[:, j, i] = F @ S[j]                      # M_ij = S_j^T F
+    return unbatch(single, M)

@@ -1,0 +1,75 @@
+"""The compiled core (numba): one module per algorithm, in joint frames.
+
+    layout.py     the model as one read-only array P (``pack``), its named columns
+    data.py       Data: the named scratch arrays of one evaluation
+    spatial.py    inline helpers: sincos, joint transforms, frame changes of vectors/forces
+    rnea.py       inverse dynamics (Newton-Euler)     rnea_lanes.py  the same, B samples in SIMD lanes
+    crba.py       mass matrix (composite rigid bodies)
+    cholesky.py   M x = b                             aba.py         articulated bodies
+    forward.py    forward dynamics (Cholesky or ABA)  flags.py       the entry points' flags
+
+Each algorithm is the same as its NumPy reference in ``algorithms/`` (same frames and
+symbols; docs/conventions.md). Entry points take the packed model ``P`` and C-contiguous
+float64 arrays, write into ``out`` and return a status: 0 ok, 1 a NaN/Inf in an input (the
+caller then raises the reference's ValueError naming it), 2 a wrong length. Batch
+kernels take (N, n) inputs, or (1, n) to broadcast one row, and release the GIL so that
+``Robot`` can split a large batch over the cores.
+
+``K`` compiles each entry point on first use with its explicit signature and
+``cache=True`` (seconds once per machine; loading from the numba cache in ``__pycache__``
+takes milliseconds); ``python -m serial_dynamics.core`` fills the cache. No fast-math
+flag anywhere: IEEE arithmetic, so results do not depend on what was compiled or
+inlined where (bitwise the same in every process, whatever the cache holds).
+"""
+from numba import njit
+
+from . import crba, forward, rnea, rnea_lanes
+from .signatures import In1, In2, Out1, Out2, Out3, Pm, i8
+
+ENTRY_POINTS = {   # name: (function, signature, releases the GIL)
+    "rnea": (rnea.rnea, i8(Pm, In1, In1, In1, i8, Out1), False),
+    "rnea_wrench": (rnea.rnea_wrench, i8(Pm, In1, In1, In1, In1, i8, Out1), False),
+    "crba": (crba.crba, i8(Pm, In1, Out2), False),
+    "fd": (forward.fd, i8(Pm, In1, In1, In1, i8, Out1), False),
+    "fd_wrench": (forward.fd_wrench, i8(Pm, In1, In1, In1, In1, i8, Out1), False),
+    "rnea_batch": (rnea_lanes.rnea_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True),
+    "crba_batch": (crba.crba_batch, i8(Pm, In2, Out3), True),
+    "fd_batch": (forward.fd_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True),
+}
+
+
+class _Kernels:
+    """Compiled entry points, built (compiled or loaded from the cache) on first access.
+    Each accepts only its signature; anything else raises TypeError."""
+
+    def __getattr__(self, name):
+        if name not in ENTRY_POINTS:
+            raise AttributeError(name)
+        func, sig, nogil = ENTRY_POINTS[name]
+        kernel = njit([sig], cache=True, nogil=nogil)(func)
+        setattr(self, name, kernel)
+        return kernel
+
+    def load_all(self, names=None):
+        """Compile or load ``names`` (default: every entry point)."""
+        for name in ENTRY_POINTS if names is None else names:
+            getattr(self, name)
+        return self
+
+
+class _Unchecked:
+    """The same entry points without numba's type dispatch: the compiled function's own
+    CPython entry, ~130 ns faster per call. It does NOT check its arguments' types (an
+    int64 array would be read as float64): only for callers that have checked that every
+    array argument is a float64 ndarray of the signature's number of dimensions
+    (``Robot`` does, before each single-state call)."""
+
+    def __getattr__(self, name):
+        kernel = getattr(K, name)
+        entry = kernel.overloads[kernel.signatures[0]].entry_point
+        setattr(self, name, entry)
+        return entry
+
+
+K = _Kernels()
+UNCHECKED = _Unchecked()

@@ -1,0 +1,223 @@
+"""Forward dynamics, compiled: the articulated-body algorithm (ABA), O(n), in joint frames.
+
+The same algorithm, frames and symbols as ``algorithms/aba.py`` (Featherstone 2008,
+Table 7.1); spatial vectors angular first, S = e_z (index 2 revolute, 5 prismatic):
+
+    pass 1 (outward)  v_i = Xup_i v_{i-1} + S_i qd_i     c_i = v_i x S_i qd_i
+                      IA_i = I_i                          pA_i = v_i x* I_i v_i - f_ext_i
+    pass 2 (inward)   U_i = IA_i S_i   D_i = S_i^T U_i    u_i = tau_i - S_i^T pA_i
+                      Ia = IA_i - U_i U_i^T / D_i         pa = pA_i + Ia c_i + U_i u_i / D_i
+                      IA_{i-1} += Xup_i^T Ia Xup_i        pA_{i-1} += Xup_i^T pa
+    pass 3 (outward)  a'_i = Xup_i a_{i-1} + c_i          qdd_i = (u_i - U_i^T a'_i) / D_i
+                      a_i = a'_i + S_i qdd_i              with a_{-1} = (0, -g)
+
+With the DAMPING flag, D_i += damping_i: (M + diag(damping)) qdd = tau - b.
+Ia and pa overwrite IA_i and pA_i once U_i, D_i, u_i are taken from them.
+"""
+from numba import njit
+
+from . import flags as F
+from .layout import G, H, IO, KIND, MASS, TIPP
+from .signatures import In1, Out1, Out2, Out3, Pm, f8, i8
+from .spatial import finite, joint_transforms, to_child, to_parent
+
+
+@njit(cache=True, inline="always")
+def rot_block(R, i, X, a0, b0, Y):
+    """Y = R_i X_blk R_i^T for the 3x3 block of the 6x6 X at rows a0.., columns b0.."""
+    for a in range(3):
+        for b in range(3):
+            s = 0.0
+            for k in range(3):
+                t = 0.0
+                for m in range(3):
+                    t += X[a0 + k, b0 + m] * R[i, b, m]
+                s += R[i, a, k] * t
+            Y[a, b] = s
+
+
+@njit(f8(Pm, Out2, Out3, Out2, Out3, Out2, Out2, Out2, Out2, Out2, In1, In1, In1, In1, In1, i8,
+        Out1), cache=True)
+def aba_core(P, sc, R, p, IA, pA, U, c, Du, Y, q, qd, tau, w, damping, flags, out):
+    """qdd into ``out``. Returns 0.0, or NaN if an input has a NaN/Inf entry."""
+    n = out.shape[0]
+    use_qd = (flags & F.QD) != 0
+    chk = joint_transforms(P, sc, R, p, q, n)
+    # --- pass 1, outward: velocities, velocity-product accelerations c, bias forces pA
+    vx = vy = vz = ux = uy = uz = 0.0    # (omega; v_O) of the previous body
+    for i in range(n):
+        dq = qd[i] if use_qd else 0.0
+        chk += finite(dq) + finite(tau[i])
+        px, py, pz = p[i, 0], p[i, 1], p[i, 2]
+        # v_i = Xup_i v_{i-1}: omega = R^T omega, v_O = R^T (v_O + omega x p)
+        sx, sy, sz = ux - (py * vz - pz * vy), uy - (pz * vx - px * vz), uz - (px * vy - py * vx)
+        wx, wy, wz = to_child(R, i, vx, vy, vz)
+        ux, uy, uz = to_child(R, i, sx, sy, sz)
+        if P[i, KIND] == 0.0:            # c = v x (S qd), then v += S qd
+            c[i, 0], c[i, 1], c[i, 2], c[i, 3], c[i, 4], c[i, 5] = wy * dq, -wx * dq, 0.0, uy * dq, -ux * dq, 0.0
+            wz += dq
+        else:
+            c[i, 0], c[i, 1], c[i, 2], c[i, 3], c[i, 4], c[i, 5] = 0.0, 0.0, 0.0, wy * dq, -wx * dq, 0.0
+            uz += dq
+        vx, vy, vz = wx, wy, wz
+        # IA_i = I_i = [[I_O, [h]x], [[h]x^T, m 1]]  (Featherstone 2008, eq. 2.63)
+        m = P[i, MASS]
+        hx, hy, hz = P[i, H], P[i, H + 1], P[i, H + 2]
+        Ixx, Iyy, Izz, Ixy, Ixz, Iyz = (P[i, IO], P[i, IO + 1], P[i, IO + 2], P[i, IO + 3],
+                                        P[i, IO + 4], P[i, IO + 5])
+        I6 = IA[i]
+        I6[0, 0], I6[0, 1], I6[0, 2] = Ixx, Ixy, Ixz
+        I6[1, 0], I6[1, 1], I6[1, 2] = Ixy, Iyy, Iyz
+        I6[2, 0], I6[2, 1], I6[2, 2] = Ixz, Iyz, Izz
+        I6[0, 3], I6[0, 4], I6[0, 5] = 0.0, -hz, hy
+        I6[1, 3], I6[1, 4], I6[1, 5] = hz, 0.0, -hx
+        I6[2, 3], I6[2, 4], I6[2, 5] = -hy, hx, 0.0
+        for a in range(3):
+            for b in range(3):
+                I6[3 + a, b] = I6[b, 3 + a]
+                I6[3 + a, 3 + b] = m if a == b else 0.0
+        # pA = v x* (I v): momentum L = I_O omega + h x v_O, Pm = m v_O + omega x h;
+        # (omega, v_O) x* (L, Pm) = (omega x L + v_O x Pm, omega x Pm)
+        Lx = Ixx * wx + Ixy * wy + Ixz * wz + hy * uz - hz * uy
+        Ly = Ixy * wx + Iyy * wy + Iyz * wz + hz * ux - hx * uz
+        Lz = Ixz * wx + Iyz * wy + Izz * wz + hx * uy - hy * ux
+        Px = m * ux + wy * hz - wz * hy
+        Py = m * uy + wz * hx - wx * hz
+        Pz = m * uz + wx * hy - wy * hx
+        pA[i, 0] = wy * Lz - wz * Ly + uy * Pz - uz * Py
+        pA[i, 1] = wz * Lx - wx * Lz + uz * Px - ux * Pz
+        pA[i, 2] = wx * Ly - wy * Lx + ux * Py - uy * Px
+        pA[i, 3] = wy * Pz - wz * Py
+        pA[i, 4] = wz * Px - wx * Pz
+        pA[i, 5] = wx * Py - wy * Px
+    if (flags & F.WRENCH) != 0:          # pA_{n-1} -= the tip wrench, about the last origin
+        fx, fy, fz, mx, my, mz = w[0], w[1], w[2], w[3], w[4], w[5]
+        chk += finite(fx) + finite(fy) + finite(fz) + finite(mx) + finite(my) + finite(mz)
+        for i in range(n):               # base -> last body
+            fx, fy, fz = to_child(R, i, fx, fy, fz)
+            mx, my, mz = to_child(R, i, mx, my, mz)
+        tpx, tpy, tpz = P[n, TIPP], P[n, TIPP + 1], P[n, TIPP + 2]
+        k = n - 1
+        pA[k, 0] -= mx + tpy * fz - tpz * fy
+        pA[k, 1] -= my + tpz * fx - tpx * fz
+        pA[k, 2] -= mz + tpx * fy - tpy * fx
+        pA[k, 3] -= fx
+        pA[k, 4] -= fy
+        pA[k, 5] -= fz
+    # --- pass 2, inward: articulated inertias and bias forces
+    for i in range(n - 1, -1, -1):
+        I6 = IA[i]
+        s = 2 if P[i, KIND] == 0.0 else 5
+        D = I6[s, s]                                        # D = S^T IA S (+ damping)
+        if (flags & F.DAMPING) != 0:
+            D += damping[i]
+        u = tau[i] - pA[i, s]                               # u = tau - S^T pA
+        for a in range(6):
+            U[i, a] = I6[a, s]                              # U = IA S
+        Du[i, 0], Du[i, 1] = D, u
+        if i == 0:
+            break
+        # Ia = IA - U U^T / D;  pa = pA + Ia c + U u / D  (both in place)
+        for a in range(6):
+            Ua = U[i, a] / D
+            acc = pA[i, a] + Ua * u
+            for b in range(6):
+                I6[a, b] = I6[a, b] - Ua * U[i, b]
+                acc += I6[a, b] * c[i, b]
+            pA[i, a] = acc
+        # IA_{i-1} += Xup_i^T Ia Xup_i: rotate the blocks by R, then shift by p:
+        # A' = A1 - B1 [p]x + [p]x B1^T - [p]x C1 [p]x,  B' = B1 + [p]x C1,  C' = C1
+        px, py, pz = p[i, 0], p[i, 1], p[i, 2]
+        PA = IA[i - 1]
+        rot_block(R, i, I6, 3, 3, Y)                        # C1
+        C00, C01, C02, C11, C12, C22 = Y[0, 0], Y[0, 1], Y[0, 2], Y[1, 1], Y[1, 2], Y[2, 2]
+        # PC = [p]x C1
+        q00, q01, q02 = py * Y[2, 0] - pz * Y[1, 0], py * Y[2, 1] - pz * Y[1, 1], py * Y[2, 2] - pz * Y[1, 2]
+        q10, q11, q12 = pz * Y[0, 0] - px * Y[2, 0], pz * Y[0, 1] - px * Y[2, 1], pz * Y[0, 2] - px * Y[2, 2]
+        q20, q21, q22 = px * Y[1, 0] - py * Y[0, 0], px * Y[1, 1] - py * Y[0, 1], px * Y[1, 2] - py * Y[0, 2]
+        PA[3, 3] += C00
+        PA[3, 4] += C01
+        PA[3, 5] += C02
+        PA[4, 3] += C01
+        PA[4, 4] += C11
+        PA[4, 5] += C12
+        PA[5, 3] += C02
+        PA[5, 4] += C12
+        PA[5, 5] += C22
+        rot_block(R, i, I6, 0, 3, Y)                        # B1
+        B00, B01, B02, B10, B11, B12, B20, B21, B22 = (Y[0, 0], Y[0, 1], Y[0, 2], Y[1, 0], Y[1, 1],
+                                                       Y[1, 2], Y[2, 0], Y[2, 1], Y[2, 2])
+        # B' = B1 + PC, and its transpose in the lower-left block
+        b00, b01, b02 = B00 + q00, B01 + q01, B02 + q02
+        b10, b11, b12 = B10 + q10, B11 + q11, B12 + q12
+        b20, b21, b22 = B20 + q20, B21 + q21, B22 + q22
+        PA[0, 3] += b00
+        PA[0, 4] += b01
+        PA[0, 5] += b02
+        PA[1, 3] += b10
+        PA[1, 4] += b11
+        PA[1, 5] += b12
+        PA[2, 3] += b20
+        PA[2, 4] += b21
+        PA[2, 5] += b22
+        PA[3, 0] += b00
+        PA[4, 0] += b01
+        PA[5, 0] += b02
+        PA[3, 1] += b10
+        PA[4, 1] += b11
+        PA[5, 1] += b12
+        PA[3, 2] += b20
+        PA[4, 2] += b21
+        PA[5, 2] += b22
+        # Q = B1 [p]x  (column k of [p]x is e_k x ... : ([p]x)_{:,0} = (0, pz, -py), etc.)
+        e00, e01, e02 = B01 * pz - B02 * py, B02 * px - B00 * pz, B00 * py - B01 * px
+        e10, e11, e12 = B11 * pz - B12 * py, B12 * px - B10 * pz, B10 * py - B11 * px
+        e20, e21, e22 = B21 * pz - B22 * py, B22 * px - B20 * pz, B20 * py - B21 * px
+        # PCP = PC [p]x  (symmetric)
+        f00, f01, f02 = q01 * pz - q02 * py, q02 * px - q00 * pz, q00 * py - q01 * px
+        f11, f12 = q12 * px - q10 * pz, q10 * py - q11 * px
+        f22 = q20 * py - q21 * px
+        rot_block(R, i, I6, 0, 0, Y)                        # A1
+        # A' = A1 - Q - Q^T - PCP
+        PA[0, 0] += Y[0, 0] - 2.0 * e00 - f00
+        PA[1, 1] += Y[1, 1] - 2.0 * e11 - f11
+        PA[2, 2] += Y[2, 2] - 2.0 * e22 - f22
+        t01 = Y[0, 1] - e01 - e10 - f01
+        t02 = Y[0, 2] - e02 - e20 - f02
+        t12 = Y[1, 2] - e12 - e21 - f12
+        PA[0, 1] += t01
+        PA[1, 0] += t01
+        PA[0, 2] += t02
+        PA[2, 0] += t02
+        PA[1, 2] += t12
+        PA[2, 1] += t12
+        # pA_{i-1} += Xup_i^T pa
+        nx, ny, nz, fx, fy, fz = to_parent(R, p, i, pA[i, 0], pA[i, 1], pA[i, 2],
+                                           pA[i, 3], pA[i, 4], pA[i, 5])
+        k = i - 1
+        pA[k, 0] += nx
+        pA[k, 1] += ny
+        pA[k, 2] += nz
+        pA[k, 3] += fx
+        pA[k, 4] += fy
+        pA[k, 5] += fz
+    # --- pass 3, outward: accelerations; base acceleration (0, -g)
+    ax = ay = az = 0.0
+    lx, ly, lz = -P[n, G], -P[n, G + 1], -P[n, G + 2]
+    for i in range(n):
+        px, py, pz = p[i, 0], p[i, 1], p[i, 2]
+        # a'_i = Xup_i a_{i-1} + c_i
+        sx, sy, sz = lx - (py * az - pz * ay), ly - (pz * ax - px * az), lz - (px * ay - py * ax)
+        ax, ay, az = to_child(R, i, ax, ay, az)
+        lx, ly, lz = to_child(R, i, sx, sy, sz)
+        ax, ay, az = ax + c[i, 0], ay + c[i, 1], az + c[i, 2]
+        lx, ly, lz = lx + c[i, 3], ly + c[i, 4], lz + c[i, 5]
+        # qdd_i = (u_i - U_i^T a'_i) / D_i;  a_i = a'_i + S_i qdd_i
+        Ua = U[i, 0] * ax + U[i, 1] * ay + U[i, 2] * az + U[i, 3] * lx + U[i, 4] * ly + U[i, 5] * lz
+        qdd = (Du[i, 1] - Ua) / Du[i, 0]
+        out[i] = qdd
+        if P[i, KIND] == 0.0:
+            az += qdd
+        else:
+            lz += qdd
+    return chk

@@ -1,0 +1,109 @@
+"""Mass matrix, compiled: the composite-rigid-body algorithm in joint frames.
+
+The same algorithm and frames as ``algorithms/crba.py`` (Featherstone 2008, Table 6.2):
+the composite inertia of bodies i..n-1 about body i's origin, IC_i = I_i + Xup_{i+1}^T
+IC_{i+1} Xup_{i+1}; F = IC_i S_i, carried to the base with F = Xup_j^T F; M_ji = S_j^T F.
+In a chain the composite is carried in registers from the tip to the base as its ten
+inertial parameters (m, h = m c, I_O), not as a 6x6 matrix.
+"""
+from numba import njit, types
+
+from .data import new_kin
+from .signatures import Out2, Out3, Pm
+from .layout import H, IO, KIND, MASS, NJ
+from .spatial import joint_transforms, to_parent
+
+
+def crba_core(P, R, p, M):
+    """M into ``M`` (n, n); R, p hold the joint transforms (``joint_transforms``)."""
+    n = M.shape[0]
+    k = n - 1
+    m, hx, hy, hz = P[k, MASS], P[k, H], P[k, H + 1], P[k, H + 2]
+    Ixx, Iyy, Izz, Ixy, Ixz, Iyz = (P[k, IO], P[k, IO + 1], P[k, IO + 2], P[k, IO + 3],
+                                    P[k, IO + 4], P[k, IO + 5])
+    for i in range(n - 1, -1, -1):
+        # F = IC_i S_i: the momentum of composite i.. moving with a unit joint rate
+        if P[i, KIND] == 0.0:       # unit spin about z: n = I_O e_z, f = e_z x h
+            nx, ny, nz, fx, fy, fz = Ixz, Iyz, Izz, -hy, hx, 0.0
+            M[i, i] = nz
+        else:                       # unit slide along z: n = h x e_z, f = m e_z
+            nx, ny, nz, fx, fy, fz = hy, -hx, 0.0, 0.0, 0.0, m
+            M[i, i] = fz
+        j = i
+        while j > 1:                # carry F into the parent frame: F = Xup_j^T F
+            nx, ny, nz, fx, fy, fz = to_parent(R, p, j, nx, ny, nz, fx, fy, fz)
+            j -= 1
+            M[j, i] = nz if P[j, KIND] == 0.0 else fz     # M_ji = S_j^T F
+            M[i, j] = M[j, i]
+        if i > 0:
+            if j == 1:              # last step, into body 0: only S_0^T F is needed
+                if P[0, KIND] == 0.0:
+                    gx = R[1, 0, 0] * fx + R[1, 0, 1] * fy + R[1, 0, 2] * fz
+                    gy = R[1, 1, 0] * fx + R[1, 1, 1] * fy + R[1, 1, 2] * fz
+                    M[0, i] = (R[1, 2, 0] * nx + R[1, 2, 1] * ny + R[1, 2, 2] * nz
+                               + p[1, 0] * gy - p[1, 1] * gx)
+                else:
+                    M[0, i] = R[1, 2, 0] * fx + R[1, 2, 1] * fy + R[1, 2, 2] * fz
+                M[i, 0] = M[0, i]
+            # composite i-1 = body i-1 + composite i carried into frame i-1:
+            # h_R = R h, I_R = R I_O R^T (T = R I_O, then T R^T)
+            r0, r1, r2 = R[i, 0, 0], R[i, 0, 1], R[i, 0, 2]
+            r3, r4, r5 = R[i, 1, 0], R[i, 1, 1], R[i, 1, 2]
+            r6, r7, r8 = R[i, 2, 0], R[i, 2, 1], R[i, 2, 2]
+            px, py, pz = p[i, 0], p[i, 1], p[i, 2]
+            gx, gy, gz = r0 * hx + r1 * hy + r2 * hz, r3 * hx + r4 * hy + r5 * hz, r6 * hx + r7 * hy + r8 * hz
+            if i == 1:              # of composite 0 only S_0^T IC_0 S_0 is needed
+                if P[0, KIND] == 0.0:
+                    t6, t7, t8 = r6 * Ixx + r7 * Ixy + r8 * Ixz, r6 * Ixy + r7 * Iyy + r8 * Iyz, r6 * Ixz + r7 * Iyz + r8 * Izz
+                    d = 2.0 * (gx * px + gy * py) + m * (px * px + py * py)
+                    M[0, 0] = P[0, IO + 2] + t6 * r6 + t7 * r7 + t8 * r8 + d
+                else:
+                    M[0, 0] = P[0, MASS] + m
+                return
+            t0, t1, t2 = r0 * Ixx + r1 * Ixy + r2 * Ixz, r0 * Ixy + r1 * Iyy + r2 * Iyz, r0 * Ixz + r1 * Iyz + r2 * Izz
+            t3, t4, t5 = r3 * Ixx + r4 * Ixy + r5 * Ixz, r3 * Ixy + r4 * Iyy + r5 * Iyz, r3 * Ixz + r4 * Iyz + r5 * Izz
+            t6, t7, t8 = r6 * Ixx + r7 * Ixy + r8 * Ixz, r6 * Ixy + r7 * Iyy + r8 * Iyz, r6 * Ixz + r7 * Iyz + r8 * Izz
+            Jxx, Jyy, Jzz = t0 * r0 + t1 * r1 + t2 * r2, t3 * r3 + t4 * r4 + t5 * r5, t6 * r6 + t7 * r7 + t8 * r8
+            Jxy, Jxz, Jyz = t0 * r3 + t1 * r4 + t2 * r5, t0 * r6 + t1 * r7 + t2 * r8, t3 * r6 + t4 * r7 + t5 * r8
+            # parallel axes to the parent origin (Featherstone 2008, eq. 2.63):
+            # I' = I_R + (2 h_R.p + m p.p) 1 - (h_R p^T + p h_R^T + m p p^T),  h' = h_R + m p
+            d = 2.0 * (gx * px + gy * py + gz * pz) + m * (px * px + py * py + pz * pz)
+            k = i - 1
+            Ixx = P[k, IO] + Jxx + d - 2.0 * gx * px - m * px * px
+            Iyy = P[k, IO + 1] + Jyy + d - 2.0 * gy * py - m * py * py
+            Izz = P[k, IO + 2] + Jzz + d - 2.0 * gz * pz - m * pz * pz
+            Ixy = P[k, IO + 3] + Jxy - gx * py - px * gy - m * px * py
+            Ixz = P[k, IO + 4] + Jxz - gx * pz - px * gz - m * px * pz
+            Iyz = P[k, IO + 5] + Jyz - gy * pz - py * gz - m * py * pz
+            hx = P[k, H] + gx + m * px
+            hy = P[k, H + 1] + gy + m * py
+            hz = P[k, H + 2] + gz + m * pz
+            m = P[k, MASS] + m
+
+
+crba_inline = njit(cache=True, inline="always")(crba_core)   # into the single-state entry
+crba_core = njit(types.void(Pm, Out3, Out2, Out2), cache=True)(crba_core)   # called by the others
+
+
+# ------------------------------------------------------------------ entry points
+def crba(P, q, out):
+    """Mass matrix of one configuration into ``out`` (n, n). Returns 0, 1 (NaN/Inf), 2."""
+    n = int(P[0, NJ])
+    if q.shape[0] != n or out.shape[0] != n or out.shape[1] != n:
+        return 2
+    d = new_kin(n)
+    chk = joint_transforms(P, d.sc, d.R, d.p, q, n)
+    crba_inline(P, d.R, d.p, out)
+    return 0 if chk == 0.0 else 1
+
+
+def crba_batch(P, q, out):
+    """Mass matrices (N, n, n) of N configurations (N, n). Returns 0, or 1 on a NaN/Inf."""
+    n = int(P[0, NJ])
+    d = new_kin(n)
+    bad = 0
+    for k in range(q.shape[0]):
+        if joint_transforms(P, d.sc, d.R, d.p, q[k], n) != 0.0:
+            bad = 1
+        crba_core(P, d.R, d.p, out[k])
+    return bad

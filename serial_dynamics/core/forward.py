@@ -1,0 +1,102 @@
+"""Forward dynamics, compiled: qdd = M(q)^-1 (tau - b(q, qd) + J^T w), by one of two routes
+(the same as ``algorithms/forward.py`` and ``algorithms/aba.py``):
+
+- Cholesky: b by Newton-Euler at zero acceleration, M by the composite-rigid-body
+  algorithm, then M = L L^T and two triangular solves (Featherstone 2008, Sec. 6.3);
+- ABA: the articulated-body algorithm, O(n) (``aba.py``), for long chains.
+
+``Robot.forward_dynamics(method="auto")`` picks the route by chain length
+(``algorithms.aba.CROSSOVER``). With the DAMPING flag both solve
+(M + diag(damping)) qdd = tau - b (the simulator's implicit joint damping).
+"""
+from numba import njit
+
+from . import flags as F
+from .aba import aba_core
+from .cholesky import cholesky_solve
+from .crba import crba_core
+from .data import new_art, new_chol, new_kin
+from .signatures import In1, Out1, Out2, Out3, Pm, f8, i8
+from .layout import NJ
+from .rnea import rnea_core, status
+from .spatial import finite
+
+
+def cholesky_core(P, sc, R, p, f, M, b, q, qd, tau, w, damping, flags, out):
+    """qdd into ``out`` by the Cholesky route. Returns 0.0, or NaN on a NaN/Inf input."""
+    n = out.shape[0]
+    chk = rnea_core(P, sc, R, p, f, q, qd, q, w, flags & (F.QD | F.WRENCH), b)   # b - J^T w
+    for i in range(n):
+        chk += finite(tau[i])
+        b[i] = tau[i] - b[i]
+    crba_core(P, R, p, M)                # R, p: the joint transforms of q, from rnea_core
+    if (flags & F.DAMPING) != 0:
+        for i in range(n):
+            M[i, i] += damping[i]
+    cholesky_solve(M, b, out)
+    return chk
+
+
+cholesky_inline = njit(cache=True, inline="always")(cholesky_core)   # into the entry fd
+cholesky_core = njit(f8(Pm, Out2, Out3, Out2, Out2, Out2, Out1, In1, In1, In1, In1, In1, i8, Out1),
+                     cache=True)(cholesky_core)                      # called by the others
+
+
+# ------------------------------------------------------------------ entry points
+@njit(cache=True, inline="always")
+def _checked_length(P, q, qd, tau, out):
+    n = int(P[0, NJ])
+    return q.shape[0] == n and qd.shape[0] == n and tau.shape[0] == n and out.shape[0] == n
+
+
+def fd(P, q, qd, tau, flags, out):
+    """Forward dynamics of one state into ``out`` (n,): Cholesky, or ABA with flag ABA.
+    Returns 0, 1 (NaN/Inf) or 2 (a wrong length). (Unread arguments -- no wrench, no
+    damping -- are given ``q`` and ``tau``.)"""
+    if not _checked_length(P, q, qd, tau, out):
+        return 2
+    n = out.shape[0]
+    d = new_kin(n)
+    flags &= ~(F.WRENCH | F.DAMPING)
+    if (flags & F.ABA) != 0:
+        a = new_art(n)
+        return status(aba_core(P, d.sc, d.R, d.p, a.IA, a.pA, a.U, a.c, a.Du, a.Y,
+                               q, qd, tau, q, tau, flags, out))
+    c = new_chol(n)
+    return status(cholesky_inline(P, d.sc, d.R, d.p, d.f, c.M, c.b, q, qd, tau, q, tau, flags, out))
+
+
+def fd_wrench(P, q, qd, tau, w, flags, out):
+    """``fd`` with the tip wrench ``w`` (6,), [f; m] in base coordinates, on the tip."""
+    if not _checked_length(P, q, qd, tau, out) or w.shape[0] != 6:
+        return 2
+    n = out.shape[0]
+    d = new_kin(n)
+    flags = (flags | F.WRENCH) & ~F.DAMPING
+    if (flags & F.ABA) != 0:
+        a = new_art(n)
+        return status(aba_core(P, d.sc, d.R, d.p, a.IA, a.pA, a.U, a.c, a.Du, a.Y,
+                               q, qd, tau, w, tau, flags, out))
+    c = new_chol(n)
+    return status(cholesky_core(P, d.sc, d.R, d.p, d.f, c.M, c.b, q, qd, tau, w, tau, flags, out))
+
+
+def fd_batch(P, q, qd, tau, w, flags, out):
+    """Forward dynamics of N states (rows broadcast as in ``rnea_batch``). Returns 0, or 1
+    if some input had a NaN/Inf."""
+    N = out.shape[0]
+    n = int(P[0, NJ])
+    d, c, a = new_kin(n), new_chol(n), new_art(n)
+    nq, nv, nt, nw = q.shape[0] > 1, qd.shape[0] > 1, tau.shape[0] > 1, w.shape[0] > 1
+    flags &= ~F.DAMPING
+    bad = 0
+    for k in range(N):
+        qk, qdk, tk, wk = q[k if nq else 0], qd[k if nv else 0], tau[k if nt else 0], w[k if nw else 0]
+        if (flags & F.ABA) != 0:
+            chk = aba_core(P, d.sc, d.R, d.p, a.IA, a.pA, a.U, a.c, a.Du, a.Y,
+                           qk, qdk, tk, wk, tk, flags, out[k])
+        else:
+            chk = cholesky_core(P, d.sc, d.R, d.p, d.f, c.M, c.b, qk, qdk, tk, wk, tk, flags, out[k])
+        if chk != 0.0:
+            bad = 1
+    return bad

@@ -1,0 +1,117 @@
+"""Inverse dynamics, compiled: the recursive Newton-Euler algorithm in joint frames.
+
+The same equations, frames and symbols as ``algorithms/rnea.py`` (the readable reference):
+outward, the angular velocity omega (w*), angular acceleration alpha (a*) and classical
+acceleration of the body origin acc (l*) of each body, gravity as the base acceleration
+-g (Luh, Walker & Paul, 1980); the body wrench about its origin; inward, the joint
+wrenches and tau_i = S_i^T f_i (Featherstone 2008, Sec. 5.3). The tip wrench w (ROS
+order [f; m], base frame, exerted on the tip) enters as the load -w on the last body.
+"""
+from numba import njit
+
+from . import flags as F
+from .data import new_kin
+from .signatures import In1, Out1, Out2, Out3, Pm, f8, i8
+from .layout import G, H, IO, KIND, MASS, NJ, TIPP
+from .spatial import finite, joint_transforms, to_child, to_parent
+
+
+def rnea_core(P, sc, R, p, f, q, qd, qdd, w, flags, tau):
+    """tau = M(q) qdd + b(q, qd) - J^T w into ``tau``; fills the Data arrays sc, R, p, f. Returns 0.0, or
+    NaN if an input has a NaN/Inf entry. Every operation is that of the lane-parallel
+    batch kernel (rnea_lanes.py) in the same order, so both give the same bits."""
+    n = tau.shape[0]
+    use_qd, use_qdd, use_w = (flags & F.QD) != 0, (flags & F.QDD) != 0, (flags & F.WRENCH) != 0
+    chk = joint_transforms(P, sc, R, p, q, n)
+    wx = wy = wz = 0.0                                  # omega of the previous body
+    ax = ay = az = 0.0                                  # alpha
+    lx, ly, lz = -P[n, G], -P[n, G + 1], -P[n, G + 2]   # acc; base: -g
+    ex = ey = ez = mx = my = mz = 0.0                   # tip wrench [f; m], carried outward
+    if use_w:
+        ex, ey, ez, mx, my, mz = w[0], w[1], w[2], w[3], w[4], w[5]
+        chk += finite(ex) + finite(ey) + finite(ez) + finite(mx) + finite(my) + finite(mz)
+    for i in range(n):
+        dq = qd[i] if use_qd else 0.0
+        ddq = qdd[i] if use_qdd else 0.0
+        chk += finite(dq) + finite(ddq)
+        px, py, pz = p[i, 0], p[i, 1], p[i, 2]
+        # acc + alpha x p + omega x (omega x p), then into body i
+        ux, uy, uz = wy * pz - wz * py, wz * px - wx * pz, wx * py - wy * px
+        tx = lx + ay * pz - az * py + wy * uz - wz * uy
+        ty = ly + az * px - ax * pz + wz * ux - wx * uz
+        tz = lz + ax * py - ay * px + wx * uy - wy * ux
+        lx, ly, lz = to_child(R, i, tx, ty, tz)
+        wx, wy, wz = to_child(R, i, wx, wy, wz)
+        ax, ay, az = to_child(R, i, ax, ay, az)
+        if P[i, KIND] == 0.0:       # spin about z: alpha += omega x (qd e_z) + qdd e_z
+            ax, ay, az = ax + wy * dq, ay - wx * dq, az + ddq
+            wz = wz + dq
+        else:                       # slide along z: acc += 2 omega x (qd e_z) + qdd e_z
+            lx, ly, lz = lx + 2.0 * wy * dq, ly - 2.0 * wx * dq, lz + ddq
+        # body wrench about its origin: n = I_O alpha + omega x (I_O omega) + h x acc,
+        #                                f = m acc + alpha x h + omega x (omega x h)
+        m = P[i, MASS]
+        hx, hy, hz = P[i, H], P[i, H + 1], P[i, H + 2]
+        Ixx, Iyy, Izz, Ixy, Ixz, Iyz = (P[i, IO], P[i, IO + 1], P[i, IO + 2], P[i, IO + 3],
+                                        P[i, IO + 4], P[i, IO + 5])
+        ux, uy, uz = wy * hz - wz * hy, wz * hx - wx * hz, wx * hy - wy * hx
+        f[i, 3] = m * lx + ay * hz - az * hy + wy * uz - wz * uy
+        f[i, 4] = m * ly + az * hx - ax * hz + wz * ux - wx * uz
+        f[i, 5] = m * lz + ax * hy - ay * hx + wx * uy - wy * ux
+        Lx = Ixx * wx + Ixy * wy + Ixz * wz
+        Ly = Ixy * wx + Iyy * wy + Iyz * wz
+        Lz = Ixz * wx + Iyz * wy + Izz * wz
+        f[i, 0] = Ixx * ax + Ixy * ay + Ixz * az + wy * Lz - wz * Ly + hy * lz - hz * ly
+        f[i, 1] = Ixy * ax + Iyy * ay + Iyz * az + wz * Lx - wx * Lz + hz * lx - hx * lz
+        f[i, 2] = Ixz * ax + Iyz * ay + Izz * az + wx * Ly - wy * Lx + hx * ly - hy * lx
+        if use_w:
+            ex, ey, ez = to_child(R, i, ex, ey, ez)
+            mx, my, mz = to_child(R, i, mx, my, mz)
+    # inward: f_i = body wrench + Xup_{i+1}^T f_{i+1}, tau_i = S_i^T f_i; the last body
+    # carries the load -w of the environment (moment about its origin: m + Xtip_p x f)
+    k = n - 1
+    tpx, tpy, tpz = P[n, TIPP], P[n, TIPP + 1], P[n, TIPP + 2]
+    fx, fy, fz = f[k, 3] - ex, f[k, 4] - ey, f[k, 5] - ez
+    nx = f[k, 0] - mx - tpy * ez + tpz * ey
+    ny = f[k, 1] - my - tpz * ex + tpx * ez
+    nz = f[k, 2] - mz - tpx * ey + tpy * ex
+    tau[k] = nz if P[k, KIND] == 0.0 else fz          # tau_i = S_i^T (n; f)
+    for i in range(n - 2, -1, -1):
+        nx, ny, nz, fx, fy, fz = to_parent(R, p, i + 1, nx, ny, nz, fx, fy, fz)
+        fx, fy, fz = fx + f[i, 3], fy + f[i, 4], fz + f[i, 5]
+        nx, ny, nz = nx + f[i, 0], ny + f[i, 1], nz + f[i, 2]
+        tau[i] = nz if P[i, KIND] == 0.0 else fz
+    return chk
+
+
+rnea_inline = njit(cache=True, inline="always")(rnea_core)   # into the single-state entries
+rnea_core = njit(f8(Pm, Out2, Out3, Out2, Out2, In1, In1, In1, In1, i8, Out1),
+                 cache=True)(rnea_core)                            # called by the others
+
+
+@njit(cache=True, inline="always")
+def status(chk):
+    """An entry point's return value: 0 ok, 1 a NaN/Inf in an input."""
+    return 0 if chk == 0.0 else 1
+
+
+# ------------------------------------------------------------------ entry points
+# Two single-state entry points, without and with a tip wrench: every array argument of
+# a compiled call costs ~40 ns of dispatch, a fifth of a short chain's whole call.
+def rnea(P, q, qd, qdd, flags, out):
+    """Inverse dynamics of one state into ``out`` (n,). Returns 0, 1 (NaN/Inf), 2 (length)."""
+    n = int(P[0, NJ])
+    if q.shape[0] != n or qd.shape[0] != n or qdd.shape[0] != n or out.shape[0] != n:
+        return 2
+    d = new_kin(n)
+    return status(rnea_inline(P, d.sc, d.R, d.p, d.f, q, qd, qdd, q, flags & ~F.WRENCH, out))
+
+
+def rnea_wrench(P, q, qd, qdd, w, flags, out):
+    """``rnea`` with the tip wrench ``w`` (6,), [f; m] in base coordinates, on the tip."""
+    n = int(P[0, NJ])
+    if (q.shape[0] != n or qd.shape[0] != n or qdd.shape[0] != n or out.shape[0] != n
+            or w.shape[0] != 6):
+        return 2
+    d = new_kin(n)
+    return status(rnea_core(P, d.sc, d.R, d.p, d.f, q, qd, qdd, w, flags | F.WRENCH, out))

@@ -1,0 +1,186 @@
+"""Inverse dynamics of a batch, compiled: B samples at a time in SIMD lanes.
+
+A batch shares one kinematic structure, so B samples can run in lock step: every
+quantity is stored with the sample index (lane) last, shape (rows, B), and each step is a
+loop over the lanes that the compiler turns into vector instructions (AVX: 4 or 8 lanes).
+The lane count is read at run time (from P): LLVM vectorizes such loops with run-time
+overlap checks between the arrays, which it cannot do once it has unrolled a loop of
+known length. Same equations, frames and symbols as ``rnea.py``; every lane computes
+exactly what ``rnea_core`` computes for its sample (same operations in the same order),
+so a sample's torques do not depend on its batch or its place in it.
+"""
+import numpy as np
+from numba import njit
+
+from . import flags as F
+from .data import new_kin
+from .layout import G, H, IO, KIND, LANES, MASS, NJ, TIPP, XP, XR
+from .rnea import rnea_core
+from .spatial import SMALL_ANGLE, sincos
+
+@njit(cache=True)
+def rnea_block(P, n, flags, QV, WB, RB, PB, FB, ST, TB):
+    """Inverse dynamics of nl samples (lanes) in lock step: QV (3n, nl) rows q, qd, qdd;
+    WB (6, nl) tip wrenches (base frame); scratch RB (9n, nl) rotations, PB (3n, nl)
+    translations, FB (6n, nl) body wrenches, ST (15, nl) state (omega, alpha, a, then the
+    wrench force and moment); torques into TB (n, nl). Every lane loop is innermost and
+    branch-free (the joint kind, the same in every lane, picks values by selects), so that
+    it vectorizes."""
+    nl = QV.shape[1]                     # a run-time count (see above)
+    use_w = (flags & F.WRENCH) != 0
+    for k in range(15):
+        v = -P[n, G + k - 6] if 6 <= k < 9 else 0.0      # omega = alpha = 0, a = -g
+        for b in range(nl):
+            ST[k, b] = WB[k - 9, b] if k >= 9 and use_w else v
+    for i in range(n):
+        rp0, rp1, rp2, rp3, rp4, rp5, rp6, rp7, rp8 = (P[i, XR], P[i, XR + 1], P[i, XR + 2],
+                                                       P[i, XR + 3], P[i, XR + 4], P[i, XR + 5],
+                                                       P[i, XR + 6], P[i, XR + 7], P[i, XR + 8])
+        pp0, pp1, pp2 = P[i, XP], P[i, XP + 1], P[i, XP + 2]
+        ri, pi, fi = 9 * i, 3 * i, 6 * i
+        kp = P[i, KIND]                  # 1 prismatic, 0 revolute
+        rev = kp == 0.0                  # the same in every lane: selects, not branches
+        # joint transform R = Rp' Rz(q) | Rp',  p = p' | p' + q Rp' e_z
+        if kp == 0.0:
+            for b in range(nl):
+                s, c = sincos(QV[i, b])
+                RB[ri, b], RB[ri + 1, b], RB[ri + 2, b] = c * rp0 + s * rp1, c * rp1 - s * rp0, rp2
+                RB[ri + 3, b], RB[ri + 4, b], RB[ri + 5, b] = c * rp3 + s * rp4, c * rp4 - s * rp3, rp5
+                RB[ri + 6, b], RB[ri + 7, b], RB[ri + 8, b] = c * rp6 + s * rp7, c * rp7 - s * rp6, rp8
+                PB[pi, b], PB[pi + 1, b], PB[pi + 2, b] = pp0, pp1, pp2
+        else:
+            for b in range(nl):
+                qi = QV[i, b]
+                RB[ri, b], RB[ri + 1, b], RB[ri + 2, b] = rp0, rp1, rp2
+                RB[ri + 3, b], RB[ri + 4, b], RB[ri + 5, b] = rp3, rp4, rp5
+                RB[ri + 6, b], RB[ri + 7, b], RB[ri + 8, b] = rp6, rp7, rp8
+                PB[pi, b], PB[pi + 1, b], PB[pi + 2, b] = pp0 + qi * rp2, pp1 + qi * rp5, pp2 + qi * rp8
+        # carry omega, alpha, a into body i, add the joint rates
+        for b in range(nl):
+            r0, r1, r2 = RB[ri, b], RB[ri + 1, b], RB[ri + 2, b]
+            r3, r4, r5 = RB[ri + 3, b], RB[ri + 4, b], RB[ri + 5, b]
+            r6, r7, r8 = RB[ri + 6, b], RB[ri + 7, b], RB[ri + 8, b]
+            px, py, pz = PB[pi, b], PB[pi + 1, b], PB[pi + 2, b]
+            wx, wy, wz = ST[0, b], ST[1, b], ST[2, b]
+            ax, ay, az = ST[3, b], ST[4, b], ST[5, b]
+            # a + alpha x p + w x (w x p), then into body i: x_i = R^T x
+            ux, uy, uz = wy * pz - wz * py, wz * px - wx * pz, wx * py - wy * px
+            tx = ST[6, b] + ay * pz - az * py + wy * uz - wz * uy
+            ty = ST[7, b] + az * px - ax * pz + wz * ux - wx * uz
+            tz = ST[8, b] + ax * py - ay * px + wx * uy - wy * ux
+            lx, ly, lz = r0 * tx + r3 * ty + r6 * tz, r1 * tx + r4 * ty + r7 * tz, r2 * tx + r5 * ty + r8 * tz
+            wx, wy, wz = r0 * wx + r3 * wy + r6 * wz, r1 * wx + r4 * wy + r7 * wz, r2 * wx + r5 * wy + r8 * wz
+            ax, ay, az = r0 * ax + r3 * ay + r6 * az, r1 * ax + r4 * ay + r7 * az, r2 * ax + r5 * ay + r8 * az
+            # spin: alpha += w x (qd e_z) + qdd e_z, w += qd e_z; slide: a += 2 w x (qd e_z) + qdd e_z
+            dq, ddq = QV[n + i, b], QV[2 * n + i, b]
+            ST[3, b] = ax + wy * dq if rev else ax
+            ST[4, b] = ay - wx * dq if rev else ay
+            ST[5, b] = az + ddq if rev else az
+            ST[6, b] = lx if rev else lx + 2.0 * wy * dq
+            ST[7, b] = ly if rev else ly - 2.0 * wx * dq
+            ST[8, b] = lz if rev else lz + ddq
+            ST[0, b], ST[1, b], ST[2, b] = wx, wy, (wz + dq if rev else wz)
+        # body wrench about its origin: f = m a + alpha x h + w x (w x h),
+        #                                n = I_o alpha + w x (I_o w) + h x a
+        m = P[i, MASS]
+        hx, hy, hz = P[i, H], P[i, H + 1], P[i, H + 2]
+        Ixx, Iyy, Izz, Ixy, Ixz, Iyz = (P[i, IO], P[i, IO + 1], P[i, IO + 2], P[i, IO + 3],
+                                        P[i, IO + 4], P[i, IO + 5])
+        for b in range(nl):
+            wx, wy, wz = ST[0, b], ST[1, b], ST[2, b]
+            ax, ay, az = ST[3, b], ST[4, b], ST[5, b]
+            lx, ly, lz = ST[6, b], ST[7, b], ST[8, b]
+            ux, uy, uz = wy * hz - wz * hy, wz * hx - wx * hz, wx * hy - wy * hx
+            FB[fi, b] = m * lx + ay * hz - az * hy + wy * uz - wz * uy
+            FB[fi + 1, b] = m * ly + az * hx - ax * hz + wz * ux - wx * uz
+            FB[fi + 2, b] = m * lz + ax * hy - ay * hx + wx * uy - wy * ux
+            Lx = Ixx * wx + Ixy * wy + Ixz * wz
+            Ly = Ixy * wx + Iyy * wy + Iyz * wz
+            Lz = Ixz * wx + Iyz * wy + Izz * wz
+            FB[fi + 3, b] = Ixx * ax + Ixy * ay + Ixz * az + wy * Lz - wz * Ly + hy * lz - hz * ly
+            FB[fi + 4, b] = Ixy * ax + Iyy * ay + Iyz * az + wz * Lx - wx * Lz + hz * lx - hx * lz
+            FB[fi + 5, b] = Ixz * ax + Iyz * ay + Izz * az + wx * Ly - wy * Lx + hx * ly - hy * lx
+        if use_w:                        # the tip wrench, carried into body i
+            for b in range(nl):
+                r0, r1, r2 = RB[ri, b], RB[ri + 1, b], RB[ri + 2, b]
+                r3, r4, r5 = RB[ri + 3, b], RB[ri + 4, b], RB[ri + 5, b]
+                r6, r7, r8 = RB[ri + 6, b], RB[ri + 7, b], RB[ri + 8, b]
+                x, y, z = ST[9, b], ST[10, b], ST[11, b]
+                ST[9, b], ST[10, b], ST[11, b] = (r0 * x + r3 * y + r6 * z, r1 * x + r4 * y + r7 * z,
+                                                  r2 * x + r5 * y + r8 * z)
+                x, y, z = ST[12, b], ST[13, b], ST[14, b]
+                ST[12, b], ST[13, b], ST[14, b] = (r0 * x + r3 * y + r6 * z, r1 * x + r4 * y + r7 * z,
+                                                   r2 * x + r5 * y + r8 * z)
+    # inward recursion (ST rows 0..5: f, m); the tip load -w acts on the environment
+    tpx, tpy, tpz = P[n, TIPP], P[n, TIPP + 1], P[n, TIPP + 2]
+    fi = 6 * (n - 1)
+    rev = P[n - 1, KIND] == 0.0
+    for b in range(nl):
+        fx, fy, fz = FB[fi, b] - ST[9, b], FB[fi + 1, b] - ST[10, b], FB[fi + 2, b] - ST[11, b]
+        mx = FB[fi + 3, b] - ST[12, b] - tpy * ST[11, b] + tpz * ST[10, b]
+        my = FB[fi + 4, b] - ST[13, b] - tpz * ST[9, b] + tpx * ST[11, b]
+        mz = FB[fi + 5, b] - ST[14, b] - tpx * ST[10, b] + tpy * ST[9, b]
+        ST[0, b], ST[1, b], ST[2, b], ST[3, b], ST[4, b], ST[5, b] = fx, fy, fz, mx, my, mz
+        TB[n - 1, b] = mz if rev else fz                   # tau_i = S_i^T (n; f)
+    for i in range(n - 2, -1, -1):
+        fi, rj, pj = 6 * i, 9 * (i + 1), 3 * (i + 1)
+        rev = P[i, KIND] == 0.0
+        for b in range(nl):              # outboard force into body i: f = R f, m = R m + p x f
+            r0, r1, r2 = RB[rj, b], RB[rj + 1, b], RB[rj + 2, b]
+            r3, r4, r5 = RB[rj + 3, b], RB[rj + 4, b], RB[rj + 5, b]
+            r6, r7, r8 = RB[rj + 6, b], RB[rj + 7, b], RB[rj + 8, b]
+            px, py, pz = PB[pj, b], PB[pj + 1, b], PB[pj + 2, b]
+            fx, fy, fz = ST[0, b], ST[1, b], ST[2, b]
+            mx, my, mz = ST[3, b], ST[4, b], ST[5, b]
+            fx, fy, fz = r0 * fx + r1 * fy + r2 * fz, r3 * fx + r4 * fy + r5 * fz, r6 * fx + r7 * fy + r8 * fz
+            mx, my, mz = r0 * mx + r1 * my + r2 * mz, r3 * mx + r4 * my + r5 * mz, r6 * mx + r7 * my + r8 * mz
+            mx, my, mz = mx + py * fz - pz * fy, my + pz * fx - px * fz, mz + px * fy - py * fx
+            fx, fy, fz = fx + FB[fi, b], fy + FB[fi + 1, b], fz + FB[fi + 2, b]
+            mx, my, mz = mx + FB[fi + 3, b], my + FB[fi + 4, b], mz + FB[fi + 5, b]
+            ST[0, b], ST[1, b], ST[2, b], ST[3, b], ST[4, b], ST[5, b] = fx, fy, fz, mx, my, mz
+            TB[i, b] = mz if rev else fz
+
+
+
+
+# ------------------------------------------------------------------ entry point
+def rnea_batch(P, q, qd, qdd, w, flags, out):
+    """Inverse dynamics of N states: q, qd, qdd (N, n) or (1, n) broadcast; w (N, 6) or
+    (1, 6). Blocks of B samples run in lanes; a block with a NaN/Inf or a huge angle, and
+    a tail of fewer than B/4 samples, go through ``rnea_core`` (which checks, and reduces
+    huge angles exactly). Returns 0, or 1 if some input had a NaN/Inf."""
+    N = out.shape[0]
+    n = int(P[0, NJ])
+    L = int(P[0, LANES])                 # lanes (= B), read at run time on purpose
+    d = new_kin(n)
+    QV, WB, TB, ST = np.zeros((3 * n, L)), np.zeros((6, L)), np.zeros((n, L)), np.zeros((15, L))
+    RB, PB, FB = np.zeros((9 * n, L)), np.zeros((3 * n, L)), np.zeros((6 * n, L))
+    nq, nv, na, nw = q.shape[0] > 1, qd.shape[0] > 1, qdd.shape[0] > 1, w.shape[0] > 1
+    use_qd, use_qdd, use_w = (flags & F.QD) != 0, (flags & F.QDD) != 0, (flags & F.WRENCH) != 0
+    bad = 0
+    for k0 in range(0, N, L):
+        ok = N - k0 >= L // 4                # a short tail: one sample at a time
+        for b in range(L if ok else 0):      # gather the block (the last one padded)
+            k = min(k0 + b, N - 1)
+            for i in range(n):
+                x = q[k if nq else 0, i]
+                y = qd[k if nv else 0, i] if use_qd else 0.0
+                z = qdd[k if na else 0, i] if use_qdd else 0.0
+                QV[i, b], QV[n + i, b], QV[2 * n + i, b] = x, y, z
+                ok &= abs(x) < SMALL_ANGLE and y * 0.0 == 0.0 and z * 0.0 == 0.0
+            if use_w:
+                for j in range(6):
+                    x = w[k if nw else 0, j]
+                    WB[j, b] = x
+                    ok &= x * 0.0 == 0.0
+        if ok:
+            rnea_block(P, n, flags, QV, WB, RB, PB, FB, ST, TB)
+            for b in range(min(L, N - k0)):
+                for i in range(n):
+                    out[k0 + b, i] = TB[i, b]
+        else:
+            for k in range(k0, min(k0 + L, N)):
+                if rnea_core(P, d.sc, d.R, d.p, d.f, q[k if nq else 0], qd[k if nv else 0], qdd[k if na else 0],
+                             w[k if nw else 0], flags, out[k]) != 0.0:
+                    bad = 1
+    return bad

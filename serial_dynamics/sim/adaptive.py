@@ -1,0 +1,133 @@
+"""The adaptive run loop of ``simulate``: scipy.integrate's OdeSolver classes ("RK45",
+"DOP853", "Radau", "BDF", "LSODA") stepped one step at a time, with the state checks,
+the output grid by dense output, and the work statistics (rejected steps included).
+
+The state is y = [q, qd, W_act, W_diss, W_ext]: the works are integrated alongside.
+Coulomb friction is regularized (``Dissipation.smooth_torque``). The implicit solvers get
+a Jacobian from one batched forward-dynamics call over perturbed states. Only public
+solver attributes are read.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .equations import EnergyGuard, Equations
+from .methods import IMPLICIT, SimulationError, advice
+from .result import SolverStats, finish
+
+
+def run_adaptive(robot, duration, q0, qd0, inputs, method, rtol, atol, max_step, first_step,
+                 dissipation, smoothing, output_dt, check_energy, bar):
+    """``simulate`` with an adaptive method."""
+    import scipy.integrate as si
+    eq = Equations(robot, dissipation, smoothing)
+    n = eq.n
+    smooth = eq.coulomb_on
+    has_w = inputs.wrench is not None
+    counter = [0]
+
+    def fun(t, y):
+        counter[0] += 1
+        q, qd = y[:n], y[n:2 * n]
+        if not (np.all(np.isfinite(q)) and np.all(np.isfinite(qd))):
+            return np.full_like(y, np.nan)      # the solver rejects the step
+        tau, w = inputs(t, q, qd)
+        qdd, delta = eq.accel(q, qd, tau, w, smooth=smooth)
+        p_ext = float(eq.ext_power(q, qd, w)) if has_w else 0.0
+        return np.concatenate([qd, qdd, [tau @ qd, delta @ qd, p_ext]])
+
+    def jac(t, y):
+        """Forward differences of the state equations: one batched dynamics call over the
+        state and its 2n perturbations (instead of scipy's column-by-column differences)."""
+        h = 1e-7 * np.maximum(1.0, np.abs(y[:2 * n]))
+        X = np.repeat(y[None, :2 * n], 2 * n + 1, axis=0)
+        X[1 + np.arange(2 * n), np.arange(2 * n)] += h
+        Q, V = X[:, :n], X[:, n:]
+        tau, w = inputs.batch(t, Q, V)
+        A, D = eq.accel(Q, V, tau, w, smooth=smooth)
+        P = np.column_stack([np.einsum("ij,ij->i", tau, V), np.einsum("ij,ij->i", D, V),
+                             eq.ext_power(Q, V, w) if has_w else np.zeros(len(V))])
+        J = np.zeros((2 * n + 3, 2 * n + 3))
+        J[:n, n:2 * n] = np.eye(n)
+        J[n:2 * n, :2 * n] = ((A[1:] - A[0]) / h[:, None]).T
+        J[2 * n:, :2 * n] = ((P[1:] - P[0]) / h[:, None]).T
+        return J
+
+    y0 = np.concatenate([q0, qd0, np.zeros(3)])
+    Solver = getattr(si, method)
+    kw = dict(rtol=rtol, atol=atol, max_step=max_step)
+    if first_step is not None:
+        kw["first_step"] = first_step
+    if method in IMPLICIT:
+        kw["jac"] = jac
+    solver = Solver(fun, 0.0, y0, duration, **kw)
+    per_attempt = getattr(solver, "n_stages", None)   # RK: evaluations per attempted step
+    guard = EnergyGuard(eq, q0, qd0, method, None, check_energy)
+    grid = None if output_dt is None else np.append(np.arange(0.0, duration, output_dt), duration)
+    ts, Ys = [0.0], [y0]
+    gi = 1
+    steps = rejected = 0
+    while solver.status == "running":
+        t_old = solver.t
+        proposed = proposed_step(solver, max_step, duration)
+        before = counter[0]
+        message = solver.step()
+        if solver.status == "failed":
+            y = solver.y
+            j = int(np.argmax(np.abs(y[n:2 * n]))) if np.all(np.isfinite(y)) else 0
+            raise SimulationError(
+                f"{method} failed at t = {solver.t:.6g} s ({message}); the fastest joint is "
+                f"{eq.names[j]!r}. {advice(method)}", solver.t, eq.names[j], "solver")
+        steps += 1
+        taken = solver.t - t_old
+        if per_attempt is not None:
+            rejected += max(0, (counter[0] - before) // per_attempt - 1)
+        elif proposed is not None and taken < proposed * (1 - 1e-9):
+            rejected += 1
+        y = solver.y
+        eq.check_state(solver.t, y[:n], y[n:2 * n], method)
+        if grid is None:
+            ts.append(solver.t)
+            Ys.append(y.copy())
+        else:
+            dense = None
+            while gi < grid.size and grid[gi] <= solver.t + 1e-12 * max(1.0, duration):
+                if grid[gi] >= solver.t - 1e-15:
+                    ts.append(solver.t)
+                    Ys.append(y.copy())
+                else:
+                    dense = dense or solver.dense_output()
+                    ts.append(grid[gi])
+                    Ys.append(dense(grid[gi]))
+                gi += 1
+        if steps % 20 == 0:
+            guard(solver.t, y[:n], y[n:2 * n], y[2 * n:])
+        bar(solver.t)
+    y = solver.y
+    guard(solver.t, y[:n], y[n:2 * n], y[2 * n:])
+    Y = np.array(Ys)
+    Q, QD = Y[:, :n], Y[:, n:2 * n]
+    calls, states = eq.calls, eq.states
+    TAU, WR = inputs.batch(ts, Q, QD)
+    QDD, DELTA = eq.accel(Q, QD, TAU, WR, smooth=smooth)
+    eq.calls, eq.states = calls, states          # output evaluation is not solver work
+    stats = SolverStats(method, steps=steps, nfev=counter[0], njev=solver.njev, nlu=solver.nlu,
+                        rejected=rejected, message="ok")
+    return finish(eq, ts, Q, QD, QDD, TAU, DELTA, Y[:, 2 * n:], stats, robot.joint_names)
+
+
+def proposed_step(solver, max_step, t_bound):
+    """The step the solver will try next (clipped as scipy does), or None if unknown:
+    ``h_abs`` of scipy's RK, Radau and BDF; for LSODA, the step its dense output (the
+    Nordsieck history of the last step) is scaled with, which is the step it tries next
+    (unknown before the first step)."""
+    from scipy.integrate import LSODA
+    if not isinstance(solver, LSODA):
+        h = min(solver.h_abs, max_step)
+    elif solver.t_old is None or solver.t == solver.t_old:
+        return None
+    else:
+        h = float(solver.dense_output().h)
+        if not h > 0:
+            return None
+    return min(h, t_bound - solver.t)

@@ -1,0 +1,178 @@
+"""``simulate``: checks and normalises its inputs (initial state; torque and wrench given
+as constants, samples or callables, made functions of (t, q, qd)) and runs the loop of the
+method: ``fixed_step.run_compiled`` or ``run_fixed``, or ``adaptive.run_adaptive``.
+
+Methods (see docs/simulation.md):
+
+- adaptive, by scipy.integrate: "RK45", "DOP853" (explicit Runge-Kutta), "Radau", "BDF"
+  (implicit, for stiff chains; Jacobian by one batched forward-dynamics call over
+  perturbed states), "LSODA" (automatic stiff / non-stiff switching). Coulomb friction
+  is regularized (``Dissipation.smooth_torque``).
+- fixed step (``dt``), for real time: "semi_implicit_euler" (symplectic Euler),
+  "rk4" (classical Runge-Kutta), "implicit_midpoint" (symplectic, A-stable, Newton with
+  a batched finite-difference Jacobian). Coulomb friction with stick-slip: a joint at
+  rest sticks while the torque that holds it is within its static friction.
+  ``position_limits=True`` adds hard stops at the URDF joint limits (plastic impacts,
+  ``stops.JointStops``).
+
+Energies are integrated alongside: the work of the actuators int tau.qd dt, of the
+dissipation int delta.qd dt (<= 0) and of the tip wrench int (J^T w).qd dt, so that
+E(t) - E(0) = W_act + W_diss + W_ext along any run. Divergence (NaN/Inf, a speed
+beyond any physical bound, energy growing without input) raises ``SimulationError``.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from .adaptive import run_adaptive
+from .equations import Inputs
+from .fixed_step import run_compiled, run_fixed
+from .methods import (DEFAULT_ATOL, DEFAULT_DT, DEFAULT_RTOL, FIXED_STEP, METHODS,
+                      SimulationError)
+from .progress import Progress
+from .result import SimulationResult
+
+
+def input_fn(value, width, name, duration, joint_names):
+    """Normalize a torque/wrench spec into (f(t, q, qd) -> (width,) array, kind).
+
+    kind: "zero", "const" or "fn" (time-varying or state feedback)."""
+    if value is None:
+        zero = np.zeros(width)
+        return (lambda t, q, qd: zero), "zero"
+    if callable(value):
+        def fn(t, q, qd, _f=value):
+            out = np.asarray(_f(t, q, qd), dtype=float)
+            if out.shape != (width,):
+                out = np.broadcast_to(out, (width,)) if out.ndim == 0 else out
+                if out.shape != (width,):
+                    raise ValueError(f"the {name} callable returned shape {out.shape}; it must "
+                                     f"return ({width},) values")
+            if not np.all(np.isfinite(out)):
+                k = int(np.flatnonzero(~np.isfinite(out))[0])
+                who = f"joint {joint_names[k]!r}" if width == len(joint_names) else f"entry {k}"
+                raise SimulationError(f"the {name} callable returned {out[k]} for {who} at "
+                                      f"t = {t:.6g} s; fix the controller (simulation stopped)",
+                                      t, joint_names[k] if who.startswith("joint") else None,
+                                      "input")
+            return out
+        return fn, "fn"
+    if isinstance(value, tuple) and len(value) == 2:          # (times, samples)
+        ts, vals = np.asarray(value[0], float), np.asarray(value[1], float)
+        if ts.ndim != 1 or vals.shape != (ts.size, width) or ts.size < 2 or \
+                np.any(np.diff(ts) <= 0):
+            raise ValueError(f"{name} given as (times, samples) needs increasing times (K,) and "
+                             f"samples ({ts.size}, {width}); got {ts.shape}, {vals.shape}")
+        return interp_fn(ts, vals), "fn"
+    a = np.asarray(value, dtype=float)
+    if a.ndim == 0 or a.shape == (width,):
+        const = np.broadcast_to(a, (width,)).copy()
+        if not np.all(np.isfinite(const)):
+            raise ValueError(f"{name} has a NaN or Inf entry")
+        if not np.any(const):
+            return (lambda t, q, qd: const), "zero"
+        return (lambda t, q, qd: const), "const"
+    if a.ndim == 2 and a.shape[1] == width and a.shape[0] >= 2:   # uniform samples over [0, T]
+        return interp_fn(np.linspace(0.0, duration, a.shape[0]), a), "fn"
+    what = f"one per joint {joint_names}" if name == "torque" else "[fx, fy, fz, mx, my, mz]"
+    raise ValueError(f"{name} has shape {a.shape}; give a scalar, ({width},) values ({what}), "
+                     f"(K, {width}) samples over [0, duration], (times, samples), or a "
+                     "callable f(t, q, qd)")
+
+
+def interp_fn(ts, vals):
+    if not np.all(np.isfinite(vals)):
+        raise ValueError("input samples have a NaN or Inf entry")
+
+    def fn(t, q, qd):   # piecewise linear, held constant outside the samples
+        k = int(np.clip(np.searchsorted(ts, t) - 1, 0, ts.size - 2))
+        s = np.clip((t - ts[k]) / (ts[k + 1] - ts[k]), 0.0, 1.0)
+        return (1.0 - s) * vals[k] + s * vals[k + 1]
+    return fn
+
+
+def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853", rtol=None,
+             atol=None, dt=None, dissipation=True, wrench=None, output_dt=None,
+             max_step=np.inf, first_step=None, friction_smoothing=1e-4, check_energy=True,
+             position_limits=False, progress=False) -> SimulationResult:
+    """Simulate ``duration`` seconds of motion from (q0, qd0) (zeros by default).
+
+    torque: None (zero), a scalar or (n,) constant, (K, n) samples uniformly spaced over
+        [0, duration] (piecewise linear), a (times, samples) pair, or a callable
+        ``torque(t, q, qd) -> (n,)`` (a controller closed around the robot; adaptive and
+        RK methods call it at trial states, so it must be a pure function of its arguments).
+    wrench: None, (6,) [fx, fy, fz, mx, my, mz] on the tip (base frame), or a callable.
+    method: "RK45", "DOP853", "Radau", "BDF", "LSODA" (adaptive: rtol, atol, default 1e-6,
+        1e-9) or "semi_implicit_euler", "rk4", "implicit_midpoint" (fixed step: dt,
+        default 1e-3 s).
+    dissipation: True (the robot's), False, or a ``Dissipation``. Adaptive methods replace
+        sgn(qd) in Coulomb friction by tanh(qd / friction_smoothing) (default 1e-4 rad/s:
+        below breakaway a joint creeps at friction_smoothing * atanh(tau / tau_s); this
+        makes the equations stiff, so use Radau, BDF or LSODA); fixed-step methods do
+        stick-slip.
+    output_dt: spacing of the output samples (default: every step of the solver).
+    check_energy: raise SimulationError when the energy balance is violated by more than
+        half the energy scale (energy growing without input).
+    position_limits: hard stops at the finite URDF joint limits (plastic impacts; their
+        work is counted in W_diss); fixed-step methods only.
+    progress: True for a progress bar on stderr (shown when the run lasts over 1 s), or a
+        callable(fraction).
+    """
+    if method not in METHODS:
+        raise ValueError(f"method {method!r} unknown; use one of {list(METHODS)}")
+    duration = float(duration)
+    if not (duration > 0 and np.isfinite(duration)):
+        raise ValueError(f"duration = {duration}; give a positive, finite time in seconds")
+    n = robot.dof
+    q0 = np.zeros(n) if q0 is None else np.array(q0, dtype=float).reshape(-1)
+    qd0 = np.zeros(n) if qd0 is None else np.array(qd0, dtype=float).reshape(-1)
+    for name, x in (("q0", q0), ("qd0", qd0)):
+        if x.shape != (n,):
+            raise ValueError(f"{name} has {x.size} values; give one per joint ({n}: "
+                             f"{robot.joint_names})")
+        if not np.all(np.isfinite(x)):
+            raise ValueError(f"{name} has a NaN or Inf entry")
+    outside = np.flatnonzero((q0 < robot.lower) | (q0 > robot.upper)) if position_limits else []
+    if len(outside):
+        j = outside[0]
+        raise ValueError(f"q0: {robot.joint_names[j]} = {q0[j]:g} is outside its limits "
+                         f"[{robot.lower[j]:g}, {robot.upper[j]:g}]; start inside them, or "
+                         "simulate without position_limits")
+    torque_fn, _ = input_fn(torque, n, "torque", duration, robot.joint_names)
+    wrench_fn, wrench_kind = input_fn(wrench, 6, "wrench", duration, robot.joint_names)
+    inputs = Inputs(torque_fn, None if wrench_kind == "zero" else wrench_fn)
+    if output_dt is not None and not output_dt > 0:
+        raise ValueError(f"output_dt = {output_dt}; give a spacing > 0 s")
+    bar = Progress(duration, progress)
+    start = time.perf_counter()
+    try:
+        if method in FIXED_STEP:
+            if rtol is not None or atol is not None:
+                raise ValueError(f"{method!r} is a fixed-step method: give dt, not rtol/atol")
+            dt = DEFAULT_DT if dt is None else float(dt)
+            args = (robot, duration, q0, qd0, inputs, method, dt, dissipation, output_dt,
+                    check_energy, bar)
+            if (method == "semi_implicit_euler" and robot.backend == "numba"
+                    and not callable(torque) and inputs.wrench is None and not position_limits):
+                out = run_compiled(*args)           # the compiled loop has no stops
+            else:
+                out = run_fixed(*args, position_limits)
+        else:
+            if position_limits:
+                raise ValueError(f"position_limits needs a fixed-step method "
+                                 f"{list(FIXED_STEP)}: {method!r} has no impact events")
+            if dt is not None:
+                raise ValueError(f"{method!r} is adaptive: give rtol/atol (and max_step), "
+                                 "not dt; dt is for the fixed-step methods "
+                                 f"{list(FIXED_STEP)}")
+            rtol = DEFAULT_RTOL if rtol is None else rtol
+            atol = DEFAULT_ATOL if atol is None else atol
+            out = run_adaptive(robot, duration, q0, qd0, inputs, method, rtol, atol, max_step,
+                               first_step, dissipation, friction_smoothing, output_dt,
+                               check_energy, bar)
+    finally:
+        bar.close()
+    out.stats.wall_time = time.perf_counter() - start
+    return out

@@ -1,0 +1,260 @@
+"""The equations of motion of one robot with its dissipation, and the state checks.
+
+State equations (x = [q, qd]):
+
+    qd' = qdd = M(q)^-1 (tau + delta(qd) - b(q, qd) + J(q)^T w)
+
+with tau the applied (actuator) torques, delta the dissipative joint torques
+(``Dissipation``), b the bias torques and w a wrench on the tip. Every dynamics call goes
+through the ``Robot`` facade (``forward_dynamics``, ``mass_matrix``, ``bias_torques`` ...),
+so faster kernels behind it speed the simulator up unchanged.
+
+Owns: ``Equations`` (accelerations and dissipative torques in the three friction modes:
+exact sgn, smooth tanh for the adaptive solvers, stick-slip with sliding signs fixed over
+a fixed step; the stick-slip active set; the divergence check of a state), ``held`` (the
+accelerations with some joints held still), ``Inputs`` (torque and wrench as functions
+of (t, q, qd)), ``StepStart`` (the state at the start of a fixed step) and
+``EnergyGuard`` (energy from nowhere means divergence).
+"""
+from __future__ import annotations
+
+from itertools import repeat
+from typing import NamedTuple
+
+import numpy as np
+
+from ..dissipation import Dissipation
+from .methods import SimulationError, advice
+
+REST_SPEED = 1e-9            # rad/s (m/s): a Coulomb joint slower than this is at rest
+SPEED_BOUND_FACTOR = 1e3    # divergence: |qd| > 1000 x velocity limit (1e5 where none)
+PRISMATIC_BOUND = 1e3        # m: no prismatic joint travels a kilometre
+
+
+class Inputs(NamedTuple):
+    """The applied torques ``torque(t, q, qd) -> (n,)`` and the tip wrench
+    ``wrench(t, q, qd) -> (6,)`` (None: no wrench)."""
+
+    torque: object
+    wrench: object = None
+
+    def __call__(self, t, q, qd):
+        """(tau, w) at one state; w is None without a wrench."""
+        return self.torque(t, q, qd), (None if self.wrench is None else self.wrench(t, q, qd))
+
+    def batch(self, t, Q, V):
+        """(tau, w) stacked over states (Q, V) (N, n) at the time ``t`` or times (N,)."""
+        ts = repeat(t) if np.ndim(t) == 0 else t
+        tau = np.array([self.torque(t, a, b) for t, a, b in zip(ts, Q, V)])
+        w = (None if self.wrench is None else
+             np.array([self.wrench(t, a, b) for t, a, b in zip(ts, Q, V)]))
+        return tau, w
+
+
+class StepStart(NamedTuple):
+    """The state at the start of a fixed step, with its inputs and friction modes:
+    ``stuck`` joints held (None: none), ``sign`` the sliding direction of each Coulomb
+    joint (None without Coulomb friction), ``qdd`` and ``delta`` (holding torques included)."""
+
+    t: float
+    q: np.ndarray
+    qd: np.ndarray
+    tau: np.ndarray
+    w: np.ndarray | None
+    qdd: np.ndarray
+    delta: np.ndarray
+    stuck: np.ndarray | None
+    sign: np.ndarray | None
+
+    def stuck_at_rest(self):
+        """This start with the speeds of the stuck joints set to zero."""
+        return self if self.stuck is None else self._replace(qd=np.where(self.stuck, 0.0, self.qd))
+
+
+class Equations:
+    """The state equations of one robot with one dissipation model; counts dynamics calls."""
+
+    def __init__(self, robot, dissipation, smoothing=1e-4):
+        self.robot = robot
+        self.n = robot.dof
+        if dissipation is True:
+            diss = robot.dissipation
+        elif dissipation is False or dissipation is None:
+            diss = Dissipation.none(robot.joint_names)
+        elif isinstance(dissipation, Dissipation):
+            diss = dissipation
+        else:
+            raise ValueError("dissipation must be True, False or a serial_dynamics.Dissipation")
+        if tuple(diss.joint_names) != tuple(robot.joint_names):
+            raise ValueError(f"dissipation is for joints {list(diss.joint_names)}, the robot has "
+                             f"{robot.joint_names}")
+        self.diss = diss
+        self.diss_on = diss.enabled
+        self.beta = np.asarray(diss.viscous, float)
+        self.viscous_on = bool(np.any(self.beta > 0))
+        self.tau_s = np.asarray(diss.static_friction, float)
+        self.coulomb = self.tau_s > 0                      # joints with Coulomb friction
+        self.coulomb_on = bool(np.any(self.coulomb))
+        if not smoothing > 0:
+            raise ValueError(f"friction_smoothing = {smoothing}; give a speed > 0 (rad/s)")
+        self.v_eps = float(smoothing)
+        self.names = list(robot.joint_names)
+        vl = np.asarray(robot.velocity_limit, float)
+        self.speed_bound = np.where(np.isfinite(vl) & (vl > 0), SPEED_BOUND_FACTOR * vl, 1e5)
+        self.prismatic = np.array([t == "prismatic" for t in robot.joint_types])
+        self.calls = 0       # calls to the dynamics
+        self.states = 0      # states evaluated (a batch of N counts N)
+
+    # -- dissipation
+    def delta(self, qd, sign=None, smooth=False):
+        """Dissipative torques: exact (sgn(0) = 0), smooth (tanh) or with fixed sliding signs."""
+        if not self.diss_on:
+            return np.zeros_like(qd)
+        if not self.coulomb_on:
+            return -self.beta * qd
+        if smooth:
+            return self.diss.smooth_torque(qd, self.v_eps)
+        if sign is None:
+            return self.diss.torque(qd)
+        return -self.beta * qd - self.diss.sliding_friction(qd) * sign
+
+    # -- dynamics through the facade
+    def fd(self, q, qd, tau, w=None):
+        self.calls += 1
+        self.states += 1 if np.ndim(q) == 1 else len(q)
+        return self.robot.forward_dynamics(q, qd, tau, w)
+
+    def accel(self, q, qd, tau, w=None, stuck=None, sign=None, smooth=False, coulomb=None):
+        """qdd and delta for (batches of) states. ``stuck``: joints held by static friction
+        (qdd = 0; their delta is the holding torque), ``sign``: sliding direction per
+        Coulomb joint, fixed over a step (None: exact sgn, or tanh when ``smooth``);
+        ``coulomb``: Coulomb torques frozen over a step (then only the viscous part
+        depends on qd)."""
+        if coulomb is not None:
+            delta = -self.beta * qd + coulomb
+        else:
+            delta = self.delta(qd, sign, smooth)
+        if stuck is None or not stuck.any():
+            return self.fd(q, qd, tau + delta, w), delta
+        self.calls += 2
+        self.states += 2 * (1 if np.ndim(q) == 1 else len(q))
+        M = self.robot.mass_matrix(q)
+        r = tau + delta - self.robot.bias_torques(q, qd, w)
+        return held(M, r, stuck, delta)
+
+    def ext_power(self, q, qd, w):
+        """(J^T w) . qd, the power of the tip wrench; batches of states."""
+        J = self.robot.jacobian(q)
+        return np.einsum("...i,...ij,...j->...", w, J, qd)
+
+    def power(self, q, qd, tau, delta, w):
+        """[tau.qd, delta.qd, (J^T w).qd]: the power of the actuators, the dissipation and
+        the tip wrench at one state."""
+        return np.array([tau @ qd, delta @ qd,
+                         0.0 if w is None else float(self.ext_power(q, qd, w))])
+
+    # -- stick-slip modes at the start of a fixed step
+    def modes(self, q, qd, tau, w):
+        """(stuck, sign, qdd, delta) at one state: Coulomb joints at rest stick while the
+        torque that holds them is within tau_c + eps (active set, the worst violation
+        breaks away first, in the direction of the net torque)."""
+        sign = np.where(self.coulomb, np.sign(qd), 0.0)
+        rest = self.coulomb & (np.abs(qd) <= REST_SPEED)
+        if not rest.any():
+            qdd, delta = self.accel(q, qd, tau, w, None, sign)
+            return None, sign, qdd, delta
+        qd = np.where(rest, 0.0, qd)
+        sign[rest] = 0.0
+        self.calls += 2
+        self.states += 2
+        M = self.robot.mass_matrix(q)
+        b = self.robot.bias_torques(q, qd, w)
+        stuck = rest.copy()
+        for _ in range(int(rest.sum()) + 1):
+            delta = self.delta(qd, sign)
+            qdd, delta = held(M, tau + delta - b, stuck, delta)
+            ratio = np.where(stuck, np.abs(delta) / np.where(self.coulomb, self.tau_s, 1.0), 0.0)
+            i = int(np.argmax(ratio))
+            if ratio[i] <= 1.0:
+                break
+            stuck[i] = False                 # breaks away against its holding torque
+            sign[i] = -np.sign(delta[i])
+        return (stuck if stuck.any() else None), sign, qdd, delta
+
+    # -- checks
+    def check_state(self, t, q, qd, method, dt=None):
+        """Raise SimulationError on NaN/Inf or a state beyond any physical bound."""
+        if np.all(np.isfinite(q)) and np.all(np.isfinite(qd)) and \
+                np.all(np.abs(qd) <= self.speed_bound) and \
+                not np.any(self.prismatic & (np.abs(q) > PRISMATIC_BOUND)):
+            return
+        bad_q, bad_qd = ~np.isfinite(q), ~np.isfinite(qd)
+        if bad_q.any() or bad_qd.any():
+            j = int(np.flatnonzero(bad_q | bad_qd)[0])
+            reason = "nan"
+            what = f"its {'position' if bad_q[j] else 'speed'} is {q[j] if bad_q[j] else qd[j]}"
+        elif np.any(np.abs(qd) > self.speed_bound):
+            j = int(np.argmax(np.abs(qd) / self.speed_bound))
+            reason = "speed"
+            what = (f"its speed {qd[j]:.4g} exceeds the bound {self.speed_bound[j]:.4g} "
+                    f"({SPEED_BOUND_FACTOR:g} x its velocity limit, or 1e5 where none)")
+        else:
+            j = int(np.argmax(self.prismatic * np.abs(q)))
+            reason = "position"
+            what = f"its position {q[j]:.4g} m is beyond {PRISMATIC_BOUND:g} m"
+        raise SimulationError(f"simulation diverged at t = {t:.6g} s: joint {self.names[j]!r}: "
+                              f"{what}. {advice(method, dt)}", t, self.names[j], reason)
+
+
+def held(M, r, stuck, delta):
+    """Solve M qdd = r + h with qdd = 0 on ``stuck`` joints, h the holding torques there
+    (zero elsewhere). Works on batches. Returns qdd and delta with h added."""
+    free = ~stuck
+    qdd = np.zeros_like(r)
+    if free.any():
+        Mff = M[..., free[:, None] & free[None, :]].reshape(M.shape[:-2] + (free.sum(), free.sum()))
+        qdd[..., free] = np.linalg.solve(Mff, r[..., free][..., None])[..., 0]
+    h = np.einsum("...ij,...j->...i", M[..., stuck, :], qdd) - r[..., stuck]
+    delta = np.array(delta, dtype=float, copy=True)
+    delta[..., stuck] += h
+    return qdd, delta
+
+
+def energy_scale_static(robot):
+    """An upper bound of the potential-energy swing, |g| sum m_i 2 r_i with r_i the
+    largest distance of body i's center of mass from the base origin."""
+    m = robot.model
+    reach = np.cumsum(np.linalg.norm(m.p_parent, axis=1)) + np.linalg.norm(m.com, axis=1)
+    travel = np.cumsum(np.where(m.kind == 1, np.minimum(np.abs(m.lower), PRISMATIC_BOUND)
+                                + np.minimum(np.abs(m.upper), PRISMATIC_BOUND), 0.0))
+    return float(np.linalg.norm(m.gravity) * np.sum(m.mass * 2 * (reach + travel)))
+
+
+class EnergyGuard:
+    """Raises when E(t) - E(0) - W_act - W_ext exceeds half the energy scale: energy from
+    nowhere (dissipation can only take energy out, so its work is left out of the test)."""
+
+    def __init__(self, eq, q0, qd0, method, dt, enabled):
+        self.eq, self.method, self.dt, self.enabled = eq, method, dt, enabled
+        if enabled:
+            r = eq.robot
+            self.T0 = float(r.kinetic_energy(q0, qd0))
+            self.E0 = self.T0 + float(r.potential_energy(q0))
+            self.static = energy_scale_static(r)
+            self.wmax = 0.0
+
+    def __call__(self, t, q, qd, W):
+        if not self.enabled:
+            return
+        r = self.eq.robot
+        self.wmax = max(self.wmax, abs(float(W[0])), abs(float(W[2])))
+        E = float(r.kinetic_energy(q, qd) + r.potential_energy(q))
+        excess = E - self.E0 - float(W[0]) - float(W[2])
+        scale = self.T0 + self.static + self.wmax + 1e-9
+        if excess > 0.5 * scale:
+            j = int(np.argmax(np.abs(qd)))
+            name = self.eq.names[j]
+            raise SimulationError(
+                f"simulation diverged at t = {t:.6g} s: the energy grew by {excess:.4g} J more "
+                f"than the work put in (energy scale {scale:.4g} J); the fastest joint is "
+                f"{name!r} at {qd[j]:.4g}. {advice(self.method, self.dt)}", t, name, "energy")

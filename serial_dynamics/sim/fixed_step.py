@@ -1,0 +1,200 @@
+"""Fixed-step integration: ``FixedStepIntegrator`` (one step at a time, for real-time use
+by the simulator node) and the fixed-step run loops of ``simulate``.
+
+Owns the frame of a step (friction modes and stops at the start, the method's step from
+``STEPPERS``, a sliding joint stopping where its speed crosses zero, the state check and
+the impacts at the end), ``run_fixed`` (step by step) and ``run_compiled`` (semi-implicit
+Euler in one compiled loop, ``loop.simulate_fixed_step``).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .equations import EnergyGuard, Equations, Inputs, StepStart
+from .explicit import euler_update, rk4, semi_implicit_euler
+from .implicit import implicit_midpoint
+from .loop import simulate_fixed_step
+from .methods import FIXED_STEP
+from .result import SolverStats, finish
+from .stops import JointStops
+
+# method -> stepper(integ, s: StepStart, inputs: Inputs, energy) -> (q1, qd1, dW)
+STEPPERS = {"semi_implicit_euler": semi_implicit_euler, "rk4": rk4,
+            "implicit_midpoint": implicit_midpoint}
+assert tuple(STEPPERS) == FIXED_STEP
+
+
+class FixedStepIntegrator:
+    """One fixed step at a time, for real-time use (the simulator node).
+
+    ``step(q, qd, tau, wrench=None) -> (q, qd)`` advances (n,) states by ``dt`` seconds
+    with the robot's dissipation added when ``dissipation`` is true (or a ``Dissipation``).
+
+    Methods: "semi_implicit_euler" (symplectic Euler: velocity first, then position with
+    the new velocity; one dynamics call a step), "rk4" (classical Runge-Kutta, 4 calls),
+    "implicit_midpoint" (x1 = x0 + dt f((x0 + x1)/2): symplectic, A-stable; simplified
+    Newton with a Jacobian from one batched call over 2n+1 perturbed states, typically
+    2 calls a step). Coulomb friction: stick-slip, see ``Equations.modes``; a sliding
+    joint whose speed crosses zero within a step stops there (no chattering).
+    ``position_limits``: hard stops at the joints' finite URDF limits, see ``JointStops``.
+
+    Work counters: ``stages`` (right-hand-side evaluations, a Jacobian batch counts 1),
+    ``jacobians``, ``newton_iterations``, ``newton_stalls`` (steps accepted with a
+    correction between newton_tol and ``implicit.NEWTON_ACCEPT``), ``impacts``.
+    """
+
+    METHODS = FIXED_STEP
+
+    def __init__(self, robot, method="semi_implicit_euler", dt=1e-3, dissipation=True, *,
+                 position_limits=False, newton_tol=1e-10, max_newton=10):
+        if method not in self.METHODS:
+            raise ValueError(f"fixed-step method {method!r} unknown; use one of {self.METHODS}")
+        if not dt > 0:
+            raise ValueError(f"dt = {dt}; the step must be > 0 s")
+        self.robot, self.method, self.dt, self.dissipation = robot, method, float(dt), dissipation
+        self.stepper = STEPPERS[method]
+        self.eq = Equations(robot, dissipation)
+        self.newton_tol, self.max_newton = float(newton_tol), int(max_newton)
+        self.newton_iterations = 0
+        self.newton_stalls = 0
+        self.jac_cache = None    # implicit methods: the Jacobian of the last steps
+        self.jacobians = 0
+        self.stages = 0
+        self._lean = method == "semi_implicit_euler" and not self.eq.coulomb_on
+        self.stops = JointStops.of(self.eq) if position_limits else None
+
+    impacts = property(lambda self: 0 if self.stops is None else self.stops.impacts,
+                       doc="steps in which a joint reached a stop")
+
+    def step(self, q, qd, tau, wrench=None, t=None):
+        """Advance (q, qd) by dt under constant torques ``tau`` (n,) and ``wrench`` (6,) or
+        None. Raises SimulationError on divergence (``t``, if given, names the time)."""
+        eq, dt = self.eq, self.dt
+        if self._lean and not (self.stops and self.stops.touching(q)):
+            # the real-time path: one forward-dynamics call
+            q, qd = np.asarray(q, dtype=float), np.asarray(qd, dtype=float)
+            tau = np.asarray(tau, dtype=float)
+            if eq.viscous_on:
+                tau = tau - eq.beta * qd
+            self.stages += 1
+            q_new, qd_new = euler_update(q, qd, eq.fd(q, qd, tau, wrench), dt)
+            eq.check_state(dt if t is None else t + dt, q_new, qd_new, self.method, dt)
+            if self.stops:
+                q_new, qd_new, _ = self.stops.impact(q_new, qd_new, False)
+            return q_new, qd_new
+        tau = np.asarray(tau, dtype=float)
+        w = None if wrench is None else np.asarray(wrench, dtype=float)
+        inputs = Inputs(lambda t, q, qd: tau, None if w is None else (lambda t, q, qd: w))
+        q_new, qd_new, _ = self.advance(0.0 if t is None else t, q, qd, inputs)
+        return q_new, qd_new
+
+    def start(self, t, q, qd, inputs):
+        """The ``StepStart`` at (t, q, qd): inputs, friction modes, joints held on stops;
+        the speeds of held joints set to zero."""
+        tau, w = inputs(t, q, qd)
+        if self.eq.coulomb_on:
+            stuck, sign, qdd, delta = self.eq.modes(q, qd, tau, w)
+        else:
+            stuck, sign = None, None
+            qdd, delta = self.eq.accel(q, qd, tau, w)
+        s = StepStart(t, q, qd, tau, w, qdd, delta, stuck, sign).stuck_at_rest()
+        return self.stops.hold(s).stuck_at_rest() if self.stops else s
+
+    def advance(self, t, q, qd, inputs, energy=False):
+        """One step from t under ``inputs`` (an ``Inputs``). Returns (q1, qd1, rec) with
+        rec = (tau0, delta0, qdd0, dW): the torques and the acceleration at the start, and
+        dW the increments of [W_act, W_diss, W_ext] over the step (only when ``energy``)."""
+        eq, dt = self.eq, self.dt
+        s = self.start(t, np.asarray(q, dtype=float), np.asarray(qd, dtype=float), inputs)
+        self.stages += 1
+        q1, qd1, dW = self.stepper(self, s, inputs, energy)
+        if eq.coulomb_on:   # a sliding joint whose speed crossed zero stops (and may stick)
+            moving = eq.coulomb & (s.sign != 0)
+            qd1 = np.where(moving & (qd1 * s.sign <= 0.0), 0.0, qd1)
+        if s.stuck is not None:
+            qd1 = np.where(s.stuck, 0.0, qd1)
+            q1 = np.where(s.stuck, s.q, q1)
+        eq.check_state(t + dt, q1, qd1, self.method, dt)
+        if self.stops:
+            q1, qd1, dE = self.stops.impact(q1, qd1, energy)
+            dW[1] += dE
+        return q1, qd1, (s.tau, s.delta, s.qdd, dW)
+
+
+def run_fixed(robot, duration, q0, qd0, inputs, method, dt, dissipation, output_dt,
+              check_energy, bar, position_limits=False):
+    """``simulate`` with a fixed-step method, step by step."""
+    integ = FixedStepIntegrator(robot, method, dt, dissipation, position_limits=position_limits)
+    eq = integ.eq
+    nsteps = int(np.ceil(duration / dt - 1e-9))
+    every = 1 if output_dt is None else max(1, int(round(output_dt / dt)))
+    guard = EnergyGuard(eq, q0, qd0, method, dt, check_energy)
+    check_every = max(1, min(200, nsteps // 50))
+    q, qd, W = q0.copy(), qd0.copy(), np.zeros(3)
+    ts, Q, QD, QDD, TAU, DELTA, WS = [], [], [], [], [], [], []
+    for k in range(nsteps):
+        t = k * dt
+        q1, qd1, (tau0, delta0, qdd0, dW) = integ.advance(t, q, qd, inputs, True)
+        if k % every == 0:
+            ts.append(t); Q.append(q); QD.append(qd); TAU.append(tau0)   # noqa: E702
+            DELTA.append(delta0); WS.append(W.copy()); QDD.append(qdd0)  # noqa: E702
+        q, qd, W = q1, qd1, W + dW
+        if (k + 1) % check_every == 0:
+            guard((k + 1) * dt, q, qd, W)
+            bar((k + 1) * dt)
+    # the final state, with the torques at the final time
+    t = nsteps * dt
+    tau, w = inputs(t, q, qd)
+    if eq.coulomb_on:
+        _, _, qdd, delta = eq.modes(q, qd, tau, w)
+    else:
+        qdd, delta = eq.accel(q, qd, tau, w)
+    ts.append(t); Q.append(q); QD.append(qd); TAU.append(tau); DELTA.append(delta)  # noqa: E702
+    WS.append(W); QDD.append(qdd)   # noqa: E702
+    guard(t, q, qd, W)
+    stats = SolverStats(method, steps=nsteps, nfev=integ.stages, njev=integ.jacobians,
+                        nlu=integ.jacobians, newton_iterations=integ.newton_iterations,
+                        message=f"fixed step dt = {dt:g} s"
+                        + (f"; a joint reached a stop in {integ.impacts} steps"
+                           if integ.impacts else ""))
+    return finish(eq, ts, Q, QD, QDD, TAU, DELTA, WS, stats, robot.joint_names)
+
+
+def run_compiled(robot, duration, q0, qd0, inputs, method, dt, dissipation, output_dt,
+                 check_energy, bar):
+    """Semi-implicit Euler in one compiled loop (``loop.simulate_fixed_step``), for torques
+    known in advance (not state feedback), no tip wrench and no Coulomb friction; the same
+    steps, explicit damping and work quadrature as FixedStepIntegrator. Falls back to the
+    step-by-step loop otherwise."""
+    eq = Equations(robot, dissipation)
+    if eq.coulomb_on:   # stick-slip needs the step-by-step integrator
+        return run_fixed(robot, duration, q0, qd0, inputs, method, dt, dissipation,
+                         output_dt, check_energy, bar)
+    nsteps = int(np.ceil(duration / dt - 1e-9))
+    ts = np.arange(nsteps + 1) * dt
+    tau = np.array([inputs.torque(t, None, None) for t in ts])   # (nsteps + 1, n)
+    Q, QD = simulate_fixed_step(robot, q0, qd0, tau[:-1], dt, nsteps, eq.beta, None,
+                                implicit_damping=False)
+    eq.calls += nsteps
+    eq.states += nsteps
+    delta = -eq.beta * QD                                         # viscous only here
+    # discrete work, as in FixedStepIntegrator: torques held over a step times the new speed
+    dW = dt * np.stack([np.einsum("ki,ki->k", tau[:-1], QD[1:]),
+                        np.einsum("ki,ki->k", delta[:-1], QD[1:]), np.zeros(nsteps)], axis=1)
+    W = np.vstack([np.zeros(3), np.cumsum(dW, axis=0)])
+    # the checks of the step-by-step loop, at its check points, in time order
+    guard = EnergyGuard(eq, q0, qd0, method, dt, check_energy)
+    bad = np.flatnonzero(~np.all(np.isfinite(QD) & np.isfinite(Q), axis=1))
+    last = nsteps if bad.size == 0 else bad[0]
+    for k in np.unique(np.r_[np.arange(0, last + 1, max(1, min(200, nsteps // 50))), last]):
+        eq.check_state(ts[k], Q[k], QD[k], method, dt)            # raises at the first bad row
+        guard(ts[k], Q[k], QD[k], W[k])
+    bar(duration)
+    qdd_end, _ = eq.accel(Q[-1], QD[-1], tau[-1])
+    QDD = np.vstack([np.diff(QD, axis=0) / dt, qdd_end])          # qd1 = qd + dt qdd
+    keep = np.unique(np.r_[np.arange(0, nsteps, 1 if output_dt is None else
+                                     max(1, int(round(output_dt / dt)))), nsteps])
+    stats = SolverStats(method, steps=nsteps, nfev=nsteps,
+                        message=f"fixed step dt = {dt:g} s (compiled loop)")
+    return finish(eq, ts[keep], Q[keep], QD[keep], QDD[keep], tau[keep], delta[keep], W[keep],
+                  stats, robot.joint_names)

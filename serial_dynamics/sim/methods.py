@@ -1,0 +1,32 @@
+"""The integration methods by family, their default tolerances and step, and the error a
+diverging run raises (``SimulationError``, with advice that depends on the method)."""
+from __future__ import annotations
+
+ADAPTIVE = ("RK45", "DOP853", "Radau", "BDF", "LSODA")
+FIXED_STEP = ("semi_implicit_euler", "rk4", "implicit_midpoint")
+METHODS = ADAPTIVE + FIXED_STEP
+IMPLICIT = ("Radau", "BDF", "LSODA", "implicit_midpoint")
+DEFAULT_RTOL, DEFAULT_ATOL, DEFAULT_DT = 1e-6, 1e-9, 1e-3
+
+
+class SimulationError(RuntimeError):
+    """The simulation diverged (NaN/Inf, a state out of bounds, energy growing).
+
+    Attributes: ``t`` (s, time of detection), ``joint`` (name or None), ``reason``.
+    """
+
+    def __init__(self, message, t=None, joint=None, reason=None):
+        super().__init__(message)
+        self.t, self.joint, self.reason = t, joint, reason
+
+
+def advice(method, dt=None):
+    """What to try when ``method`` (with step ``dt``) diverged or failed."""
+    if method in FIXED_STEP:
+        smaller = f"a smaller step (dt = {dt / 10:.3g} s)" if dt else "a smaller step"
+        alt = ("'Radau' or a smaller step" if method == "implicit_midpoint"
+               else "the implicit method 'implicit_midpoint' (or 'Radau')")
+        return f"Try {smaller} or {alt}."
+    if method in ("RK45", "DOP853"):
+        return "Try a tighter tolerance (rtol) or an implicit method ('Radau', 'BDF', 'LSODA')."
+    return "Try a tighter tolerance (rtol) or a smaller max_step."

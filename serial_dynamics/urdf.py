@@ -164,7 +164,7 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81))
         raise URDFError(f"tip_link {tip_link!r} is not below base_link {base_link!r}; "
                         "choose a tip in the subtree of the base")
     chain_joints = {j.name for j in chain}
-    chain_links = {base_link} | {j.child for j in chain}
+    chain_links = [base_link] + [j.child for j in chain]    # a list: lumping order is fixed
 
     # -- walk the chain: fold fixed joints, place links in bodies
     bodies = []                                  # dicts per movable joint

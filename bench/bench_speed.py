@@ -13,6 +13,7 @@ thread; ratio = ours / peer (lower is better).
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import re
 import subprocess
@@ -26,13 +27,12 @@ import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
-sys.path.insert(0, os.path.dirname(HERE))
+# the package measured: this checkout's, or (--rows-only) the one earlier_rows() names
+sys.path.insert(0, os.environ.get("BENCH_PACKAGE_ROOT", os.path.dirname(HERE)))
 
 import serial_dynamics as sd                                  # noqa: E402
-from serial_dynamics import robot as robot_module             # noqa: E402
 from serial_dynamics.algorithms import aba as aba_module      # noqa: E402
 from serial_dynamics.robots.synthetic import chain_urdf       # noqa: E402
-from serial_dynamics.sim.loop import simulate_fixed_step      # noqa: E402
 from _report import stamp, write_section                      # noqa: E402
 
 import pinocchio as pin                                       # noqa: E402
@@ -40,37 +40,8 @@ import pinocchio as pin                                       # noqa: E402
 ROBOTS = {"Panda": ("panda_description/urdf/panda.urdf", "panda_link8"),
           "UR5": ("ur_description/urdf/ur5_robot.urdf", "tool0")}
 N_BATCH = 10_000
-# (robot, row, peer) -> (our time in s, ratio) as committed on 2026-11-21, before the core
-# was rewritten (same machine type; the ratios are the comparable figure: each was measured
-# interleaved with its peer in one run).
-EARLIER = {
-    ("Panda", "inverse dynamics, one state", "pinocchio.rnea"): (843e-9, 0.859),
-    ("Panda", "inverse dynamics, one state, `out=`", "pinocchio.rnea"): (706e-9, 0.72),
-    ("Panda", "mass matrix, one state", "pinocchio.crba (upper triangle only)"): (749e-9, 1.07),
-    ("Panda", "mass matrix, one state, `out=`", "pinocchio.crba (upper triangle only)"): (596e-9, 0.85),
-    ("Panda", "forward dynamics, one state", "pinocchio.aba"): (1314e-9, 0.723),
-    ("Panda", "forward dynamics, one state, `out=`", "pinocchio.aba"): (1209e-9, 0.665),
-    ("Panda", "gravity torques, one state", "pinocchio.computeGeneralizedGravity"): (833e-9, 1.35),
-    ("Panda", "inverse dynamics, 10,000 states, one call (per state)", "pinocchio.rnea in a Python loop"): (167e-9, 0.146),
-    ("Panda", "inverse dynamics, 10,000 states, one call (per state)", "pinocchio.rneaInParallel, 1 thread"): (167e-9, 0.229),
-    ("Panda", "forward dynamics, 10,000 states, one call (per state)", "pinocchio.abaInParallel, 1 thread"): (680e-9, 0.544),
-    ("UR5", "inverse dynamics, one state", "pinocchio.rnea"): (821e-9, 0.946),
-    ("UR5", "inverse dynamics, one state, `out=`", "pinocchio.rnea"): (675e-9, 0.768),
-    ("UR5", "mass matrix, one state", "pinocchio.crba (upper triangle only)"): (719e-9, 1.12),
-    ("UR5", "mass matrix, one state, `out=`", "pinocchio.crba (upper triangle only)"): (565e-9, 0.876),
-    ("UR5", "forward dynamics, one state", "pinocchio.aba"): (1237e-9, 0.773),
-    ("UR5", "forward dynamics, one state, `out=`", "pinocchio.aba"): (1128e-9, 0.705),
-    ("UR5", "gravity torques, one state", "pinocchio.computeGeneralizedGravity"): (816e-9, 1.46),
-    ("UR5", "inverse dynamics, 10,000 states, one call (per state)", "pinocchio.rnea in a Python loop"): (141e-9, 0.133),
-    ("UR5", "inverse dynamics, 10,000 states, one call (per state)", "pinocchio.rneaInParallel, 1 thread"): (141e-9, 0.227),
-    ("UR5", "forward dynamics, 10,000 states, one call (per state)", "pinocchio.abaInParallel, 1 thread"): (592e-9, 0.549),
-    ("Panda", "simulation, 10 s at 1 ms, semi-implicit Euler (whole run)", "mujoco.mj_step in a Python loop"): (6.33e-3, 0.282),
-    ("Panda", "simulation, 10 s at 1 ms, semi-implicit Euler (whole run)", "mujoco.rollout (C loop)"): (6.33e-3, 0.3),
-    ("UR5", "inverse dynamics, one state", "roboticstoolbox-python 1.5.0 Robot.rne"): (850e-9, 0.000952),
-}
-# cold start on 2026-11-21: import + load, first inverse_dynamics, warmup (6 kernels), s;
-# the whole-loop simulation kernel took another ~7.5 s on first use
-EARLIER_COLD = (0.61, 1.30, 10.75, 7.5)
+EARLIER_REV = "52c6115"   # the last commit before the dynamics core was rewritten (2026-11-21)
+
 
 
 def erd_path(rel):
@@ -218,6 +189,7 @@ def batch_calls(name, robot, pm, rounds):
 def cores(robot, rounds):
     """Per-state time of the batch methods, N_BATCH states: one thread against the
     default (the batch split over the cores: ``robot.PARALLEL_MIN``), interleaved."""
+    from serial_dynamics import robot as robot_module
     rng = np.random.default_rng(2)
     Q, QD = robot.random_state(rng, batch=N_BATCH, speed=2.0)
     QDD = rng.normal(size=Q.shape)
@@ -283,6 +255,11 @@ def simulation(robot, rounds):
         return simulate_fixed_step(robot, q0, np.zeros(n), tau, 1e-3, nsteps,
                                    viscous=np.full(n, beta))[0]
 
+    if hasattr(sd, "kernels") or os.path.exists(os.path.join(os.path.dirname(sd.__file__), "kernels.py")):
+        from serial_dynamics.kernels import simulate_fixed_step      # the 2026-11-21 code
+    else:
+        from serial_dynamics.sim.loop import simulate_fixed_step
+
     m.dof_damping[:] = beta
     err = np.max(np.abs(ours(steps)[-1] - mj(steps)))
     if not err < 1e-9:
@@ -316,29 +293,61 @@ FIRST_CALL = textwrap.dedent("""
     t2 = time.perf_counter()
     robot.warmup()
     t3 = time.perf_counter()
-    from serial_dynamics.sim.loop import _loop
+    try:
+        from serial_dynamics.sim.loop import _loop
+    except ImportError:                       # the 2026-11-21 code
+        from serial_dynamics.kernels import K
+        _loop = lambda: K.simulate_semi_implicit_euler
     _loop()
     t4 = time.perf_counter()
     print(t1 - t0, t2 - t1, t3 - t2, t4 - t3)
 """)
 
 
-def first_call(cold):
-    """Fresh interpreter: (import + load, first inverse_dynamics, warmup of every kernel).
-    Cold: an empty numba cache (NUMBA_CACHE_DIR), then the same again warm."""
+def first_call(cold, earlier_root=None):
+    """Fresh interpreter: (import + load, first inverse_dynamics, warmup of every kernel,
+    the simulation loop). Cold: an empty numba cache (NUMBA_CACHE_DIR), then the same
+    again warm; and, cold, the 2026-11-21 code from ``earlier_root``."""
     env = dict(os.environ)
     out = {}
-    with tempfile.TemporaryDirectory() as cache:
-        runs = [("cold", cache), ("warm", cache)] if cold else []
-        runs.append(("warm (package cache)", None))
-        for label, cdir in runs:
+    with tempfile.TemporaryDirectory() as cache, tempfile.TemporaryDirectory() as cache2:
+        runs = [("cold", cache, None), ("warm", cache, None)] if cold else []
+        runs.append(("warm (package cache)", None, None))
+        if cold and earlier_root:
+            runs.append((f"cold, the {EARLIER_REV} code (2026-11-21)", cache2, earlier_root))
+        for label, cdir, root in runs:
             e = dict(env)
             if cdir:
                 e["NUMBA_CACHE_DIR"] = cdir
+            if root:
+                e["PYTHONPATH"] = root
             res = subprocess.run([sys.executable, "-c", FIRST_CALL], env=e, capture_output=True,
-                                 text=True, check=True, cwd=os.path.dirname(HERE))
+                                 text=True, check=True, cwd=root or os.path.dirname(HERE))
             out[label] = [float(x) for x in res.stdout.split()]
     return out
+
+
+def earlier_code(tmp):
+    """The 2026-11-21 package (git archive of EARLIER_REV) under ``tmp``, or None (no git
+    history here)."""
+    repo = os.path.dirname(HERE)
+    try:
+        arch = subprocess.run(["git", "-C", repo, "archive", EARLIER_REV, "serial_dynamics"],
+                              capture_output=True, check=True).stdout
+    except (OSError, subprocess.CalledProcessError):
+        return None
+    subprocess.run(["tar", "-x", "-C", tmp], input=arch, check=True)
+    return tmp
+
+
+def earlier_rows(root, rounds):
+    """This script's single and batch rows measured on the 2026-11-21 code, in a
+    subprocess that imports that package: {(robot, row, peer): (ours, peer's)}."""
+    e = dict(os.environ, BENCH_PACKAGE_ROOT=root, NUMBA_CACHE_DIR=os.path.join(root, "numba_cache"))
+    res = subprocess.run([sys.executable, os.path.abspath(__file__), "--rows-only",
+                          "--rounds", str(rounds)], env=e, capture_output=True, text=True,
+                         check=True, cwd=root)
+    return {(r, w, p): (a, b) for r, w, a, b, p, _ in json.loads(res.stdout.splitlines()[-1])}
 
 
 def scaling(rounds):
@@ -443,9 +452,27 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="fewer rounds, no cold-cache compile")
     ap.add_argument("--no-write", action="store_true", help="print, do not write BENCHMARKS.md")
+    ap.add_argument("--rows-only", action="store_true",
+                    help="print the single and batch rows as JSON (used on the 2026-11-21 code)")
+    ap.add_argument("--rounds", type=int, default=None)
     args = ap.parse_args()
-    rounds = 8 if args.quick else 30
+    rounds = args.rounds or (8 if args.quick else 30)
+    if args.rows_only:
+        rows, robots = [], {}
+        for name, (rel, tip) in ROBOTS.items():
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", sd.HeldJointsWarning)
+                robots[name] = robot = sd.load_urdf(erd_path(rel), None, tip).warmup()
+            pm = PinModel(robot, erd_path(rel))
+            rows += single_calls(name, robot, pm, rounds) + batch_calls(name, robot, pm, rounds)
+        rows += simulation(robots["Panda"], max(5, rounds // 3))[0]
+        print(json.dumps(rows))
+        return
     import mujoco
+    tmp = tempfile.mkdtemp()
+    root = earlier_code(tmp)
+    earlier = earlier_rows(root, rounds) if root else {}
+    print(f"the {EARLIER_REV} code measured" if root else "no git: no earlier code", flush=True)
 
     rows, robots = [], {}
     for name, (rel, tip) in ROBOTS.items():
@@ -464,7 +491,7 @@ def main():
     print("simulation, peers done", flush=True)
     core_rows = cores(robots["Panda"], rounds)
     print("cores done", flush=True)
-    first = first_call(cold=not args.quick)
+    first = first_call(cold=not args.quick, earlier_root=root)
     print("first call done", flush=True)
     ns, res, cross = scaling(rounds)
     plot(ns, res, os.path.join(HERE, "scaling.png"))
@@ -477,19 +504,21 @@ def main():
              "example-robot-data `panda.urdf` to `panda_link8` (7 joints, fingers held and lumped), "
              "UR5 = `ur5_robot.urdf` to `tool0`. Every peer's result is checked against ours before "
              "it is timed (rigid-body terms agree to ~1e-15 relative, forward dynamics to cond(M) eps).",
-             "", "*2026-11-21*: our time and ratio as committed then, before the dynamics core was "
-             "rewritten (one frame convention, per-call scratch memory, no fast-math); *change*: "
-             "this run's ratio against that one (the comparable figure: each ratio is against the "
-             "peer measured in the same run). The rewrite must keep every row within 5 % or better.",
+             "", f"*Before*: the same row measured in this run, on this machine, on the code as it "
+             f"was before the dynamics core was rewritten (commit {EARLIER_REV}, 2026-11-21: "
+             "joint-aligned kernels with a shared scratch array and fused multiply-add), imported "
+             "from a git archive in a subprocess, each with its own interleaved peer; *change*: "
+             "this row's ratio against that one. The rewrite must keep every row within 5 % or "
+             "better.",
              "", "| robot | what | ours | peer | peer's time | ratio | target | met "
-             "| 2026-11-21 ours | 2026-11-21 ratio | change |",
+             "| before | ratio before | change |",
              "|---|---|---:|---|---:|---:|---:|:---:|---:|---:|---:|"]
     for robot_name, what, a, b, peer, target in rows:
         ratio = a / b
         met = "" if target is None else ("yes" if ratio <= target else f"**no** (+{(ratio / target - 1) * 100:.0f} %)")
-        t_old, r_old = EARLIER.get((robot_name, what, peer), (None, None))
-        old = (f"{fmt_t(t_old)} | {r_old:.3g} | {(ratio / r_old - 1) * 100:+.0f} %" if r_old
-               else " | | ")
+        a_old, b_old = earlier.get((robot_name, what, peer), (None, None))
+        old = (f"{fmt_t(a_old)} | {a_old / b_old:.3g} | {(ratio / (a_old / b_old) - 1) * 100:+.0f} %"
+               if a_old else " | | ")
         lines.append(f"| {robot_name} | {what} | {fmt_t(a)} | {peer} | {fmt_t(b)} | {ratio:.3g} | "
                      f"{'' if target is None else f'≤ {target:g}'} | {met} | {old} |")
     lines += ["", "*`out=`*: the result is written into an array the caller keeps, as Pinocchio writes into "
@@ -517,9 +546,10 @@ def main():
     for label, times in first.items():
         lines.append("| " + label + " | " + " | ".join(f"{t:.2f} s" for t in times)
                      + f" | {sum(times):.2f} s |")
-    e = EARLIER_COLD
-    lines.append(f"| cold, 2026-11-21 | {e[0]:.2f} s | {e[1]:.2f} s | {e[2]:.2f} s | ~{e[3]:.1f} s "
-                 f"| ~{sum(e):.1f} s |")
+    cold = [v for k, v in first.items() if k.startswith("cold")]
+    if len(cold) == 2:
+        lines += ["", f"Cold compile of everything: {sum(cold[0]):.1f} s against {sum(cold[1]):.1f} s "
+                  f"before ({sum(cold[0]) / sum(cold[1]) * 100:.0f} %)."]
     lines += ["", "Targets: a cold compile of everything in at most half of 2026-11-21's; a node whose "
               "kernels are cached ready in under 2 s (import + load + warmup, warm rows). "
               "`python -m serial_dynamics.core` fills the cache ahead of time.", ""]

@@ -39,13 +39,13 @@ from .model import Model
 _empty = np.empty                          # one global lookup on the fast paths
 _nd, _f8 = np.ndarray, np.dtype(np.float64)
 _NO_WRENCH = np.zeros((1, 6))              # stands in for w in batch calls without one
+_W0 = np.zeros(6)                          # and in single forward-dynamics calls (not read)
 _QD_QDD, _QD = F.QD | F.QDD, F.QD         # flags, as module constants (no attribute lookup)
 BACKENDS = ("numba", "numpy")
 FD_METHODS = ("auto", "cholesky", "aba", "qr")
 _FD_FLAGS = {"cholesky": F.QD, "aba": F.QD | F.ABA}
 PARALLEL_MIN = 2048                        # states; below it one thread is faster (docs/speed.md)
-ROBOT_KERNELS = ("rnea", "rnea_wrench", "crba", "fd", "fd_wrench", "rnea_batch", "crba_batch",
-                 "fd_batch")
+ROBOT_KERNELS = ("rnea", "rnea_wrench", "crba", "fd", "rnea_batch", "crba_batch", "fd_batch")
 _pool = None
 
 
@@ -64,7 +64,7 @@ class Robot:
         self._fd_auto = _FD_FLAGS["aba" if model.dof >= aba.CROSSOVER else "cholesky"]
         self._compiled = backend == "numba"
         self._P = layout.pack(model) if self._compiled else None   # the model, compiled layout
-        self._out = None                  # the last ``out=`` array found writable float64
+        self._out1 = self._out2 = None    # the last ``out=`` vector / matrix found writable float64
 
     backend = property(lambda self: self._backend, doc='"numba" (compiled) or "numpy" (reference)')
 
@@ -112,7 +112,7 @@ class Robot:
         """tau = M(q) qdd + b(q, qd) - J^T w  (rigid body; no friction). N m / N."""
         if (self._compiled and q.__class__ is qd.__class__ is qdd.__class__ is _nd
                 and q.ndim == qd.ndim == qdd.ndim == 1 and q.dtype is qd.dtype is qdd.dtype is _f8
-                and (out is None or out is self._out or self._checked_out(out, 1))):
+                and (out is None or out is self._out1 or self._checked_out(out, 1))):
             o = _empty(self._n) if out is None else out
             if (U.rnea(self._P, q, qd, qdd, _QD_QDD, o) if wrench is None else
                     U.rnea_wrench(self._P, q, qd, qdd, wrench, _QD_QDD, o) if _vector(wrench)
@@ -123,7 +123,7 @@ class Robot:
     def mass_matrix(self, q, out=None):
         """M(q), the generalized inertia matrix."""
         if (self._compiled and q.__class__ is _nd and q.ndim == 1 and q.dtype is _f8
-                and (out is None or out is self._out or self._checked_out(out, 2))):
+                and (out is None or out is self._out2 or self._checked_out(out, 2))):
             o = _empty(self._nn) if out is None else out
             if U.crba(self._P, q, o) == 0:
                 return o
@@ -139,7 +139,7 @@ class Robot:
         """b(q, qd) - J^T w = C(q, qd) qd + g(q) - J^T w."""
         if (self._compiled and q.__class__ is qd.__class__ is _nd and q.ndim == qd.ndim == 1
                 and q.dtype is qd.dtype is _f8
-                and (out is None or out is self._out or self._checked_out(out, 1))):
+                and (out is None or out is self._out1 or self._checked_out(out, 1))):
             o = _empty(self._n) if out is None else out
             if (U.rnea(self._P, q, qd, q, _QD, o) if wrench is None else
                     U.rnea_wrench(self._P, q, qd, q, wrench, _QD, o) if _vector(wrench)
@@ -150,7 +150,7 @@ class Robot:
     def gravity_torques(self, q, out=None):
         """g(q): the torques that hold the chain still (the textbook's gamma is -g)."""
         if (self._compiled and q.__class__ is _nd and q.ndim == 1 and q.dtype is _f8
-                and (out is None or out is self._out or self._checked_out(out, 1))):
+                and (out is None or out is self._out1 or self._checked_out(out, 1))):
             o = _empty(self._n) if out is None else out
             if U.rnea(self._P, q, q, q, 0, o) == 0:
                 return o
@@ -167,10 +167,10 @@ class Robot:
         flags = self._fd_auto if method == "auto" else _FD_FLAGS.get(method)
         if (flags is not None and self._compiled and q.__class__ is qd.__class__ is tau.__class__ is _nd
                 and q.ndim == qd.ndim == tau.ndim == 1 and q.dtype is qd.dtype is tau.dtype is _f8
-                and (out is None or out is self._out or self._checked_out(out, 1))):
+                and (out is None or out is self._out1 or self._checked_out(out, 1))):
             o = _empty(self._n) if out is None else out
-            if (U.fd(self._P, q, qd, tau, flags, o) if wrench is None else
-                    U.fd_wrench(self._P, q, qd, tau, wrench, flags, o) if _vector(wrench)
+            if (U.fd(self._P, q, qd, tau, _W0, flags, o) if wrench is None else
+                    U.fd(self._P, q, qd, tau, wrench, flags | F.WRENCH, o) if _vector(wrench)
                     else 3) == 0:
                 return o
         if not self._compiled or flags is None:
@@ -208,11 +208,15 @@ class Robot:
         return out[0] if single else out
 
     def _checked_out(self, out, ndim):
-        """True when ``out`` is a writable float64 ndarray of ``ndim`` dimensions; it is
-        then remembered, so that a loop passing the same ``out`` every call skips this
-        check (~80 ns) next time. (Its length is checked by the compiled code.)"""
+        """True when ``out`` is a writable float64 ndarray of ``ndim`` (1 or 2) dimensions;
+        it is then remembered (one vector, one matrix), so that a loop passing the same
+        ``out`` every call skips this check (~80 ns) next time. (Its length is checked by
+        the compiled code.)"""
         if out.__class__ is _nd and out.ndim == ndim and out.dtype is _f8 and out.flags.writeable:
-            self._out = out
+            if ndim == 1:
+                self._out1 = out
+            else:
+                self._out2 = out
             return True
         return False
 

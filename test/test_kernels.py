@@ -173,6 +173,28 @@ def test_out_receives_the_result(backend, batch):
             robot.inverse_dynamics(q, qd, qdd, out=bad)
 
 
+def test_a_remembered_out_is_not_trusted_for_another_shape_or_once_read_only():
+    """The single-state path remembers the last ``out`` it checked (one vector, one matrix)
+    and then calls the compiled code without type checks: an array checked as a vector
+    must still be refused as a matrix, and a new array is checked again."""
+    robot = sd.default_robot()
+    q, qd, qdd, tau, _ = states(robot, seed=9)
+    v = np.empty(6)
+    robot.inverse_dynamics(q, qd, qdd, out=v)                  # remembered as the vector
+    with pytest.raises(ValueError, match=r"out must be a writable float64 array of shape \(6, 6\)"):
+        robot.mass_matrix(q, out=v)
+    M = np.empty((6, 6))
+    robot.mass_matrix(q, out=M)                                # remembered as the matrix
+    with pytest.raises(ValueError, match=r"out must be a writable float64 array of shape \(6,\)"):
+        robot.gravity_torques(q, out=M)
+    frozen = np.empty(6)
+    frozen.setflags(write=False)
+    with pytest.raises(ValueError, match="read-only"):
+        robot.forward_dynamics(q, qd, tau, out=frozen)
+    np.testing.assert_array_equal(robot.inverse_dynamics(q, qd, qdd, out=v),
+                                  robot.inverse_dynamics(q, qd, qdd))
+
+
 def test_huge_angles_take_exact_argument_reduction(pair):
     _, robot, ref = pair
     q, qd, qdd, _, _ = states(robot, seed=6)
@@ -180,6 +202,11 @@ def test_huge_angles_take_exact_argument_reduction(pair):
     assert rel(robot.inverse_dynamics(q, qd, qdd), ref.inverse_dynamics(q, qd, qdd)) <= TOL
     Q = np.vstack([q, q - 2 * np.pi * 3e5])
     assert rel(robot.inverse_dynamics(Q, qd, qdd), ref.inverse_dynamics(Q, qd, qdd)) <= 1e-9
+    # a block of lanes mixing huge and ordinary angles: each row as its single call, bitwise
+    Q = np.vstack([Q, robot.random_state(1, batch=40)[0]])[np.random.default_rng(2).permutation(42)]
+    batch = robot.inverse_dynamics(Q, qd, qdd)
+    for k in range(len(Q)):
+        np.testing.assert_array_equal(batch[k], robot.inverse_dynamics(Q[k], qd, qdd))
 
 
 def test_nan_and_inf_raise_naming_argument_and_joint():

@@ -18,11 +18,11 @@ from numba import njit
 
 from . import flags as F
 from .layout import G, H, IO, KIND, MASS, TIPP
-from .signatures import In1, Out1, Out2, Out3, Pm, f8, i8
+from .signatures import D2, D3, In1, Out1, Pm, f8, i8, internal
 from .spatial import finite, joint_transforms, to_child, to_parent
 
 
-@njit(cache=True, inline="always")
+@internal
 def rot_block(R, i, X, a0, b0, Y):
     """Y = R_i X_blk R_i^T for the 3x3 block of the 6x6 X at rows a0.., columns b0.."""
     for a in range(3):
@@ -36,8 +36,7 @@ def rot_block(R, i, X, a0, b0, Y):
             Y[a, b] = s
 
 
-@njit(f8(Pm, Out2, Out3, Out2, Out3, Out2, Out2, Out2, Out2, Out2, In1, In1, In1, In1, In1, i8,
-        Out1), cache=True)
+@internal(f8(Pm, D2, D3, D2, D3, D2, D2, D2, D2, D2, In1, In1, In1, In1, In1, i8, Out1))
 def aba_core(P, sc, R, p, IA, pA, U, c, Du, Y, q, qd, tau, w, damping, flags, out):
     """qdd into ``out``. Returns 0.0, or NaN if an input has a NaN/Inf entry."""
     n = out.shape[0]

@@ -4,10 +4,10 @@ import math
 
 from numba import njit, types
 
-from .signatures import Out1, Out2
+from .signatures import D1, D2, Out1, internal
 
 
-@njit(types.void(Out2, Out1, Out1), cache=True)
+@internal(types.void(D2, D1, Out1))
 def cholesky_solve(L, b, x):
     """Solve M x = b: L (n, n) holds M on entry and its factor M = L L^T after."""
     n = b.shape[0]

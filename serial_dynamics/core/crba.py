@@ -9,7 +9,7 @@ inertial parameters (m, h = m c, I_O), not as a 6x6 matrix.
 from numba import njit, types
 
 from .data import new_kin
-from .signatures import Out2, Out3, Pm
+from .signatures import D2, D3, Out2, Pm, internal
 from .layout import H, IO, KIND, MASS, NJ
 from .spatial import joint_transforms, to_parent
 
@@ -82,7 +82,7 @@ def crba_core(P, R, p, M):
 
 
 crba_inline = njit(cache=True, inline="always")(crba_core)   # into the single-state entry
-crba_core = njit(types.void(Pm, Out3, Out2, Out2), cache=True)(crba_core)   # called by the others
+crba_core = internal(types.void(Pm, D3, D2, Out2))(crba_core)   # called by the others
 
 
 # ------------------------------------------------------------------ entry points

@@ -1,8 +1,8 @@
 """``Data``: the named scratch arrays of one evaluation, separate from the model.
 
 Each compiled entry point makes the arrays its algorithm needs at the start of the call,
-on the stack of that call (``stack_empty``; on the heap for long chains), so no scratch
-memory is ever shared between calls or threads: a ``Robot`` is thread-safe by
+on the stack of that call (``stack_empty``), so no scratch memory is ever shared between
+calls or threads: a ``Robot`` is thread-safe by
 construction and the batch kernels run on several cores without locks. Making them costs
 a few nanoseconds (a heap allocation costs ~20 ns each; docs/speed.md). Shapes, for n
 joints (spatial vectors angular first, as everywhere in the core):
@@ -29,10 +29,14 @@ from numba import njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
+from .signatures import internal
+
 Kin = namedtuple("Kin", "sc R p f")                  # kinematics + Newton-Euler (+ CRBA)
 Chol = namedtuple("Chol", "M b")                     # Cholesky route of forward dynamics
 Art = namedtuple("Art", "IA pA U c Du Y")            # articulated-body algorithm
-STACK_DOUBLES = 8192    # an array larger than this (64 KiB) goes on the heap
+STACK_DOUBLES = 8192    # a mass matrix larger than this (64 KiB; n > 90) goes on the heap
+# The arrays that grow as n live on the stack: 62 n doubles in all (0.5 MB at n = 1000,
+# against a thread's 8 MB stack); only the n x n mass matrix can outgrow it.
 
 
 @intrinsic
@@ -64,10 +68,17 @@ def stack_empty(typingctx, shape):
     return arrty(shape), codegen
 
 
+@internal
+def heap_empty(shape):
+    """``np.empty(shape)``, compiled once per number of dimensions and called (lowering
+    np.empty in every entry point would cost ~0.3 s of compile time each)."""
+    return np.empty(shape)
+
+
 @njit(cache=True, inline="always")
 def scratch(shape, size):
     """``stack_empty(shape)``, or a heap array when ``size`` doubles exceed the limit."""
-    return stack_empty(shape) if size <= STACK_DOUBLES else np.empty(shape)
+    return stack_empty(shape) if size <= STACK_DOUBLES else heap_empty(shape)
 
 
 @njit(cache=True, inline="always")

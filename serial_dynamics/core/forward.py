@@ -16,12 +16,13 @@ from .aba import aba_core
 from .cholesky import cholesky_solve
 from .crba import crba_core
 from .data import new_art, new_chol, new_kin
-from .signatures import In1, Out1, Out2, Out3, Pm, f8, i8
+from .signatures import D1, D2, D3, In1, Out1, Pm, f8, i8, internal
 from .layout import NJ
 from .rnea import rnea_core, status
 from .spatial import finite
 
 
+@internal(f8(Pm, D2, D3, D2, D2, D2, D1, In1, In1, In1, In1, In1, i8, Out1))
 def cholesky_core(P, sc, R, p, f, M, b, q, qd, tau, w, damping, flags, out):
     """qdd into ``out`` by the Cholesky route. Returns 0.0, or NaN on a NaN/Inf input."""
     n = out.shape[0]
@@ -37,10 +38,6 @@ def cholesky_core(P, sc, R, p, f, M, b, q, qd, tau, w, damping, flags, out):
     return chk
 
 
-cholesky_inline = njit(cache=True, inline="always")(cholesky_core)   # into the entry fd
-cholesky_core = njit(f8(Pm, Out2, Out3, Out2, Out2, Out2, Out1, In1, In1, In1, In1, In1, i8, Out1),
-                     cache=True)(cholesky_core)                      # called by the others
-
 
 # ------------------------------------------------------------------ entry points
 @njit(cache=True, inline="always")
@@ -49,30 +46,17 @@ def _checked_length(P, q, qd, tau, out):
     return q.shape[0] == n and qd.shape[0] == n and tau.shape[0] == n and out.shape[0] == n
 
 
-def fd(P, q, qd, tau, flags, out):
-    """Forward dynamics of one state into ``out`` (n,): Cholesky, or ABA with flag ABA.
-    Returns 0, 1 (NaN/Inf) or 2 (a wrong length). (Unread arguments -- no wrench, no
-    damping -- are given ``q`` and ``tau``.)"""
-    if not _checked_length(P, q, qd, tau, out):
-        return 2
-    n = out.shape[0]
-    d = new_kin(n)
-    flags &= ~(F.WRENCH | F.DAMPING)
-    if (flags & F.ABA) != 0:
-        a = new_art(n)
-        return status(aba_core(P, d.sc, d.R, d.p, a.IA, a.pA, a.U, a.c, a.Du, a.Y,
-                               q, qd, tau, q, tau, flags, out))
-    c = new_chol(n)
-    return status(cholesky_inline(P, d.sc, d.R, d.p, d.f, c.M, c.b, q, qd, tau, q, tau, flags, out))
-
-
-def fd_wrench(P, q, qd, tau, w, flags, out):
-    """``fd`` with the tip wrench ``w`` (6,), [f; m] in base coordinates, on the tip."""
+def fd(P, q, qd, tau, w, flags, out):
+    """Forward dynamics of one state into ``out`` (n,): Cholesky, or ABA with flag ABA;
+    with flag WRENCH the tip wrench ``w`` (6,), [f; m] in base coordinates, on the tip
+    (else ``w`` is not read). Returns 0, 1 (NaN/Inf) or 2 (a wrong length). (One entry
+    point with and without a wrench: a second one would compile the recursions again,
+    ~0.7 s of a cold start, to save ~40 ns a call.)"""
     if not _checked_length(P, q, qd, tau, out) or w.shape[0] != 6:
         return 2
     n = out.shape[0]
     d = new_kin(n)
-    flags = (flags | F.WRENCH) & ~F.DAMPING
+    flags &= ~F.DAMPING                  # tau stands in for the unread damping argument
     if (flags & F.ABA) != 0:
         a = new_art(n)
         return status(aba_core(P, d.sc, d.R, d.p, a.IA, a.pA, a.U, a.c, a.Du, a.Y,

@@ -11,7 +11,7 @@ from numba import njit
 
 from . import flags as F
 from .data import new_kin
-from .signatures import In1, Out1, Out2, Out3, Pm, f8, i8
+from .signatures import D2, D3, In1, Out1, Pm, f8, i8, internal
 from .layout import G, H, IO, KIND, MASS, NJ, TIPP
 from .spatial import finite, joint_transforms, to_child, to_parent
 
@@ -85,8 +85,7 @@ def rnea_core(P, sc, R, p, f, q, qd, qdd, w, flags, tau):
 
 
 rnea_inline = njit(cache=True, inline="always")(rnea_core)   # into the single-state entries
-rnea_core = njit(f8(Pm, Out2, Out3, Out2, Out2, In1, In1, In1, In1, i8, Out1),
-                 cache=True)(rnea_core)                            # called by the others
+rnea_core = internal(f8(Pm, D2, D3, D2, D2, In1, In1, In1, In1, i8, Out1))(rnea_core)   # the others call it
 
 
 @njit(cache=True, inline="always")

@@ -6,27 +6,63 @@ loop over the lanes that the compiler turns into vector instructions (AVX: 4 or 
 The lane count is read at run time (from P): LLVM vectorizes such loops with run-time
 overlap checks between the arrays, which it cannot do once it has unrolled a loop of
 known length. Same equations, frames and symbols as ``rnea.py``; every lane computes
-exactly what ``rnea_core`` computes for its sample (same operations in the same order),
-so a sample's torques do not depend on its batch or its place in it.
+exactly what ``rnea_core`` computes for its sample (same operations in the same order;
+libm's sine and cosine for a sample with an angle beyond SMALL_ANGLE, as there), so a
+sample's torques are bitwise the same alone or in any batch, at any place in it.
 """
-import numpy as np
-from numba import njit
+import math
+
 
 from . import flags as F
-from .data import new_kin
+from .data import stack_empty
 from .layout import G, H, IO, KIND, LANES, MASS, NJ, TIPP, XP, XR
-from .rnea import rnea_core
+from .signatures import In2, Out2, Pm, i8, internal
 from .spatial import SMALL_ANGLE, sincos
 
-@njit(cache=True)
-def rnea_block(P, n, flags, QV, WB, RB, PB, FB, ST, TB):
-    """Inverse dynamics of nl samples (lanes) in lock step: QV (3n, nl) rows q, qd, qdd;
-    WB (6, nl) tip wrenches (base frame); scratch RB (9n, nl) rotations, PB (3n, nl)
-    translations, FB (6n, nl) body wrenches, ST (15, nl) state (omega, alpha, a, then the
-    wrench force and moment); torques into TB (n, nl). Every lane loop is innermost and
-    branch-free (the joint kind, the same in every lane, picks values by selects), so that
-    it vectorizes."""
-    nl = QV.shape[1]                     # a run-time count (see above)
+@internal(i8(Pm, In2, In2, In2, In2, i8, Out2, i8))
+def rnea_block(P, q, qd, qdd, w, flags, out, k0):
+    """Inverse dynamics of the samples k0 .. k0 + B - 1 of the batch (fewer at its end), in
+    lock step, into the same rows of ``out``. Returns 1 if one of them has a NaN/Inf
+    input, else 0. The lanes' scratch is on this function's stack, shape (rows, B), each
+    written before it is read: QV rows q, qd, qdd, then a mask of the samples whose angles
+    are all below SMALL_ANGLE (the others get libm's sine and cosine, as in
+    ``joint_transforms``); WB tip wrenches (base frame); RB rotations, PB translations,
+    FB body wrenches; ST the state (omega, alpha, acc, then the wrench force and moment);
+    TB torques. Every lane loop is innermost and branch-free (the joint kind, the same in
+    every lane, picks values by selects), so that it vectorizes."""
+    N = out.shape[0]
+    n = int(P[0, NJ])
+    L = int(P[0, LANES])                 # lanes (= B), read at run time on purpose
+    nl = min(L, N - k0)
+    QV, WB, TB, ST = stack_empty((3 * n + 1, L)), stack_empty((6, L)), stack_empty((n, L)), stack_empty((15, L))
+    RB, PB, FB = stack_empty((9 * n, L)), stack_empty((3 * n, L)), stack_empty((6 * n, L))
+    nq, nv, na, nw = q.shape[0] > 1, qd.shape[0] > 1, qdd.shape[0] > 1, w.shape[0] > 1
+    use_qd, use_qdd = (flags & F.QD) != 0, (flags & F.QDD) != 0
+    # --- gather the block
+    small = True                         # every angle of the block below SMALL_ANGLE
+    fin = True                           # every rate, acceleration and wrench finite
+    for b in range(nl):
+        k = k0 + b
+        lane_small = True
+        for i in range(n):
+            x = q[k if nq else 0, i]
+            y = qd[k if nv else 0, i] if use_qd else 0.0
+            z = qdd[k if na else 0, i] if use_qdd else 0.0
+            QV[i, b], QV[n + i, b], QV[2 * n + i, b] = x, y, z
+            lane_small &= abs(x) < SMALL_ANGLE
+            fin &= y * 0.0 == 0.0 and z * 0.0 == 0.0
+        QV[3 * n, b] = 1.0 if lane_small else 0.0
+        small &= lane_small
+        if (flags & F.WRENCH) != 0:
+            for j in range(6):
+                x = w[k if nw else 0, j]
+                WB[j, b] = x
+                fin &= x * 0.0 == 0.0
+    if not small:                        # a huge angle is legal; NaN or Inf is not
+        for b in range(nl):
+            for i in range(n):
+                fin &= QV[i, b] * 0.0 == 0.0
+    # --- the recursions, lane by lane
     use_w = (flags & F.WRENCH) != 0
     for k in range(15):
         v = -P[n, G + k - 6] if 6 <= k < 9 else 0.0      # omega = alpha = 0, a = -g
@@ -43,7 +79,11 @@ def rnea_block(P, n, flags, QV, WB, RB, PB, FB, ST, TB):
         # joint transform R = Rp' Rz(q) | Rp',  p = p' | p' + q Rp' e_z
         if kp == 0.0:
             for b in range(nl):
-                s, c = sincos(QV[i, b])
+                if small:
+                    s, c = sincos(QV[i, b])
+                else:
+                    s, c = sincos(QV[i, b]) if QV[3 * n, b] == 1.0 else (math.sin(QV[i, b]),
+                                                                          math.cos(QV[i, b]))
                 RB[ri, b], RB[ri + 1, b], RB[ri + 2, b] = c * rp0 + s * rp1, c * rp1 - s * rp0, rp2
                 RB[ri + 3, b], RB[ri + 4, b], RB[ri + 5, b] = c * rp3 + s * rp4, c * rp4 - s * rp3, rp5
                 RB[ri + 6, b], RB[ri + 7, b], RB[ri + 8, b] = c * rp6 + s * rp7, c * rp7 - s * rp6, rp8
@@ -139,48 +179,19 @@ def rnea_block(P, n, flags, QV, WB, RB, PB, FB, ST, TB):
             mx, my, mz = mx + FB[fi + 3, b], my + FB[fi + 4, b], mz + FB[fi + 5, b]
             ST[0, b], ST[1, b], ST[2, b], ST[3, b], ST[4, b], ST[5, b] = fx, fy, fz, mx, my, mz
             TB[i, b] = mz if rev else fz
-
-
+    # --- scatter
+    for b in range(nl):
+        for i in range(n):
+            out[k0 + b, i] = TB[i, b]
+    return 0 if fin else 1
 
 
 # ------------------------------------------------------------------ entry point
 def rnea_batch(P, q, qd, qdd, w, flags, out):
     """Inverse dynamics of N states: q, qd, qdd (N, n) or (1, n) broadcast; w (N, 6) or
-    (1, 6). Blocks of B samples run in lanes; a block with a NaN/Inf or a huge angle, and
-    a tail of fewer than B/4 samples, go through ``rnea_core`` (which checks, and reduces
-    huge angles exactly). Returns 0, or 1 if some input had a NaN/Inf."""
-    N = out.shape[0]
-    n = int(P[0, NJ])
-    L = int(P[0, LANES])                 # lanes (= B), read at run time on purpose
-    d = new_kin(n)
-    QV, WB, TB, ST = np.zeros((3 * n, L)), np.zeros((6, L)), np.zeros((n, L)), np.zeros((15, L))
-    RB, PB, FB = np.zeros((9 * n, L)), np.zeros((3 * n, L)), np.zeros((6 * n, L))
-    nq, nv, na, nw = q.shape[0] > 1, qd.shape[0] > 1, qdd.shape[0] > 1, w.shape[0] > 1
-    use_qd, use_qdd, use_w = (flags & F.QD) != 0, (flags & F.QDD) != 0, (flags & F.WRENCH) != 0
+    (1, 6). Blocks of B samples run in lanes (the last one with the samples left). Returns
+    0, or 1 if some input had a NaN/Inf (its rows are then not meaningful)."""
     bad = 0
-    for k0 in range(0, N, L):
-        ok = N - k0 >= L // 4                # a short tail: one sample at a time
-        for b in range(L if ok else 0):      # gather the block (the last one padded)
-            k = min(k0 + b, N - 1)
-            for i in range(n):
-                x = q[k if nq else 0, i]
-                y = qd[k if nv else 0, i] if use_qd else 0.0
-                z = qdd[k if na else 0, i] if use_qdd else 0.0
-                QV[i, b], QV[n + i, b], QV[2 * n + i, b] = x, y, z
-                ok &= abs(x) < SMALL_ANGLE and y * 0.0 == 0.0 and z * 0.0 == 0.0
-            if use_w:
-                for j in range(6):
-                    x = w[k if nw else 0, j]
-                    WB[j, b] = x
-                    ok &= x * 0.0 == 0.0
-        if ok:
-            rnea_block(P, n, flags, QV, WB, RB, PB, FB, ST, TB)
-            for b in range(min(L, N - k0)):
-                for i in range(n):
-                    out[k0 + b, i] = TB[i, b]
-        else:
-            for k in range(k0, min(k0 + L, N)):
-                if rnea_core(P, d.sc, d.R, d.p, d.f, q[k if nq else 0], qd[k if nv else 0], qdd[k if na else 0],
-                             w[k if nw else 0], flags, out[k]) != 0.0:
-                    bad = 1
+    for k0 in range(0, out.shape[0], int(P[0, LANES])):
+        bad |= rnea_block(P, q, qd, qdd, w, flags, out, k0)
     return bad

@@ -7,6 +7,7 @@ import math
 from numba import njit
 
 from .layout import KIND, XP, XR
+from .signatures import internal
 
 
 def _pio2_parts():
@@ -54,7 +55,7 @@ def sincos(x):
     return (-ss if j >= 2.0 else ss), (-cc if abs(j - 1.5) < 1.0 else cc)
 
 
-@njit(cache=True)
+@internal
 def joint_transforms(P, sc, R, p, q, n):
     """R_i = Xtree_R Rz(q_i) (revolute) or Xtree_R (prismatic) and p_i = Xtree_p
     (+ q_i Xtree_R e_z): body i in body i-1, into R, p; sin q, cos q into sc (2, n)
@@ -88,7 +89,7 @@ def joint_transforms(P, sc, R, p, q, n):
     return chk
 
 
-@njit(cache=True)
+@internal
 def to_child(R, i, x, y, z):
     """R_i^T (x, y, z): a 3-vector from body i-1's frame into body i's."""
     return (R[i, 0, 0] * x + R[i, 1, 0] * y + R[i, 2, 0] * z,
@@ -96,7 +97,7 @@ def to_child(R, i, x, y, z):
             R[i, 0, 2] * x + R[i, 1, 2] * y + R[i, 2, 2] * z)
 
 
-@njit(cache=True)
+@internal
 def to_parent(R, p, i, nx, ny, nz, fx, fy, fz):
     """A spatial force (n_O; f) of body i, in its frame, carried into body i-1's frame:
     f' = R f, n' = R n + p x f'  (Xup_i^T f, Featherstone 2008, eq. 2.24)."""
@@ -110,7 +111,7 @@ def to_parent(R, p, i, nx, ny, nz, fx, fy, fz):
     return mx + py * gz - pz * gy, my + pz * gx - px * gz, mz + px * gy - py * gx, gx, gy, gz
 
 
-@njit(cache=True)
+@internal
 def finite(x):
     """0.0 for a finite x, NaN for NaN or Inf: summed into an entry point's check."""
     return x * 0.0

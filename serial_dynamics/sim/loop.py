@@ -15,7 +15,7 @@ from numba import njit, types
 from ..algorithms.aba import CROSSOVER
 from ..core import flags as F
 from ..core.aba import aba_core
-from ..core.data import new_art, new_chol, new_kin
+from ..core.data import heap_empty, new_art, new_chol, new_kin, stack_empty
 from ..core.forward import cholesky_core
 from ..core.layout import NJ, pack
 from ..core.signatures import In1, In2, Out2, Pm, f8, i8
@@ -29,13 +29,15 @@ def semi_implicit_euler_loop(P, q0, qd0, tau, dt, nsteps, viscous, w, flags):
     new velocity, (M + dt diag(viscous)) qdd = tau_k - viscous qd - b (as MuJoCo's Euler),
     which is stable for any step; then qd += dt qdd, q += dt qd."""
     n = int(P[0, NJ])
-    qs = np.full((nsteps + 1, n), np.nan)
-    qds = np.full((nsteps + 1, n), np.nan)
+    qs, qds = heap_empty((nsteps + 1, n)), heap_empty((nsteps + 1, n))
+    qs[:, :] = np.nan                   # rows after a divergence stay NaN
+    qds[:, :] = np.nan
     d, c, a = new_kin(n), new_chol(n), new_art(n)
-    t, qdd, damping = np.empty(n), np.empty(n), np.empty(n)
-    q, qd = q0.copy(), qd0.copy()
-    qs[0], qds[0] = q, qd
-    for i in range(n):
+    t, qdd, damping = stack_empty((n,)), stack_empty((n,)), stack_empty((n,))
+    q, qd = stack_empty((n,)), stack_empty((n,))
+    for i in range(n):                  # element loops: numba compiles array-slice assignment slowly
+        q[i], qd[i] = q0[i], qd0[i]
+        qs[0, i], qds[0, i] = q[i], qd[i]
         damping[i] = dt * viscous[i]
     ntau, nw = tau.shape[0] > 1, w.shape[0] > 1
     use_w = w.shape[0] > 0
@@ -56,7 +58,8 @@ def semi_implicit_euler_loop(P, q0, qd0, tau, dt, nsteps, viscous, w, flags):
             ok = ok and q[i] - q[i] == 0.0 and qd[i] - qd[i] == 0.0
         if not ok:
             break
-        qs[k + 1], qds[k + 1] = q, qd
+        for i in range(n):
+            qs[k + 1, i], qds[k + 1, i] = q[i], qd[i]
     return qs, qds
 
 

@@ -489,6 +489,7 @@ def main():
     extra, rtb_note = rtb_rows(robots["UR5"], rounds)
     rows += extra
     print("simulation, peers done", flush=True)
+    from serial_dynamics import robot as robot_module
     core_rows = cores(robots["Panda"], rounds)
     print("cores done", flush=True)
     first = first_call(cold=not args.quick, earlier_root=root)

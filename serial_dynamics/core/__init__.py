@@ -24,7 +24,7 @@ inlined where (bitwise the same in every process, whatever the cache holds).
 from numba import njit
 
 from . import crba, forward, rnea, rnea_lanes
-from .signatures import In1, In2, Out1, Out2, Out3, Pm, i8
+from .signatures import In1, In2, Out1, Out2, Out3, Pm, compile_internal, i8
 
 ENTRY_POINTS = {   # name: (function, signature, releases the GIL)
     "rnea": (rnea.rnea, i8(Pm, In1, In1, In1, i8, Out1), False),
@@ -45,6 +45,7 @@ class _Kernels:
         if name not in ENTRY_POINTS:
             raise AttributeError(name)
         func, sig, nogil = ENTRY_POINTS[name]
+        compile_internal()               # the algorithms' one signature each, first
         kernel = njit([sig], cache=True, nogil=nogil)(func)
         setattr(self, name, kernel)
         return kernel

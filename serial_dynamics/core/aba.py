@@ -14,13 +14,11 @@ Table 7.1); spatial vectors angular first, S = e_z (index 2 revolute, 5 prismati
 With the DAMPING flag, D_i += damping_i: (M + diag(damping)) qdd = tau - b.
 Ia and pa overwrite IA_i and pA_i once U_i, D_i, u_i are taken from them.
 """
-from numba import njit
 
 from . import flags as F
 from .layout import G, H, IO, KIND, MASS, TIPP
 from .signatures import D2, D3, In1, Out1, Pm, f8, i8, internal
 from .spatial import finite, joint_transforms, to_child, to_parent
-
 
 @internal
 def rot_block(R, i, X, a0, b0, Y):
@@ -34,7 +32,6 @@ def rot_block(R, i, X, a0, b0, Y):
                     t += X[a0 + k, b0 + m] * R[i, b, m]
                 s += R[i, a, k] * t
             Y[a, b] = s
-
 
 @internal(f8(Pm, D2, D3, D2, D3, D2, D2, D2, D2, D2, In1, In1, In1, In1, In1, i8, Out1))
 def aba_core(P, sc, R, p, IA, pA, U, c, Du, Y, q, qd, tau, w, damping, flags, out):

@@ -2,7 +2,7 @@
 (Featherstone 2008, Sec. 6.3: the factor of the mass matrix, then two triangular solves)."""
 import math
 
-from numba import njit, types
+from numba import types
 
 from .signatures import D1, D2, Out1, internal
 

@@ -22,7 +22,6 @@ from .rnea import rnea_core, status
 from .spatial import finite
 
 
-@internal(f8(Pm, D2, D3, D2, D2, D2, D1, In1, In1, In1, In1, In1, i8, Out1))
 def cholesky_core(P, sc, R, p, f, M, b, q, qd, tau, w, damping, flags, out):
     """qdd into ``out`` by the Cholesky route. Returns 0.0, or NaN on a NaN/Inf input."""
     n = out.shape[0]
@@ -36,6 +35,11 @@ def cholesky_core(P, sc, R, p, f, M, b, q, qd, tau, w, damping, flags, out):
             M[i, i] += damping[i]
     cholesky_solve(M, b, out)
     return chk
+
+
+cholesky_inline = njit(cache=True, inline="always")(cholesky_core)   # into the entry fd
+cholesky_core = internal(f8(Pm, D2, D3, D2, D2, D2, D1, In1, In1, In1, In1, In1, i8, Out1))(
+    cholesky_core)                                                   # the others call it
 
 
 
@@ -62,7 +66,7 @@ def fd(P, q, qd, tau, w, flags, out):
         return status(aba_core(P, d.sc, d.R, d.p, a.IA, a.pA, a.U, a.c, a.Du, a.Y,
                                q, qd, tau, w, tau, flags, out))
     c = new_chol(n)
-    return status(cholesky_core(P, d.sc, d.R, d.p, d.f, c.M, c.b, q, qd, tau, w, tau, flags, out))
+    return status(cholesky_inline(P, d.sc, d.R, d.p, d.f, c.M, c.b, q, qd, tau, w, tau, flags, out))
 
 
 def fd_batch(P, q, qd, tau, w, flags, out):

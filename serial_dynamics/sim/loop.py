@@ -18,7 +18,7 @@ from ..core.aba import aba_core
 from ..core.data import heap_empty, new_art, new_chol, new_kin, stack_empty
 from ..core.forward import cholesky_core
 from ..core.layout import NJ, pack
-from ..core.signatures import In1, In2, Out2, Pm, f8, i8
+from ..core.signatures import In1, In2, Out2, Pm, compile_internal, f8, i8
 from .steps import semi_implicit_euler_step
 
 
@@ -70,6 +70,7 @@ _compiled = []
 def _loop():
     """The loop, compiled (or loaded from the numba cache) on first use."""
     if not _compiled:
+        compile_internal()
         _compiled.append(njit([_SIGNATURE], cache=True)(semi_implicit_euler_loop))
     return _compiled[0]
 

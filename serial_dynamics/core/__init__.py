@@ -1,23 +1,26 @@
 """The compiled core (numba): one module per algorithm, in joint frames.
 
-    layout.py     the model as one read-only array P (``pack``), its named columns
-    data.py       Data: the named scratch arrays of one evaluation
-    spatial.py    inline helpers: sincos, joint transforms, frame changes of vectors/forces
+    layout.py     the model as one array P (``pack``), its named columns
+    data.py       Data: the named scratch arrays of one evaluation (on the call's stack)
+    signatures.py the argument types, named; ``internal`` (one signature per algorithm)
+    spatial.py    small helpers: sincos, joint transforms, frame changes of vectors/forces
     rnea.py       inverse dynamics (Newton-Euler)     rnea_lanes.py  the same, B samples in SIMD lanes
     crba.py       mass matrix (composite rigid bodies)
     cholesky.py   M x = b                             aba.py         articulated bodies
     forward.py    forward dynamics (Cholesky or ABA)  flags.py       the entry points' flags
 
 Each algorithm is the same as its NumPy reference in ``algorithms/`` (same frames and
-symbols; docs/conventions.md). Entry points take the packed model ``P`` and C-contiguous
-float64 arrays, write into ``out`` and return a status: 0 ok, 1 a NaN/Inf in an input (the
+symbols; docs/conventions.md). Entry points take the packed model ``P`` and float64
+arrays (any strides), write into ``out`` and return a status: 0 ok, 1 a NaN/Inf in an input (the
 caller then raises the reference's ValueError naming it), 2 a wrong length. Batch
 kernels take (N, n) inputs, or (1, n) to broadcast one row, and release the GIL so that
 ``Robot`` can split a large batch over the cores.
 
 ``K`` compiles each entry point on first use with its explicit signature and
-``cache=True`` (seconds once per machine; loading from the numba cache in ``__pycache__``
-takes milliseconds); ``python -m serial_dynamics.core`` fills the cache. No fast-math
+``cache=True``, after the typed algorithms it calls (seconds once per machine; loading
+from the numba cache in ``__pycache__`` takes milliseconds); importing compiles nothing;
+``python -m serial_dynamics.core`` fills the cache. ``UNCHECKED`` gives the same entry
+points without numba's type dispatch, for ``Robot``, which checks the types itself. No fast-math
 flag anywhere: IEEE arithmetic, so results do not depend on what was compiled or
 inlined where (bitwise the same in every process, whatever the cache holds).
 """
@@ -26,14 +29,16 @@ from numba import njit
 from . import crba, forward, rnea, rnea_lanes
 from .signatures import In1, In2, Out1, Out2, Out3, Pm, compile_internal, i8
 
-ENTRY_POINTS = {   # name: (function, signature, releases the GIL)
-    "rnea": (rnea.rnea, i8(Pm, In1, In1, In1, i8, Out1), False),
-    "rnea_wrench": (rnea.rnea_wrench, i8(Pm, In1, In1, In1, In1, i8, Out1), False),
-    "crba": (crba.crba, i8(Pm, In1, Out2), False),
-    "fd": (forward.fd, i8(Pm, In1, In1, In1, In1, i8, Out1), False),
-    "rnea_batch": (rnea_lanes.rnea_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True),
-    "crba_batch": (crba.crba_batch, i8(Pm, In2, Out3), True),
-    "fd_batch": (forward.fd_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True),
+FD_CALLS = ("aba_core", "rnea_core", "crba_core", "cholesky_solve")   # the Cholesky route inlined
+
+ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core functions it calls)
+    "rnea": (rnea.rnea, i8(Pm, In1, In1, In1, i8, Out1), False, ()),
+    "rnea_wrench": (rnea.rnea_wrench, i8(Pm, In1, In1, In1, In1, i8, Out1), False, ("rnea_core",)),
+    "crba": (crba.crba, i8(Pm, In1, Out2), False, ()),
+    "fd": (forward.fd, i8(Pm, In1, In1, In1, In1, i8, Out1), False, FD_CALLS),
+    "rnea_batch": (rnea_lanes.rnea_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True, ("rnea_block",)),
+    "crba_batch": (crba.crba_batch, i8(Pm, In2, Out3), True, ("crba_core",)),
+    "fd_batch": (forward.fd_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True, FD_CALLS),
 }
 
 
@@ -44,8 +49,8 @@ class _Kernels:
     def __getattr__(self, name):
         if name not in ENTRY_POINTS:
             raise AttributeError(name)
-        func, sig, nogil = ENTRY_POINTS[name]
-        compile_internal()               # the algorithms' one signature each, first
+        func, sig, nogil, calls = ENTRY_POINTS[name]
+        compile_internal(calls)          # the typed algorithms it calls, first
         kernel = njit([sig], cache=True, nogil=nogil)(func)
         setattr(self, name, kernel)
         return kernel

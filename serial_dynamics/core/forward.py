@@ -38,8 +38,8 @@ def cholesky_core(P, sc, R, p, f, M, b, q, qd, tau, w, damping, flags, out):
 
 
 cholesky_inline = njit(cache=True, inline="always")(cholesky_core)   # into the entry fd
-cholesky_core = internal(f8(Pm, D2, D3, D2, D2, D2, D1, In1, In1, In1, In1, In1, i8, Out1))(
-    cholesky_core)                                                   # the others call it
+cholesky_core = internal(f8(Pm, D2, D3, D2, D2, D2, D1, In1, In1, In1, In1, In1, i8, Out1),
+                         calls=("rnea_core", "crba_core", "cholesky_solve"))(cholesky_core)
 
 
 

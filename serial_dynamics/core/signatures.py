@@ -13,34 +13,44 @@ import threading
 from numba import njit, types
 
 _OPTIONS = dict(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
-_TYPED = []          # (dispatcher, signature) of the internal functions with one
+_TYPED = {}          # name: (dispatcher, signature, typed callees) of those with one
+_DONE = set()        # the names compiled and fixed
 _LOCK = threading.Lock()
 
 
-def internal(sig_or_func):
+def internal(sig_or_func, calls=()):
     """A core function, called only from compiled code (no CPython or C wrapper to
-    build). ``@internal``: specialized on use, for small helpers; ``@internal(sig)``: one
-    signature, compiled by ``compile_internal`` and then fixed (calls convert to it)."""
+    build). ``@internal``: specialized on use, for small helpers; ``@internal(sig,
+    calls=names)``: one signature, compiled by ``compile_internal`` after the typed
+    functions it calls, and then fixed (calls convert to it)."""
     if callable(sig_or_func) and not hasattr(sig_or_func, "args"):
         return njit(**_OPTIONS)(sig_or_func)
 
     def decorate(func):
         disp = njit(**_OPTIONS)(func)
-        _TYPED.append((disp, sig_or_func))
+        _TYPED[func.__name__] = (disp, sig_or_func, tuple(calls))
         return disp
     return decorate
 
 
-def compile_internal():
-    """Compile (or load from the cache) every internal function's one signature, then
-    forbid other specializations, in the order they were defined (callees before their
-    callers, so that a caller is typed against its callees' one signature). Idempotent;
-    threads that come together wait for the first."""
+def compile_internal(names):
+    """Compile (or load from the cache) the one signature of each internal function in
+    ``names`` -- after the ones it calls, so that it is typed against theirs -- then
+    forbid it other specializations. Idempotent; threads wait for each other."""
     with _LOCK:
-        for disp, sig in _TYPED:
-            disp.compile(sig)
-            disp.disable_compile()
-        _TYPED.clear()
+        for name in names:
+            _compile(name)
+
+
+def _compile(name):
+    if name in _DONE:
+        return
+    disp, sig, calls = _TYPED[name]
+    for callee in calls:
+        _compile(callee)
+    disp.compile(sig)
+    disp.disable_compile()
+    _DONE.add(name)
 
 f8, i8 = types.float64, types.int64
 Pm = types.Array(f8, 2, "C")                     # the packed model P (never written)

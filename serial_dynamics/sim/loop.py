@@ -70,7 +70,7 @@ _compiled = []
 def _loop():
     """The loop, compiled (or loaded from the numba cache) on first use."""
     if not _compiled:
-        compile_internal()
+        compile_internal(("aba_core", "cholesky_core"))
         _compiled.append(njit([_SIGNATURE], cache=True)(semi_implicit_euler_loop))
     return _compiled[0]
 

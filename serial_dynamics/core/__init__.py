@@ -19,7 +19,7 @@ kernels take (N, n) inputs, or (1, n) to broadcast one row, and release the GIL 
 ``K`` compiles each entry point on first use with its explicit signature and
 ``cache=True``, after the typed algorithms it calls (seconds once per machine; loading
 from the numba cache in ``__pycache__`` takes milliseconds); importing compiles nothing;
-``python -m serial_dynamics.core`` fills the cache. ``UNCHECKED`` gives the same entry
+``python -m serial_dynamics.precompile`` fills the cache. ``UNCHECKED`` gives the same entry
 points without numba's type dispatch, for ``Robot``, which checks the types itself. No fast-math
 flag anywhere: IEEE arithmetic, so results do not depend on what was compiled or
 inlined where (bitwise the same in every process, whatever the cache holds).

@@ -1,8 +1,4 @@
-"""python -m serial_dynamics.core: compile (or load) every kernel once, filling the cache."""
-import time
+"""python -m serial_dynamics.core: fill the numba cache (``serial_dynamics.precompile``)."""
+from serial_dynamics.precompile import main
 
-from serial_dynamics.core import ENTRY_POINTS, K
-
-t0 = time.perf_counter()
-K.load_all()
-print(f"compiled or loaded {len(ENTRY_POINTS)} kernels in {time.perf_counter() - t0:.1f} s")
+main()

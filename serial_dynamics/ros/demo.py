@@ -28,6 +28,7 @@ from std_srvs.srv import SetBool
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 import serial_dynamics as sd
+from serial_dynamics.precompile import precompile
 from serial_dynamics.sim.fixed_step import FixedStepIntegrator
 from serial_dynamics.trajectory import pick_and_place
 
@@ -61,7 +62,7 @@ def run_demo(urdf=None, base_link=None, tip_link=None, real_time_factor=1.0, att
         # compile the kernels here, once, into the cache the nodes load from (two nodes
         # compiling the same kernels side by side on a cold cache take twice as long)
         t = time.monotonic()
-        robot.warmup()
+        precompile(jobs=2)               # every kernel, on two cores; a warm cache only loads
         FixedStepIntegrator(robot).step(traj.q[0], np.zeros(robot.dof), np.zeros(robot.dof))
         if time.monotonic() - t > 2.0:
             log(f"compiled the numerical kernels in {time.monotonic() - t:.0f} s (first run only)")

@@ -1,0 +1,57 @@
+"""Fill the numba cache with every compiled kernel, on two cores.
+
+    python -m serial_dynamics.precompile        # or: python -m serial_dynamics.core
+
+Every entry point of the compiled core (``core.K``) and the simulator's whole-run loop
+(``sim.loop``) is compiled once per machine and source version, then loaded from the
+cache (``__pycache__``) in milliseconds. Numba compiles one function at a time in a
+process, so ``precompile(jobs=2)`` starts a second process that compiles one half of them
+while this one compiles the other half, then loads that half from the cache it filled.
+Run it after installing (a container build, a CI cache step); the nodes' ``warmup()``
+then only loads.
+"""
+from __future__ import annotations
+
+import subprocess
+import sys
+import time
+
+from .core import ENTRY_POINTS, K
+from .sim.loop import _loop
+
+# two halves of about equal cold-compile time (bench/BENCHMARKS.md, *First call*)
+HALVES = (("fd", "fd_batch", "loop"), ("rnea", "rnea_wrench", "crba", "rnea_batch", "crba_batch"))
+assert set(HALVES[0] + HALVES[1]) == set(ENTRY_POINTS) | {"loop"}
+
+
+def load(names):
+    """Compile, or load from the cache, the kernels ``names`` ("loop": the simulator's)."""
+    for name in names:
+        _loop() if name == "loop" else getattr(K, name)
+
+
+def precompile(jobs=2):
+    """Every kernel, compiled by ``jobs`` (1 or 2) processes into the cache and loaded
+    here. Returns the seconds it took."""
+    t0 = time.perf_counter()
+    helper = (subprocess.Popen([sys.executable, "-m", "serial_dynamics.precompile", "--only",
+                                ",".join(HALVES[0])]) if jobs > 1 else None)
+    load(HALVES[1])
+    if helper is not None and helper.wait() != 0:
+        raise RuntimeError(f"the process compiling {HALVES[0]} failed (exit {helper.returncode})")
+    load(HALVES[0])                      # from the cache the helper filled (jobs=2)
+    return time.perf_counter() - t0
+
+
+def main(argv=None):
+    argv = sys.argv[1:] if argv is None else argv
+    if argv[:1] == ["--only"]:
+        load(argv[1].split(","))
+        return
+    jobs = 1 if argv[:1] == ["--serial"] else 2
+    seconds = precompile(jobs)
+    print(f"compiled or loaded {len(ENTRY_POINTS) + 1} kernels in {seconds:.1f} s")
+
+
+if __name__ == "__main__":
+    main()

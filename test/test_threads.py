@@ -1,8 +1,8 @@
 """A Robot may be called from several threads at once, and gives the serial answers.
 
 Threads share ONE Robot and call it concurrently, thousands of times each, on different
-seeded states, mixing single-state inverse dynamics with and without a tip wrench (a
-single call with a wrench goes through the robot's shared scratch memory), bias and
+seeded states, mixing single-state inverse dynamics with and without a tip wrench (the
+old kernels kept a wrench in scratch memory shared by every call on a robot), bias and
 gravity torques, the mass matrix, forward dynamics by both methods, and batch calls. Every
 answer is compared bitwise with the answer of the same call made serially beforehand on
 the same robot. A ``threading.Barrier`` starts the threads together, and the interpreter's
@@ -10,7 +10,7 @@ switch interval is made tiny so that the threads really interleave between (and,
 call releases the GIL, within) calls.
 
 ``test_first_calls_concurrently``: the same on a Robot that has never been called, so
-that the threads race through its first calls (which put the compiled kernels on it).
+that the threads race through its first calls (which compile or load the kernels).
 """
 import os
 import sys

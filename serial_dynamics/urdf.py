@@ -122,6 +122,13 @@ def combine_inertias(parts):
 def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81)) -> Model:
     """Parse a URDF (path or XML string) and build the validated chain model."""
     robot = _parse(source)
+    for kind, items in (("link", robot.links), ("joint", robot.joints)):
+        seen = set()
+        for item in items:
+            if item.name in seen:
+                raise URDFError(f"two <{kind}> elements are named {item.name!r}; "
+                                f"{kind} names must be unique: rename or remove one")
+            seen.add(item.name)
     links = {link.name: link for link in robot.links}
     parent_joint = {}
     children = {name: [] for name in links}
@@ -140,6 +147,7 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81))
     if len(roots) != 1:
         raise URDFError(f"the URDF must have exactly one root link, found {roots}")
     root = roots[0]
+    _check_tree(root, links, children, parent_joint)
 
     base_link = root if base_link is None else base_link
     for role, name in (("base_link", base_link), ("tip_link", tip_link)):
@@ -235,6 +243,27 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81))
         damping=[b["damping"] for b in bodies], friction=[b["friction"] for b in bodies],
         frames=frames,
     )
+
+
+def _check_tree(root, links, children, parent_joint):
+    """Every link hangs below the root. Each link has at most one parent joint, so a link
+    the root does not reach lies on, or below, a cycle of joints: name the cycle."""
+    reached, stack = {root}, [root]
+    while stack:
+        for joint in children[stack.pop()]:
+            if joint.child not in reached:
+                reached.add(joint.child)
+                stack.append(joint.child)
+    lost = [name for name in links if name not in reached]
+    if lost:
+        link, seen = lost[0], []
+        while link not in seen:          # up the parents until one repeats: the cycle
+            seen.append(link)
+            link = parent_joint[link].parent
+        cycle = seen[seen.index(link):]
+        joints = [parent_joint[name].name for name in cycle]
+        raise URDFError(f"the joints {joints} form a cycle through the links {cycle}, which "
+                        f"the root {root!r} does not reach; a URDF must be a tree")
 
 
 def _pose(frame):

@@ -80,6 +80,22 @@ def test_not_a_tree():
     raises(sd.URDFError, urdf(orphan=link("orphan")), "root", "orphan")
 
 
+@pytest.mark.parametrize("kw", [{}, {"base_link": "a"}, {"tip_link": "b"}])
+def test_a_cycle_off_the_root_is_named(kw):
+    """Links a, b with joints a -> b and b -> a: one root (base_link), so the old loader
+    walked the cycle forever (issue 13, defect 2)."""
+    cyclic = urdf(a=link("a"), b=link("b"), jab=joint("jab", "a", "b"), jba=joint("jba", "b", "a"))
+    raises(sd.URDFError, cyclic, "cycle", "'jab'", "'jba'", "'a'", "'b'", **kw)
+
+
+def test_duplicate_names_are_refused():
+    """A second <link> of the same name used to replace the first silently, and a repeated
+    joint name repeated itself in joint_names (issue 13, defect 3)."""
+    raises(sd.URDFError, urdf(heavy=link("link2", mass="50")), "<link>", "'link2'", "unique")
+    raises(sd.URDFError, urdf(j3=joint("j2", "link2", "extra"), extra=link("extra")),
+           "<joint>", "'j2'", "unique")
+
+
 # ---------------------------------------------------------------- inertias
 def test_negative_mass():
     raises(sd.URDFError, urdf(l2=link("link2", mass="-1.5")), "'link2'", "-1.5", "negative")

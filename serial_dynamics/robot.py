@@ -11,9 +11,10 @@ of ``algorithms/`` (the tests compare the two). Choose per robot with
 ``SERIAL_DYNAMICS_BACKEND=numpy``. Everything else (Coriolis matrix, kinematics,
 energies, forward dynamics by QR) always runs the reference code.
 
-Paths. A single state given as float64 ``(n,)`` ndarrays goes straight to the compiled
-entry point, which checks lengths and NaN/Inf itself (the types are checked here, before
-the call); anything else (lists, batches, other dtypes, a bad
+Paths. A single state given as C-contiguous float64 ``(n,)`` ndarrays goes straight to
+the compiled entry point, which checks lengths and NaN/Inf itself (numba's dispatcher
+checks the types; anything else gets the status "other types" back, no exception);
+anything else (lists, batches, other dtypes, a bad
 value) takes the general path, which validates like the reference (same ValueError
 messages) and calls the batch kernels. A batch of at least ``PARALLEL_MIN`` states is
 split over the machine's cores (the batch kernels release the GIL; each chunk is a
@@ -31,13 +32,12 @@ import numpy as np
 
 from .algorithms import aba, crba, energy, forward, kinematics, noc, rnea
 from .algorithms._batch import as_batch
-from .core import K, UNCHECKED as U, layout
+from .core import K, layout
 from .core import flags as F
 from .dissipation import Dissipation
 from .model import Model
 
 _empty = np.empty                          # one global lookup on the fast paths
-_nd, _f8 = np.ndarray, np.dtype(np.float64)
 _NO_WRENCH = np.zeros((1, 6))              # stands in for w in batch calls without one
 _W0 = np.zeros(6)                          # and in single forward-dynamics calls (not read)
 _QD_QDD, _QD = F.QD | F.QDD, F.QD         # flags, as module constants (no attribute lookup)
@@ -66,7 +66,6 @@ class Robot:
         self._fd_auto = _FD_FLAGS["aba" if model.dof >= aba.CROSSOVER else "cholesky"]
         self._compiled = backend == "numba"
         self._P = layout.pack(model) if self._compiled else None   # the model, compiled layout
-        self._out1 = self._out2 = None    # the last ``out=`` vector / matrix found writable float64
 
     backend = property(lambda self: self._backend, doc='"numba" (compiled) or "numpy" (reference)')
 
@@ -101,36 +100,31 @@ class Robot:
                 f"{self.tip_link!r}, joints={self.joint_names})")
 
     # ------------------------------------------------------------- dynamics
-    # Fast path: a single state of float64 (n,) ndarrays goes straight to the compiled
-    # entry point without numba's type dispatch (``core.UNCHECKED``), so the types are
-    # checked here first -- inline in the common case, as a function call costs ~60 ns.
-    # The entry point checks lengths and NaN/Inf itself and returns 0 when it wrote the
-    # result; otherwise (and for anything else: lists, batches, other dtypes) the general
-    # path validates like the reference and raises its ValueError naming the culprit.
+    # Fast path: every call first tries the compiled single-state entry point, whose one
+    # signature numba matches in C (~70 ns). It returns 0 when it wrote the result; 1 (a
+    # NaN/Inf), 2 (a wrong length) or 3 (arguments of other types: lists, batches, other
+    # dtypes or layouts, read-only arrays; see core._Kernels) send the call to the general
+    # path, which validates like the reference, raises its ValueError naming the culprit,
+    # or runs the batch kernels. No exception is caught to choose the path.
     # ``out``: an array of the result's shape (float64, writable) to write the result into
     # instead of a new one, as NumPy's out= (a 1 kHz loop then allocates nothing); returned.
     # After an error its contents are undefined.
     def inverse_dynamics(self, q, qd, qdd, wrench=None, out=None):
         """tau = M(q) qdd + b(q, qd) - J^T w  (rigid body; no friction). N m / N."""
-        if (self._compiled and q.__class__ is qd.__class__ is qdd.__class__ is _nd
-                and q.ndim == qd.ndim == qdd.ndim == 1 and q.dtype is qd.dtype is qdd.dtype is _f8
-                and (out is None or out is self._out1 or self._checked_out(out, 1))):
+        if self._compiled:
             o = _empty(self._n) if out is None else out
-            if (U.rnea(self._P, q, qd, qdd, _QD_QDD, o) if wrench is None else
-                    U.rnea_wrench(self._P, q, qd, qdd, wrench, _QD_QDD, o) if _vector(wrench)
-                    else 3) == 0:
+            if (K.rnea(self._P, q, qd, qdd, _QD_QDD, o) if wrench is None else
+                    K.rnea_wrench(self._P, q, qd, qdd, wrench, _QD_QDD, o)) == 0:
                 return o
         return _into(out, self._rnea_general((("q", q), ("qd", qd), ("qdd", qdd)), wrench))
 
     def mass_matrix(self, q, out=None):
         """M(q), the generalized inertia matrix."""
-        if (self._compiled and q.__class__ is _nd and q.ndim == 1 and q.dtype is _f8
-                and (out is None or out is self._out2 or self._checked_out(out, 2))):
-            o = _empty(self._nn) if out is None else out
-            if U.crba(self._P, q, o) == 0:
-                return o
         if not self._compiled:
             return _into(out, crba.mass_matrix(self.model, q))
+        o = _empty(self._nn) if out is None else out
+        if K.crba(self._P, q, o) == 0:
+            return o
         single, (q,) = as_batch(self.model, ("q", q))
         q = _rows(q)
         M = np.empty((q.shape[0], self._n, self._n))
@@ -139,22 +133,18 @@ class Robot:
 
     def bias_torques(self, q, qd, wrench=None, out=None):
         """b(q, qd) - J^T w = C(q, qd) qd + g(q) - J^T w."""
-        if (self._compiled and q.__class__ is qd.__class__ is _nd and q.ndim == qd.ndim == 1
-                and q.dtype is qd.dtype is _f8
-                and (out is None or out is self._out1 or self._checked_out(out, 1))):
+        if self._compiled:
             o = _empty(self._n) if out is None else out
-            if (U.rnea(self._P, q, qd, q, _QD, o) if wrench is None else
-                    U.rnea_wrench(self._P, q, qd, q, wrench, _QD, o) if _vector(wrench)
-                    else 3) == 0:
+            if (K.rnea(self._P, q, qd, q, _QD, o) if wrench is None else
+                    K.rnea_wrench(self._P, q, qd, q, wrench, _QD, o)) == 0:
                 return o
         return _into(out, self._rnea_general((("q", q), ("qd", qd), ("qdd", None)), wrench))
 
     def gravity_torques(self, q, out=None):
         """g(q): the torques that hold the chain still (the textbook's gamma is -g)."""
-        if (self._compiled and q.__class__ is _nd and q.ndim == 1 and q.dtype is _f8
-                and (out is None or out is self._out1 or self._checked_out(out, 1))):
+        if self._compiled:
             o = _empty(self._n) if out is None else out
-            if U.rnea(self._P, q, q, q, 0, o) == 0:
+            if K.rnea(self._P, q, q, q, 0, o) == 0:
                 return o
         return _into(out, self._rnea_general((("q", q), ("qd", None), ("qdd", None)), None))
 
@@ -167,13 +157,10 @@ class Robot:
         chains, articulated bodies from ``algorithms.aba.CROSSOVER`` joints on),
         "cholesky", "aba" (O(n)) or "qr" (for ill-conditioned chains)."""
         flags = self._fd_auto if method == "auto" else _FD_FLAGS.get(method)
-        if (flags is not None and self._compiled and q.__class__ is qd.__class__ is tau.__class__ is _nd
-                and q.ndim == qd.ndim == tau.ndim == 1 and q.dtype is qd.dtype is tau.dtype is _f8
-                and (out is None or out is self._out1 or self._checked_out(out, 1))):
+        if flags is not None and self._compiled:
             o = _empty(self._n) if out is None else out
-            if (U.fd(self._P, q, qd, tau, _W0, flags, o) if wrench is None else
-                    U.fd(self._P, q, qd, tau, wrench, flags | F.WRENCH, o) if _vector(wrench)
-                    else 3) == 0:
+            if K.fd(self._P, q, qd, tau, _W0 if wrench is None else wrench,
+                    flags if wrench is None else flags | F.WRENCH, o) == 0:
                 return o
         if not self._compiled or flags is None:
             if method == "auto":
@@ -208,19 +195,6 @@ class Robot:
         if _parallel(K.rnea_batch, self._P, N, (q, qd, qdd, w), (flags,), out) != 0:
             raise ValueError("wrench has a NaN or Inf entry; give finite numbers")
         return out[0] if single else out
-
-    def _checked_out(self, out, ndim):
-        """True when ``out`` is a writable float64 ndarray of ``ndim`` (1 or 2) dimensions;
-        it is then remembered (one vector, one matrix), so that a loop passing the same
-        ``out`` every call skips this check (~80 ns) next time. (Its length is checked by
-        the compiled code.)"""
-        if out.__class__ is _nd and out.ndim == ndim and out.dtype is _f8 and out.flags.writeable:
-            if ndim == 1:
-                self._out1 = out
-            else:
-                self._out2 = out
-            return True
-        return False
 
     @staticmethod
     def _wrench_rows(wrench, N, flags):
@@ -282,11 +256,6 @@ class Robot:
         lo = np.where(np.isfinite(self.lower), self.lower, -np.pi)
         hi = np.where(np.isfinite(self.upper), self.upper, np.pi)
         return rng.uniform(lo, hi, shape), rng.uniform(-speed, speed, shape)
-
-
-def _vector(a):
-    """True when ``a`` is a float64 one-dimensional ndarray."""
-    return a.__class__ is _nd and a.ndim == 1 and a.dtype is _f8
 
 
 def _parallel(kernel, P, N, arrays, extra, out):

@@ -173,18 +173,18 @@ def test_out_receives_the_result(backend, batch):
             robot.inverse_dynamics(q, qd, qdd, out=bad)
 
 
-def test_a_remembered_out_is_not_trusted_for_another_shape_or_once_read_only():
-    """The single-state path remembers the last ``out`` it checked (one vector, one matrix)
-    and then calls the compiled code without type checks: an array checked as a vector
-    must still be refused as a matrix, and a new array is checked again."""
+def test_an_out_used_before_is_still_checked_for_another_shape_or_once_read_only():
+    """An ``out`` that one method accepted is refused by another that needs another shape,
+    and a read-only one is refused (the compiled entry points' signatures only take
+    writable arrays of their dimensions; everything else goes to the checked path)."""
     robot = sd.default_robot()
     q, qd, qdd, tau, _ = states(robot, seed=9)
     v = np.empty(6)
-    robot.inverse_dynamics(q, qd, qdd, out=v)                  # remembered as the vector
+    robot.inverse_dynamics(q, qd, qdd, out=v)
     with pytest.raises(ValueError, match=r"out must be a writable float64 array of shape \(6, 6\)"):
         robot.mass_matrix(q, out=v)
     M = np.empty((6, 6))
-    robot.mass_matrix(q, out=M)                                # remembered as the matrix
+    robot.mass_matrix(q, out=M)
     with pytest.raises(ValueError, match=r"out must be a writable float64 array of shape \(6,\)"):
         robot.gravity_torques(q, out=M)
     frozen = np.empty(6)
@@ -372,3 +372,27 @@ def test_wrench_calls_from_two_threads_do_not_mix():
     finally:
         sys.setswitchinterval(old)
     assert not bad
+
+
+def test_other_argument_types_get_a_status_not_an_exception():
+    """A single-state entry point has one exact signature; any other argument types (a
+    list, a batch, another dtype, a read-only or strided array) make it return
+    OTHER_TYPES -- the Robot's general path then takes over -- rather than compile a new
+    version or raise (core._Kernels)."""
+    from serial_dynamics.core import K, OTHER_TYPES
+    robot = sd.default_robot()
+    q, qd, qdd, tau, _ = states(robot, seed=10)
+    P, o, M = robot._P, np.empty(6), np.empty((6, 6))
+    read_only = q.copy()
+    read_only.setflags(write=False)
+    for bad in ([0.0] * 6, np.zeros((2, 6)), np.arange(6), np.zeros(6, np.float32), read_only,
+                np.zeros(12)[::2]):
+        assert K.rnea(P, bad, qd, qdd, F.QD | F.QDD, o) == OTHER_TYPES
+        assert K.rnea_wrench(P, q, qd, qdd, bad, F.QD | F.QDD, o) == OTHER_TYPES
+        assert K.crba(P, bad, M) == OTHER_TYPES
+        assert K.fd(P, q, bad, tau, np.zeros(6), F.QD, o) == OTHER_TYPES
+    assert K.rnea(P, q, qd, qdd, F.QD | F.QDD, o) == 0                    # the exact types
+    np.testing.assert_array_equal(o, robot.inverse_dynamics(q, qd, qdd))
+    # and each such input still gets the right answer through the Robot (general path)
+    np.testing.assert_array_equal(robot.inverse_dynamics(list(q), read_only, np.asarray(qdd)),
+                                  robot.inverse_dynamics(q, q, qdd))

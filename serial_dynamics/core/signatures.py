@@ -54,6 +54,8 @@ def _compile(name):
 
 f8, i8 = types.float64, types.int64
 Pm = types.Array(f8, 2, "C")                     # the packed model P (never written)
+Vec = types.Array(f8, 1, "C")                    # single-state entry points: exactly the
+Mat = types.Array(f8, 2, "C")                    # arrays a caller usually has (core.K)
 In1 = types.Array(f8, 1, "A", readonly=True)     # a state vector (q, qd, qdd, tau, w)
 In2 = types.Array(f8, 2, "A", readonly=True)     # a batch of them
 Out1 = types.Array(f8, 1, "A")                   # a result vector

@@ -138,6 +138,7 @@ class Model:
             frames=MappingProxyType({link: (int(b), _frozen(R, (3, 3)), _frozen(p, (3,)))
                                      for link, (b, R, p) in (frames or {}).items()}),
         )
+        _check_magnitudes(model)
         for key, value in _joint_frames(model).items():
             object.__setattr__(model, key, value)     # derived once, before anyone sees it
         model.validate(check_mass_matrix=check_mass_matrix)
@@ -213,6 +214,33 @@ def check_inertia(link: str, mass: float, inertia: np.ndarray, rtol: float = 1e-
     if ev[0] + ev[1] < ev[2] - 1e-6 * scale:
         raise ModelError(f"link {link!r}: principal moments {np.round(ev, 9).tolist()} violate "
                          "the triangle inequality I1 + I2 >= I3; no rigid body has them")
+
+
+# Beyond these no robot link is (a 10 km lever, 10,000 t); far below where products of
+# them overflow, which would otherwise surface as NaN deep in an algorithm.
+MAX_LENGTH, MAX_MASS = 1e4, 1e7          # m, kg
+MAX_INERTIA = MAX_MASS * MAX_LENGTH**2   # kg m^2
+
+
+def check_magnitude(who, what, value, bound, unit) -> None:
+    """Refuse an absurd magnitude, naming ``who`` ("link 'x'") and the bound."""
+    big = float(np.max(np.abs(value)))
+    if big > bound:
+        raise ModelError(f"{who}: {what} of magnitude {big:.3g} {unit} is beyond any robot "
+                         f"(more than {bound:g} {unit}); fix the number")
+
+
+def _check_magnitudes(model) -> None:
+    """Refuse absurd magnitudes, naming the link or joint and the bound."""
+    for i in range(model.dof):
+        joint, link = f"joint {model.joint_names[i]!r}", f"link {model.link_names[i]!r}"
+        check_magnitude(joint, "origin xyz", model.p_parent[i], MAX_LENGTH, "m")
+        check_magnitude(link, "center of mass", model.com[i], MAX_LENGTH, "m")
+        check_magnitude(link, "mass", model.mass[i], MAX_MASS, "kg")
+        check_magnitude(link, "inertia", model.inertia[i], MAX_INERTIA, "kg m^2")
+    if np.max(np.abs(model.tip_p)) > MAX_LENGTH:
+        raise ModelError(f"tip link {model.tip_link!r}: its placement ({model.tip_p.tolist()} m) "
+                         f"is more than {MAX_LENGTH:g} m from the last joint; fix the origins")
 
 
 def axis_frame(axis) -> np.ndarray:

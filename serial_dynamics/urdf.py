@@ -14,7 +14,7 @@ import warnings
 
 import numpy as np
 
-from .model import Model, ModelError, check_inertia
+from .model import MAX_INERTIA, MAX_LENGTH, MAX_MASS, Model, ModelError, check_inertia, check_magnitude
 
 MOVABLE = ("revolute", "continuous", "prismatic")
 
@@ -100,6 +100,10 @@ def _link_inertia(link):
     I = _finite_or_fail(np.zeros((3, 3)) if inertial.inertia is None else inertial.inertia,
                         what + " inertia")
     try:
+        who = f"link {link.name!r}"
+        check_magnitude(who, "mass", m, MAX_MASS, "kg")          # before any product of them
+        check_magnitude(who, "center of mass", X[:3, 3], MAX_LENGTH, "m")
+        check_magnitude(who, "inertia", I, MAX_INERTIA, "kg m^2")
         check_inertia(link.name, m, I)
     except ModelError as exc:
         raise URDFError(str(exc)) from None
@@ -315,25 +319,25 @@ def _body(joint, X):
 
 def _default_tip(base, children):
     """The end of the chain when the movable joints below ``base`` form a single path: the
-    child of the last movable joint, followed down a unique tail of fixed joints."""
-    movable = []      # (depth, joint, ancestors)
-
-    def walk(link, depth, ancestors):
+    child of the last movable joint, followed down a unique tail of fixed joints. (A walk
+    with an explicit stack: a chain of any length, in time linear in it.)"""
+    movable = []      # (depth, joint, the nearest movable joint above it, or None)
+    stack = [(base, 0, None)]
+    while stack:
+        link, depth, above = stack.pop()
         for joint in children[link]:
-            anc = ancestors
+            nearest = above
             if joint.type != "fixed":
-                movable.append((depth, joint, ancestors))
-                anc = ancestors | {joint.name}
-            walk(joint.child, depth + 1, anc)
-
-    walk(base, 0, frozenset())
+                movable.append((depth, joint, above))
+                nearest = joint.name
+            stack.append((joint.child, depth + 1, nearest))
     if not movable:
         raise URDFError(f"no movable joint below base_link {base!r}")
-    movable.sort(key=lambda t: t[0])
-    for (_, j1, _), (_, j2, anc2) in zip(movable, movable[1:]):
-        if j1.name not in anc2:
-            tips = sorted(j.child for _, j, _ in movable
-                          if not any(j.name in anc for _, _, anc in movable))
+    movable.sort(key=lambda t: (t[0], t[1].name))
+    for (_, j1, _), (_, j2, above2) in zip(movable, movable[1:]):
+        if above2 != j1.name:        # a single path: each one's nearest movable is the last
+            inner = {above for _, _, above in movable}
+            tips = sorted(j.child for _, j, _ in movable if j.name not in inner)
             raise URDFError(f"the movable joints below {base!r} branch (at {j1.name!r} and "
                             f"{j2.name!r}); choose a tip_link, e.g. one of {tips}")
     tip = movable[-1][1].child

@@ -401,3 +401,28 @@ def test_upside_down_base_hangs():
     np.testing.assert_allclose(ceiling.gravity, [0, 0, G], atol=1e-14)
     q = np.array([0.2, 0.9])
     np.testing.assert_allclose(ceiling.gravity_torques(q), -floor.gravity_torques(q), atol=1e-14)
+
+
+def test_a_chain_longer_than_the_recursion_limit_loads():
+    """The default tip was found by a recursive walk: a chain of about 1,000 joints raised
+    RecursionError (issue 13, defect 6). Now an explicit stack."""
+    import sys
+
+    from serial_dynamics.robots.synthetic import chain_urdf
+    n = sys.getrecursionlimit() + 50
+    robot = sd.load_urdf(chain_urdf(n))
+    assert robot.dof == n and robot.tip_link == "tip"
+
+
+@pytest.mark.parametrize("parts, culprit, what", [
+    (dict(l2=link("link2", com="1e160 0 0")), "'link2'", "center of mass"),
+    (dict(l2=link("link2", mass="1e9")), "'link2'", "mass"),
+    (dict(l2=link("link2", I=("1e200", "1e200", "1e200"))), "'link2'", "inertia"),
+    (dict(j2=joint("j2", "link1", "link2", xyz="0 0 1e200")), "'j2'", "origin xyz"),
+])
+def test_absurd_magnitudes_are_named(parts, culprit, what):
+    """An inertial origin of 1e160 m used to surface as numpy's LinAlgError (eigenvalues
+    did not converge) from the mass-matrix check (issue 13, defect 7)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")                     # and no overflow on the way
+        raises(ValueError, urdf(**parts), culprit, what, "beyond any robot")

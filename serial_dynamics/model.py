@@ -238,9 +238,8 @@ def _check_magnitudes(model) -> None:
         check_magnitude(link, "center of mass", model.com[i], MAX_LENGTH, "m")
         check_magnitude(link, "mass", model.mass[i], MAX_MASS, "kg")
         check_magnitude(link, "inertia", model.inertia[i], MAX_INERTIA, "kg m^2")
-    if np.max(np.abs(model.tip_p)) > MAX_LENGTH:
-        raise ModelError(f"tip link {model.tip_link!r}: its placement ({model.tip_p.tolist()} m) "
-                         f"is more than {MAX_LENGTH:g} m from the last joint; fix the origins")
+    check_magnitude(f"tip link {model.tip_link!r}", "placement in the last body", model.tip_p,
+                    MAX_LENGTH, "m")
 
 
 def axis_frame(axis) -> np.ndarray:

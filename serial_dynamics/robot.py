@@ -13,10 +13,10 @@ energies, forward dynamics by QR) always runs the reference code.
 
 Paths. A single state given as C-contiguous float64 ``(n,)`` ndarrays goes straight to
 the compiled entry point, which checks lengths and NaN/Inf itself (numba's dispatcher
-checks the types; anything else gets the status "other types" back, no exception);
-anything else (lists, batches, other dtypes, a bad
-value) takes the general path, which validates like the reference (same ValueError
-messages) and calls the batch kernels. A batch of at least ``PARALLEL_MIN`` states is
+checks the types and answers "other types" for anything else, no exception); anything
+else (lists, batches, other dtypes or layouts, a bad value) takes the general path,
+which validates like the reference (same ValueError messages) and calls the batch
+kernels. A batch of at least ``PARALLEL_MIN`` states is
 split over the machine's cores (the batch kernels release the GIL; each chunk is a
 whole number of SIMD blocks, so the results are those of one serial call).
 
@@ -32,7 +32,7 @@ import numpy as np
 
 from .algorithms import aba, crba, energy, forward, kinematics, noc, rnea
 from .algorithms._batch import as_batch
-from .core import K, layout
+from .core import ENTRY_POINTS, K, layout
 from .core import flags as F
 from .dissipation import Dissipation
 from .model import Model
@@ -47,7 +47,7 @@ _FD_FLAGS = {"cholesky": F.QD, "aba": F.QD | F.ABA}
 # states; splitting a batch over 2 cores paid from about 2048 states for inverse dynamics,
 # 1500 for the mass matrix and 800 for forward dynamics (UR5e, measured 2026-11-23)
 PARALLEL_MIN = 2048
-ROBOT_KERNELS = ("rnea", "rnea_wrench", "crba", "fd", "rnea_batch", "crba_batch", "fd_batch")
+ROBOT_KERNELS = tuple(ENTRY_POINTS)        # what warmup() loads: every compiled entry point
 _pool = None
 
 

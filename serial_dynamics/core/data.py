@@ -1,8 +1,8 @@
 """``Data``: the named scratch arrays of one evaluation, separate from the model.
 
 Each compiled entry point makes the arrays its algorithm needs at the start of the call,
-on the stack of that call (``stack_empty``), so no scratch memory is ever shared between
-calls or threads: a ``Robot`` is thread-safe by
+on the stack of that call (``stack_empty``; an array of more than 64 KiB on the heap), so
+no scratch memory is ever shared between calls or threads: a ``Robot`` is thread-safe by
 construction and the batch kernels run on several cores without locks. Making them costs
 a few nanoseconds (a heap allocation costs ~20 ns each; docs/speed.md). Shapes, for n
 joints (spatial vectors angular first, as everywhere in the core):
@@ -34,9 +34,9 @@ from .signatures import internal
 Kin = namedtuple("Kin", "sc R p f")                  # kinematics + Newton-Euler (+ CRBA)
 Chol = namedtuple("Chol", "M b")                     # Cholesky route of forward dynamics
 Art = namedtuple("Art", "IA pA U c Du Y")            # articulated-body algorithm
-STACK_DOUBLES = 8192    # a mass matrix larger than this (64 KiB; n > 90) goes on the heap
-# The arrays that grow as n live on the stack: 62 n doubles in all (0.5 MB at n = 1000,
-# against a thread's 8 MB stack); only the n x n mass matrix can outgrow it.
+STACK_DOUBLES = 8192    # an array larger than this (64 KiB) goes on the heap: the mass matrix
+# from n = 91 joints on, the articulated inertias from n = 228; Kin, 20 n doubles, always
+# fits a thread's stack (8 MB).
 
 
 @intrinsic

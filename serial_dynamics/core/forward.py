@@ -42,7 +42,6 @@ cholesky_core = internal(f8(Pm, D2, D3, D2, D2, D2, D1, In1, In1, In1, In1, In1,
                          calls=("rnea_core", "crba_core", "cholesky_solve"))(cholesky_core)
 
 
-
 # ------------------------------------------------------------------ entry points
 @njit(cache=True, inline="always")
 def _checked_length(P, q, qd, tau, out):

@@ -17,8 +17,8 @@ from .spatial import finite, joint_transforms, to_child, to_parent
 
 
 def rnea_core(P, sc, R, p, f, q, qd, qdd, w, flags, tau):
-    """tau = M(q) qdd + b(q, qd) - J^T w into ``tau``; fills the Data arrays sc, R, p, f. Returns 0.0, or
-    NaN if an input has a NaN/Inf entry. Every operation is that of the lane-parallel
+    """tau = M(q) qdd + b(q, qd) - J^T w into ``tau``; fills the Data arrays sc, R, p, f.
+    Returns 0.0, or NaN if an input has a NaN/Inf entry. Every operation is that of the lane-parallel
     batch kernel (rnea_lanes.py) in the same order, so both give the same bits."""
     n = tau.shape[0]
     use_qd, use_qdd, use_w = (flags & F.QD) != 0, (flags & F.QDD) != 0, (flags & F.WRENCH) != 0

@@ -6,6 +6,7 @@
 
 The core library never imports rclpy; the ROS 2 nodes live in ``serial_dynamics.ros``.
 """
+from .base_motion import BaseMotion
 from .dissipation import Dissipation
 from .model import Model, ModelError
 from .robot import Robot
@@ -15,16 +16,19 @@ from .urdf import HeldJointsWarning, URDFError, load_model
 
 __all__ = ["load_urdf", "Robot", "Model", "Dissipation", "URDFError", "ModelError",
            "HeldJointsWarning", "default_robot", "builtin_robot", "builtin_path", "simulate",
-           "SimulationError"]
+           "SimulationError", "BaseMotion"]
 __version__ = "0.1.0"
 
 
-def load_urdf(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81)) -> Robot:
+def load_urdf(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
+              armature=None) -> Robot:
     """Load the chain ``base_link`` -> ``tip_link`` of a URDF (file path or XML string).
 
     ``base_link`` defaults to the URDF root, ``tip_link`` to the end of the chain when the
     movable joints form a single path. ``gravity`` (m/s^2) is given in the URDF root's
-    frame and carried into the base frame. Raises ``URDFError`` / ``ModelError``.
+    frame and carried into the base frame. ``armature``: {joint name: reflected rotor
+    inertia, kg m^2 (kg for a prismatic joint)}, which sets or overrides what the URDF's
+    ``<transmission>`` elements give. Raises ``URDFError`` / ``ModelError``.
     """
-    return Robot(load_model(source, base_link, tip_link, gravity))
+    return Robot(load_model(source, base_link, tip_link, gravity, armature=armature))
 

@@ -18,7 +18,9 @@ translation ``p_parent[i]``, so that, with ``E(q)`` the joint motion,
 ``axis[i]`` is a unit vector in body ``i``'s frame (equal in the joint frame, since the
 joint motion leaves its axis fixed). Inertia of body ``i``: ``mass[i]``, center of mass
 ``com[i]`` in body ``i``'s frame and the 3x3 rotational inertia ``inertia[i]`` about the
-center of mass, in body ``i``'s axes. ``gravity`` is in the base frame.
+center of mass, in body ``i``'s axes. ``armature[i]``: joint ``i``'s reflected rotor
+inertia (gear ratio squared times the rotor's inertia), which adds to M_ii and, times
+qdd_i, to tau_i. ``gravity`` is in the base frame.
 ``tip_R, tip_p`` place the tip frame (where a tip wrench acts) in the last body.
 ``frames`` maps every named link of the model to ``(body, R, p)``: its placement in
 body ``body``'s link frame (``-1``: the base).
@@ -91,6 +93,7 @@ class Model:
     damping: np.ndarray         # (n,) URDF <dynamics damping>, N m s/rad or N s/m
     friction: np.ndarray        # (n,) URDF <dynamics friction>, N m or N
     frames: MappingProxyType = field(default_factory=lambda: MappingProxyType({}))
+    armature: np.ndarray = None # (n,) reflected rotor inertia N^2 J_rotor, kg m^2 or kg
     # -- derived by build(): the chain in joint frames (the algorithms' convention)
     A: np.ndarray = None        # (n, 3, 3) joint frame i's axes in link frame i
     Xtree_R: np.ndarray = None  # (n, 3, 3)
@@ -111,7 +114,7 @@ class Model:
     def build(*, name, joint_names, joint_types, link_names, base_link, tip_link,
               R_parent, p_parent, axis, mass, com, inertia, gravity=(0, 0, -9.81),
               tip_R=None, tip_p=None, lower=None, upper=None, velocity_limit=None,
-              effort_limit=None, damping=None, friction=None, frames=None,
+              effort_limit=None, damping=None, friction=None, frames=None, armature=None,
               check_mass_matrix=True) -> "Model":
         """Build and validate a model; every array argument is copied and frozen."""
         n = len(joint_names)
@@ -135,6 +138,7 @@ class Model:
             lower=full(lower, -np.inf), upper=full(upper, np.inf),
             velocity_limit=full(velocity_limit, np.inf), effort_limit=full(effort_limit, np.inf),
             damping=full(damping, 0.0), friction=full(friction, 0.0),
+            armature=full(armature, 0.0),
             frames=MappingProxyType({link: (int(b), _frozen(R, (3, 3)), _frozen(p, (3,)))
                                      for link, (b, R, p) in (frames or {}).items()}),
         )
@@ -148,7 +152,7 @@ class Model:
     def validate(self, check_mass_matrix=True) -> None:
         """Raise ``ModelError`` naming the culprit if the model is not physical."""
         for arr_name in ("R_parent", "p_parent", "axis", "mass", "com", "inertia", "gravity",
-                         "tip_R", "tip_p", "damping", "friction"):
+                         "tip_R", "tip_p", "damping", "friction", "armature"):
             arr = getattr(self, arr_name)
             if not np.all(np.isfinite(arr)):
                 bad = np.argwhere(~np.isfinite(arr))[0]
@@ -166,6 +170,9 @@ class Model:
             for i in np.flatnonzero(arr < 0):
                 raise ModelError(f"joint {self.joint_names[i]!r}: {arr_name} = {arr[i]} < 0; "
                                  "dissipation coefficients must be >= 0")
+        for i in np.flatnonzero(self.armature < 0):
+            raise ModelError(f"joint {self.joint_names[i]!r}: armature (reflected rotor inertia) "
+                             f"= {self.armature[i]} < 0; give gear_ratio^2 * rotor_inertia >= 0")
         for i in np.flatnonzero(self.lower > self.upper):
             raise ModelError(f"joint {self.joint_names[i]!r}: lower limit {self.lower[i]} > "
                              f"upper limit {self.upper[i]}")
@@ -216,6 +223,18 @@ def check_inertia(link: str, mass: float, inertia: np.ndarray, rtol: float = 1e-
                          "the triangle inequality I1 + I2 >= I3; no rigid body has them")
 
 
+def combine_inertias(parts):
+    """Lump rigidly attached parts [(m, c, I_c)] (one frame) into one body.
+    Parallel-axis theorem: I = sum I_i + m_i (|d_i|^2 1 - d_i d_i^T), d_i = c_i - c."""
+    m = sum(p[0] for p in parts)
+    c = sum(p[0] * p[1] for p in parts) / m if m > 0 else np.zeros(3)
+    I = np.zeros((3, 3))
+    for mi, ci, Ii in parts:
+        d = ci - c
+        I += Ii + mi * (d @ d * np.eye(3) - np.outer(d, d))
+    return m, c, I
+
+
 # Beyond these no robot link is (a 10 km lever, 10,000 t); far below where products of
 # them overflow, which would otherwise surface as NaN deep in an algorithm.
 MAX_LENGTH, MAX_MASS = 1e4, 1e7          # m, kg
@@ -238,6 +257,7 @@ def _check_magnitudes(model) -> None:
         check_magnitude(link, "center of mass", model.com[i], MAX_LENGTH, "m")
         check_magnitude(link, "mass", model.mass[i], MAX_MASS, "kg")
         check_magnitude(link, "inertia", model.inertia[i], MAX_INERTIA, "kg m^2")
+        check_magnitude(joint, "armature", model.armature[i], MAX_INERTIA, "kg m^2")
     check_magnitude(f"tip link {model.tip_link!r}", "placement in the last body", model.tip_p,
                     MAX_LENGTH, "m")
 

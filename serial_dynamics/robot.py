@@ -32,15 +32,19 @@ import numpy as np
 
 from .algorithms import aba, crba, energy, forward, kinematics, noc, rnea
 from .algorithms._batch import as_batch
+from .base_motion import BaseMotion, check_base_motion
 from .core import ENTRY_POINTS, K, layout
 from .core import flags as F
 from .dissipation import Dissipation
 from .model import Model
+from .payload import Payload, attach
 
 _empty = np.empty                          # one global lookup on the fast paths
 _NO_WRENCH = np.zeros((1, 6))              # stands in for w in batch calls without one
 _W0 = np.zeros(6)                          # and in single forward-dynamics calls (not read)
+_W_BAD = np.zeros(0)                       # w that no entry point accepts (status 2)
 _QD_QDD, _QD = F.QD | F.QDD, F.QD         # flags, as module constants (no attribute lookup)
+_QD_QDD_W, _QD_W = _QD_QDD | F.WRENCH, _QD | F.WRENCH
 BACKENDS = ("numba", "numpy")
 FD_METHODS = ("auto", "cholesky", "aba", "qr")
 _FD_FLAGS = {"cholesky": F.QD, "aba": F.QD | F.ABA}
@@ -54,7 +58,8 @@ _pool = None
 class Robot:
     """Dynamics of one serial chain. Build it with ``serial_dynamics.load_urdf``."""
 
-    def __init__(self, model: Model, dissipation: Dissipation | None = None, backend=None):
+    def __init__(self, model: Model, dissipation: Dissipation | None = None, backend=None,
+                 _loaded=None, _payload=None, _P=None):
         self.model = model
         self._dissipation = Dissipation.from_model(model) if dissipation is None else dissipation
         backend = backend or os.environ.get("SERIAL_DYNAMICS_BACKEND", "numba")
@@ -65,7 +70,9 @@ class Robot:
         # forward_dynamics(method="auto"): articulated bodies from aba.CROSSOVER joints on
         self._fd_auto = _FD_FLAGS["aba" if model.dof >= aba.CROSSOVER else "cholesky"]
         self._compiled = backend == "numba"
-        self._P = layout.pack(model) if self._compiled else None   # the model, compiled layout
+        self._P = _P if _P is not None else layout.pack(model) if self._compiled else None
+        # with_payload's bookkeeping: the model (and P) as loaded, and the payload attached
+        self._loaded, self._payload = _loaded or (model, self._P), _payload
 
     backend = property(lambda self: self._backend, doc='"numba" (compiled) or "numpy" (reference)')
 
@@ -81,6 +88,33 @@ class Robot:
     upper = property(lambda self: self.model.upper)
     velocity_limit = property(lambda self: self.model.velocity_limit)
     effort_limit = property(lambda self: self.model.effort_limit)
+    armature = property(lambda self: self.model.armature,
+                        doc="reflected rotor inertia per joint, kg m^2 (N^2 J_rotor), base to tip")
+    payload = property(lambda self: self._payload,
+                       doc="the attached ``Payload`` (``with_payload``), or None")
+
+    # ------------------------------------------------------------- payload
+    def with_payload(self, mass, com=(0.0, 0.0, 0.0), inertia=(0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
+                     link=None) -> "Robot":
+        """A new Robot with a payload rigidly attached to ``link`` (default: the tip link):
+        ``mass`` kg, ``com`` (x, y, z) m in the link's frame, ``inertia`` (ixx, iyy, izz,
+        ixy, ixz, iyz) kg m^2 about the payload's center of mass, in the link's axes. It
+        replaces any payload attached before; this Robot is unchanged. Nothing is
+        recompiled (the compiled model is one array, ``core/layout.py``)."""
+        payload = Payload.make(mass, com, inertia, self.tip_link if link is None else link)
+        model0, P0 = self._loaded
+        model, body = attach(model0, payload)
+        P = None
+        if P0 is not None:                     # the loaded P with one body's row replaced
+            P = P0.copy()
+            layout.set_inertia(P, body, model.mass[body], model.h[body], model.I_O[body])
+        return Robot(model, self._dissipation, self._backend, _loaded=self._loaded,
+                     _payload=payload, _P=P)
+
+    def without_payload(self) -> "Robot":
+        """A new Robot as loaded, without payload (bitwise the results of the loaded one)."""
+        model0, P0 = self._loaded
+        return Robot(model0, self._dissipation, self._backend, _P=P0)
 
     @property
     def dissipation(self) -> Dissipation:
@@ -109,14 +143,19 @@ class Robot:
     # ``out``: an array of the result's shape (float64, writable) to write the result into
     # instead of a new one, as NumPy's out= (a 1 kHz loop then allocates nothing); returned.
     # After an error its contents are undefined.
-    def inverse_dynamics(self, q, qd, qdd, wrench=None, out=None):
+    # ``base_motion``: a ``BaseMotion`` (a base with known motion), None for a base at rest.
+    def inverse_dynamics(self, q, qd, qdd, wrench=None, base_motion=None, out=None):
         """tau = M(q) qdd + b(q, qd) - J^T w  (rigid body; no friction). N m / N."""
         if self._compiled:
             o = _empty(self._n) if out is None else out
-            if (K.rnea(self._P, q, qd, qdd, _QD_QDD, o) if wrench is None else
-                    K.rnea_wrench(self._P, q, qd, qdd, wrench, _QD_QDD, o)) == 0:
+            if base_motion is None:
+                if (K.rnea(self._P, q, qd, qdd, _QD_QDD, o) if wrench is None else
+                        K.rnea_wrench(self._P, q, qd, qdd, wrench, _QD_QDD_W, o)) == 0:
+                    return o
+            elif K.rnea_wrench(self._P, q, qd, qdd, *_external(base_motion, wrench, _QD_QDD), o) == 0:
                 return o
-        return _into(out, self._rnea_general((("q", q), ("qd", qd), ("qdd", qdd)), wrench))
+        return _into(out, self._rnea_general((("q", q), ("qd", qd), ("qdd", qdd)), wrench,
+                                             base_motion))
 
     def mass_matrix(self, q, out=None):
         """M(q), the generalized inertia matrix."""
@@ -131,14 +170,18 @@ class Robot:
         _parallel(K.crba_batch, self._P, q.shape[0], (q,), (), M)
         return _into(out, M[0] if single else M)
 
-    def bias_torques(self, q, qd, wrench=None, out=None):
-        """b(q, qd) - J^T w = C(q, qd) qd + g(q) - J^T w."""
+    def bias_torques(self, q, qd, wrench=None, base_motion=None, out=None):
+        """b(q, qd) - J^T w = C(q, qd) qd + g(q) - J^T w (and the base motion's torques)."""
         if self._compiled:
             o = _empty(self._n) if out is None else out
-            if (K.rnea(self._P, q, qd, q, _QD, o) if wrench is None else
-                    K.rnea_wrench(self._P, q, qd, q, wrench, _QD, o)) == 0:
+            if base_motion is None:
+                if (K.rnea(self._P, q, qd, q, _QD, o) if wrench is None else
+                        K.rnea_wrench(self._P, q, qd, q, wrench, _QD_W, o)) == 0:
+                    return o
+            elif K.rnea_wrench(self._P, q, qd, q, *_external(base_motion, wrench, _QD), o) == 0:
                 return o
-        return _into(out, self._rnea_general((("q", q), ("qd", qd), ("qdd", None)), wrench))
+        return _into(out, self._rnea_general((("q", q), ("qd", qd), ("qdd", None)), wrench,
+                                             base_motion))
 
     def gravity_torques(self, q, out=None):
         """g(q): the torques that hold the chain still (the textbook's gamma is -g)."""
@@ -146,33 +189,40 @@ class Robot:
             o = _empty(self._n) if out is None else out
             if K.rnea(self._P, q, q, q, 0, o) == 0:
                 return o
-        return _into(out, self._rnea_general((("q", q), ("qd", None), ("qdd", None)), None))
+        return _into(out, self._rnea_general((("q", q), ("qd", None), ("qdd", None)), None, None))
 
     def coriolis_matrix(self, q, qd):
         """C(q, qd) from the natural orthogonal complement: C qd + g = b, Mdot - 2C skew."""
         return noc.coriolis_matrix(self.model, q, qd)
 
-    def forward_dynamics(self, q, qd, tau, wrench=None, method="auto", out=None):
+    def forward_dynamics(self, q, qd, tau, wrench=None, method="auto", base_motion=None,
+                         out=None):
         """qdd for applied torques tau (rigid body). ``method``: "auto" (Cholesky for short
         chains, articulated bodies from ``algorithms.aba.CROSSOVER`` joints on),
         "cholesky", "aba" (O(n)) or "qr" (for ill-conditioned chains)."""
         flags = self._fd_auto if method == "auto" else _FD_FLAGS.get(method)
         if flags is not None and self._compiled:
             o = _empty(self._n) if out is None else out
-            if K.fd(self._P, q, qd, tau, _W0 if wrench is None else wrench,
-                    flags if wrench is None else flags | F.WRENCH, o) == 0:
+            if base_motion is None:
+                if K.fd(self._P, q, qd, tau, _W0 if wrench is None else wrench,
+                        flags if wrench is None else flags | F.WRENCH, o) == 0:
+                    return o
+            elif K.fd(self._P, q, qd, tau, *_external(base_motion, wrench, flags), o) == 0:
                 return o
         if not self._compiled or flags is None:
+            base_motion = check_base_motion(base_motion)
             if method == "auto":
                 method = "aba" if flags & F.ABA else "cholesky"
             if method == "aba":
-                return _into(out, aba.forward_dynamics(self.model, q, qd, tau, wrench))
+                return _into(out, aba.forward_dynamics(self.model, q, qd, tau, wrench,
+                                                       base_motion=base_motion))
             if method not in FD_METHODS:
                 raise ValueError(f"forward-dynamics method {method!r} unknown; use one of "
                                  f"{FD_METHODS}")
-            return _into(out, forward.forward_dynamics(self.model, q, qd, tau, wrench, method))
+            return _into(out, forward.forward_dynamics(self.model, q, qd, tau, wrench, method,
+                                                       base_motion=base_motion))
         single, (q, qd, tau) = as_batch(self.model, ("q", q), ("qd", qd), ("tau", tau))
-        w, flags = self._wrench_rows(wrench, q.shape[0], flags)
+        w, flags = self._external_rows(wrench, base_motion, q.shape[0], flags)
         q, qd, tau = _rows(q), _rows(qd), _rows(tau)
         N = max(q.shape[0], qd.shape[0], tau.shape[0])
         qdd = np.empty((N, self._n))
@@ -181,26 +231,37 @@ class Robot:
         return _into(out, qdd[0] if single else qdd)
 
     # general path: validate like the reference, then one batch kernel call
-    def _rnea_general(self, named, wrench):
+    def _rnea_general(self, named, wrench, base_motion):
+        base_motion = check_base_motion(base_motion)
         if not self._compiled:
-            return rnea.inverse_dynamics(self.model, *(x for _, x in named), wrench)
+            return rnea.inverse_dynamics(self.model, *(x for _, x in named), wrench,
+                                         base_motion=base_motion)
         single, (q, qd, qdd) = as_batch(self.model, *named)   # raises the reference's ValueError
         N = q.shape[0]
         flags = (F.QD if named[1][1] is not None else 0) | (F.QDD if named[2][1] is not None else 0)
         q = _rows(q)
         qd = _rows(qd) if flags & F.QD else q             # unused by the kernel when absent
         qdd = _rows(qdd) if flags & F.QDD else q
-        w, flags = self._wrench_rows(wrench, N, flags)
+        w, flags = self._external_rows(wrench, base_motion, N, flags)
         out = np.empty((N, self._n))
         if _parallel(K.rnea_batch, self._P, N, (q, qd, qdd, w), (flags,), out) != 0:
             raise ValueError("wrench has a NaN or Inf entry; give finite numbers")
         return out[0] if single else out
 
     @staticmethod
-    def _wrench_rows(wrench, N, flags):
-        if wrench is None:
+    def _external_rows(wrench, base_motion, N, flags):
+        """The batch kernels' external inputs w (layout.W_*): (N or 1, 6) wrench rows, or
+        (N or 1, 15) with the base motion; and the flags that say what they hold."""
+        base_motion = check_base_motion(base_motion)
+        if wrench is None and base_motion is None:
             return _NO_WRENCH, flags
-        return _rows(rnea._wrench_batch(wrench, N)), flags | F.WRENCH
+        w = _NO_WRENCH if wrench is None else _rows(rnea._wrench_batch(wrench, N))
+        flags |= 0 if wrench is None else F.WRENCH
+        if base_motion is None:
+            return w, flags
+        ext = np.repeat(base_motion.external()[None], w.shape[0], axis=0)
+        ext[:, :layout.W_WRENCH] = w
+        return ext, flags | F.BASE
 
     def dissipation_torques(self, qd):
         """delta(qd) of the current dissipation model (oppose the motion)."""
@@ -275,6 +336,15 @@ def _parallel(kernel, P, N, arrays, extra, out):
     futures = [_pool.submit(kernel, P, *[rows(a, k) for a in arrays], *extra, out[k:k + step])
                for k in range(0, N, step)]
     return max(f.result() for f in futures)
+
+
+def _external(base_motion, wrench, flags):
+    """(w, flags) for a single-state entry point with a base motion (layout.W_*); a wrench
+    that is not 6 numbers, or a base motion that is not a BaseMotion, is left to the
+    general path (which names the culprit): w is then empty, and the entry point answers 2."""
+    if not isinstance(base_motion, BaseMotion) or (wrench is not None and np.shape(wrench) != (6,)):
+        return _W_BAD, flags
+    return base_motion.external(wrench), flags | F.BASE | (0 if wrench is None else F.WRENCH)
 
 
 def _rows(a):

@@ -14,7 +14,9 @@ import warnings
 
 import numpy as np
 
-from .model import MAX_INERTIA, MAX_LENGTH, MAX_MASS, Model, ModelError, check_inertia, check_magnitude
+from .transmissions import reflected_inertias
+from .model import (MAX_INERTIA, MAX_LENGTH, MAX_MASS, Model, ModelError, check_inertia,
+                    check_magnitude, combine_inertias)
 
 MOVABLE = ("revolute", "continuous", "prismatic")
 
@@ -39,7 +41,7 @@ def _parse(source):
                             "the URDF XML itself as a string")
     handle = io.BytesIO(text.encode()) if is_xml else os.fspath(source)
     where = "the URDF string" if is_xml else repr(os.fspath(source))
-    _check_well_formed(io.BytesIO(text.encode()) if is_xml else handle, where)
+    xml = _check_well_formed(io.BytesIO(text.encode()) if is_xml else handle, where)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -52,7 +54,7 @@ def _parse(source):
                         "(a <robot> with <link> and <joint> elements).") from exc
     if urdf.robot is None or not urdf.robot.links:
         raise URDFError("the URDF has no <link>; nothing to model")
-    return urdf.robot
+    return urdf.robot, xml
 
 
 def _check_well_formed(handle, where):
@@ -61,8 +63,9 @@ def _check_well_formed(handle, where):
     from lxml import etree
 
     parser = etree.XMLParser(recover=True)
+    tree = None
     try:
-        etree.parse(handle, parser)
+        tree = etree.parse(handle, parser)
         errors = [e for e in parser.error_log if e.level_name == "FATAL"]
     except etree.XMLSyntaxError as exc:      # nothing recoverable, e.g. an empty document
         errors = [exc]
@@ -71,6 +74,7 @@ def _check_well_formed(handle, where):
         line = getattr(e, "line", None) or getattr(e, "lineno", "?")
         raise URDFError(f"cannot parse {where}: not well-formed XML (line {line}: "
                         f"{getattr(e, 'message', None) or e}); fix the markup")
+    return tree.getroot()
 
 
 def _transform(X):
@@ -111,21 +115,11 @@ def _link_inertia(link):
     return m, X[:3, 3].copy(), R @ I @ R.T
 
 
-def combine_inertias(parts):
-    """Lump rigidly attached parts [(m, c, I_c)] (one frame) into one body.
-    Parallel-axis theorem: I = sum I_i + m_i (|d_i|^2 1 - d_i d_i^T), d_i = c_i - c."""
-    m = sum(p[0] for p in parts)
-    c = sum(p[0] * p[1] for p in parts) / m if m > 0 else np.zeros(3)
-    I = np.zeros((3, 3))
-    for mi, ci, Ii in parts:
-        d = ci - c
-        I += Ii + mi * (d @ d * np.eye(3) - np.outer(d, d))
-    return m, c, I
-
-
-def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81)) -> Model:
-    """Parse a URDF (path or XML string) and build the validated chain model."""
-    robot = _parse(source)
+def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
+               armature=None) -> Model:
+    """Parse a URDF (path or XML string) and build the validated chain model.
+    ``armature``: {joint name: kg m^2}, set or override the transmissions' rotor inertia."""
+    robot, xml = _parse(source)
     for kind, items in (("link", robot.links), ("joint", robot.joints)):
         seen = set()
         for item in items:
@@ -221,6 +215,7 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81))
         warnings.warn(f"joints {sorted(held)} are off the chain {base_link!r} -> {tip_link!r}: "
                       "held at zero and lumped into the link they hang from",
                       HeldJointsWarning, stacklevel=3)
+    rotors = _armature(xml, bodies, armature, base_link, tip_link)
 
     if not bodies:
         raise URDFError(f"no movable joint between {base_link!r} and {tip_link!r}; "
@@ -245,8 +240,25 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81))
         velocity_limit=[b["velocity"] for b in bodies],
         effort_limit=[b["effort"] for b in bodies],
         damping=[b["damping"] for b in bodies], friction=[b["friction"] for b in bodies],
-        frames=frames,
+        frames=frames, armature=rotors,
     )
+
+
+def _armature(xml, bodies, override, base_link, tip_link):
+    """Reflected rotor inertia per chain joint: the transmissions', then ``override``."""
+    names = [b["name"] for b in bodies]
+    found = reflected_inertias(xml, URDFError)
+    off = sorted(j for j in found if j not in names)
+    if off:
+        warnings.warn(f"transmissions of joints {off} act off the chain {base_link!r} -> "
+                      f"{tip_link!r}: their rotor inertia is ignored", HeldJointsWarning,
+                      stacklevel=4)
+    for joint in override or {}:
+        if joint not in names:
+            raise URDFError(f"armature given for {joint!r}, which is not a movable joint of the "
+                            f"chain {base_link!r} -> {tip_link!r}; joints are {names}")
+    merged = {**found, **(override or {})}
+    return [float(merged.get(name, 0.0)) for name in names]
 
 
 def _check_tree(root, links, children, parent_joint):

@@ -13,6 +13,10 @@ S_i = e_z (angular for a revolute joint, linear for a prismatic one).
     pass 3 (outward)  a'_i = X_i a_{i-1} + c_i            qdd_i = (u_i - U_i^T a'_i) / D_i
                       a_i = a'_i + S_i qdd_i              with a_{-1} = (0, -g)
 
+The armature I_a,i adds to D_i (as to M_ii). A base with known motion starts pass 1 with
+v_{-1} = (omega_0, 0) and pass 3 with a_{-1} = (alpha_0, acc_0 - g): the spatial
+acceleration of a base origin at rest is its classical acceleration.
+
 ``X_i`` carries motion vectors from joint frame i-1 to joint frame i; with (R, p) body i in
 body i-1 (``kinematics.joint_transforms``), X = [[R^T, 0], [-R^T [p]x, R^T]]. Gravity is the
 base acceleration -g, as in the Newton-Euler recursion. The result is the same as the
@@ -41,16 +45,17 @@ def spatial_inertia(mass, com, inertia):
     return rigid_body_inertia(m, m[..., None] * c, I_O)
 
 
-def forward_dynamics(model, q, qd, tau, wrench=None, gravity=None):
+def forward_dynamics(model, q, qd, tau, wrench=None, gravity=None, base_motion=None):
     """qdd (n,) or (N, n) for applied joint torques ``tau`` (rigid body only, no friction);
-    ``wrench`` (6,) or (N, 6) on the tip frame origin, base coordinates."""
+    ``wrench`` (6,) or (N, 6) on the tip frame origin, base coordinates; ``base_motion`` a
+    ``BaseMotion`` or None."""
     single, (q, qd, tau) = as_batch(model, ("q", q), ("qd", qd), ("tau", tau))
     g = model.gravity if gravity is None else np.asarray(gravity, dtype=float)
     w = _wrench_batch(wrench, q.shape[0])
-    return unbatch(single, _aba(model, q, qd, tau, g, w))
+    return unbatch(single, _aba(model, q, qd, tau, g, w, base_motion))
 
 
-def _aba(model, q, qd, tau, g, w):
+def _aba(model, q, qd, tau, g, w, base=None):
     N, n = q.shape
     R, p = joint_transforms(model, q)
     X = motion_transform(R, p)                                   # (N, n, 6, 6)
@@ -60,6 +65,8 @@ def _aba(model, q, qd, tau, g, w):
     mtv6 = lambda A, x: np.einsum("...ji,...j->...i", A, x)     # noqa: E731
     # --- pass 1, outward
     v = np.zeros((N, 6))
+    if base is not None:                                         # v_{-1} = (omega_0, 0)
+        v[:, :3] = base.angular_velocity
     c = np.empty((N, n, 6))
     IA = np.empty((N, n, 6, 6))
     pA = np.empty((N, n, 6))
@@ -81,7 +88,7 @@ def _aba(model, q, qd, tau, g, w):
     u = np.empty((N, n))
     for i in range(n - 1, -1, -1):
         U[:, i] = mv6(IA[:, i], S[i])                            # U_i = IA_i S_i
-        D[:, i] = U[:, i] @ S[i]                                 # D_i = S_i^T U_i
+        D[:, i] = U[:, i] @ S[i] + model.armature[i]             # D_i = S_i^T U_i + I_a,i
         u[:, i] = tau[:, i] - pA[:, i] @ S[i]                    # u_i = tau_i - S_i^T pA_i
         if i > 0:
             Ia = IA[:, i] - U[:, i, :, None] * U[:, i, None, :] / D[:, i, None, None]
@@ -92,6 +99,8 @@ def _aba(model, q, qd, tau, g, w):
     # --- pass 3, outward
     a = np.zeros((N, 6))
     a[:, 3:] = -g                                                # a_{-1} = (0, -g)
+    if base is not None:                                         # moving: (alpha_0, acc_0 - g)
+        a[:, :3], a[:, 3:] = base.angular_acceleration, base.linear_acceleration - g
     qdd = np.empty((N, n))
     for i in range(n):
         a = mv6(X[:, i], a) + c[:, i]                            # a'_i = X_i a_{i-1} + c_i

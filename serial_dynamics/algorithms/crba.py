@@ -8,7 +8,8 @@ S_i = e_z (angular for a revolute joint, linear for a prismatic one).
     IC_i = I_i;   IC_{i-1} += Xup_i^T IC_i Xup_i           (composite bodies, inward)
     F = IC_i S_i;  M_ii = S_i^T F;  F = Xup_j^T F, M_ij = S_j^T F   for j = i-1 .. 0
 
-with Xup_i the motion transform from joint frame i-1 to joint frame i.
+with Xup_i the motion transform from joint frame i-1 to joint frame i. The armature
+(reflected rotor inertia) I_a,i adds to M_ii.
 """
 import numpy as np
 
@@ -28,7 +29,7 @@ def mass_matrix(model, q):
         if i > 0:                                                   # IC_{i-1} += X^T IC_i X
             IC[:, i - 1] += np.swapaxes(Xup[:, i], -1, -2) @ IC[:, i] @ Xup[:, i]
         F = IC[:, i] @ S[i]                                         # F = IC_i S_i
-        M[:, i, i] = F @ S[i]                                       # M_ii = S_i^T F
+        M[:, i, i] = F @ S[i] + model.armature[i]                   # M_ii = S_i^T F + I_a,i
         for j in range(i - 1, -1, -1):
             F = np.einsum("nki,nk->ni", Xup[:, j + 1], F)           # F = Xup_{j+1}^T F
             M[:, i, j] = M[:, j, i] = F @ S[j]                      # M_ij = S_j^T F

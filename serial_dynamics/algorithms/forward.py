@@ -21,11 +21,13 @@ from .rnea import _rnea, _wrench_batch
 METHODS = ("cholesky", "qr")
 
 
-def forward_dynamics(model, q, qd, tau, wrench=None, method="cholesky", gravity=None):
+def forward_dynamics(model, q, qd, tau, wrench=None, method="cholesky", gravity=None,
+                     base_motion=None):
     """qdd (n,) or (N, n) for applied joint torques ``tau`` (rigid body only, no friction)."""
     single, (q, qd, tau) = as_batch(model, ("q", q), ("qd", qd), ("tau", tau))
     g = model.gravity if gravity is None else np.asarray(gravity, dtype=float)
-    rhs = tau - _rnea(model, q, qd, np.zeros_like(q), g, _wrench_batch(wrench, q.shape[0]))
+    rhs = tau - _rnea(model, q, qd, np.zeros_like(q), g, _wrench_batch(wrench, q.shape[0]),
+                      base_motion)
     if method == "cholesky":
         L = np.linalg.cholesky(mass_matrix(model, q))                       # M = L L^T
         y = solve_triangular(L, rhs[..., None], lower=True)
@@ -41,7 +43,8 @@ def forward_dynamics(model, q, qd, tau, wrench=None, method="cholesky", gravity=
 
 def _P(model, q):
     """P = H T, with H_i = diag(sqrt(I_c[i]) R0_i^T, sqrt(m_i) 1), so H_i^T H_i = M_i, the
-    body's block of the 6n x 6n mass matrix (``noc.mass_blocks``)."""
+    body's block of the 6n x 6n mass matrix (``noc.mass_blocks``); the armature adds the
+    rows diag(sqrt(I_a)), so that P^T P = T^T M_6n T + diag(I_a)."""
     N, n = q.shape
     w, V = np.linalg.eigh(model.I_c)                                        # joint-frame inertia
     sqrtI = V @ (np.sqrt(np.clip(w, 0, None))[..., None] * np.swapaxes(V, -1, -2))
@@ -50,4 +53,5 @@ def _P(model, q):
     P = np.empty_like(T)
     P[:, :, :3] = sqrtI @ np.swapaxes(R0, -1, -2) @ T[:, :, :3]
     P[:, :, 3:] = np.sqrt(model.mass)[:, None, None] * T[:, :, 3:]
-    return P.reshape(N, 6 * n, n)
+    rotors = np.broadcast_to(np.diag(np.sqrt(model.armature)), (N, n, n))
+    return np.concatenate([P.reshape(N, 6 * n, n), rotors], axis=1)

@@ -6,7 +6,10 @@ omega, angular acceleration alpha and linear acceleration ``acc`` of the body or
 recursion for the force f and moment n that body i-1 exerts on body i. This is Featherstone,
 *Rigid Body Dynamics Algorithms* (2008), Table 5.1, written out in 3-vectors with the
 classical acceleration of the origin (Sec. 2.11) in place of the spatial one (Luh, Walker &
-Paul 1980). Gravity enters as the base acceleration acc_{-1} = -g (Sec. 5.3).
+Paul 1980). Gravity enters as the base acceleration acc_{-1} = -g (Sec. 5.3); a base with
+known motion (``base_motion.BaseMotion``; Angeles, Sec. 7.5.2) starts the outward recursion
+with its angular velocity omega_0, angular acceleration alpha_0 and the classical acceleration
+of its origin, acc_{-1} = acc_0 - g. The armature I_a (reflected rotor inertia) adds I_a qdd.
 
 Returns what the actuators must supply:  tau = M(q) qdd + b(q, qd) - J^T w.
 """
@@ -19,12 +22,13 @@ from .kinematics import joint_transforms
 E_Z = np.array([0.0, 0.0, 1.0])   # every joint's axis, in its joint frame
 
 
-def inverse_dynamics(model, q, qd, qdd, wrench=None, gravity=None):
+def inverse_dynamics(model, q, qd, qdd, wrench=None, gravity=None, base_motion=None):
     """tau (N, n) or (n,). ``wrench`` (6,) or (N, 6): [f; m] exerted by the environment on
-    the tip frame origin, base coordinates. ``gravity``: override of model.gravity."""
+    the tip frame origin, base coordinates. ``gravity``: override of model.gravity.
+    ``base_motion``: a ``BaseMotion`` (base frame), or None for a base at rest."""
     single, (q, qd, qdd) = as_batch(model, ("q", q), ("qd", qd), ("qdd", qdd))
     g = model.gravity if gravity is None else np.asarray(gravity, dtype=float)
-    tau = _rnea(model, q, qd, qdd, g, _wrench_batch(wrench, q.shape[0]))
+    tau = _rnea(model, q, qd, qdd, g, _wrench_batch(wrench, q.shape[0]), base_motion)
     return unbatch(single, tau)
 
 
@@ -40,12 +44,16 @@ def _wrench_batch(wrench, N):
     return np.broadcast_to(w, (N, 6))
 
 
-def _rnea(model, q, qd, qdd, g, w):
+def _rnea(model, q, qd, qdd, g, w, base=None):
     N, n = q.shape
     R, p = joint_transforms(model, q)
     omega = np.zeros((N, 3))            # angular velocity of body i-1
     alpha = np.zeros((N, 3))            # its angular acceleration
     acc = np.broadcast_to(-g, (N, 3))   # linear acceleration of its origin; base: -g
+    if base is not None:                # a moving base: omega_0, alpha_0, acc_0 - g
+        omega = np.broadcast_to(base.angular_velocity, (N, 3))
+        alpha = np.broadcast_to(base.angular_acceleration, (N, 3))
+        acc = np.broadcast_to(base.linear_acceleration - g, (N, 3))
     fB = np.empty((N, n, 3))            # rate of change of momentum of body i: force
     nB = np.empty((N, n, 3))            # and moment about its origin
     # --- outward: velocities and accelerations
@@ -76,7 +84,8 @@ def _rnea(model, q, qd, qdd, g, w):
             f = mv(R[:, i + 1], f)
             nm = mv(R[:, i + 1], nm) + np.cross(p[:, i + 1], f)
         f, nm = f + fB[:, i], nm + nB[:, i]
-        tau[:, i] = f[:, 2] if model.kind[i] == PRISMATIC else nm[:, 2]   # tau_i = S_i^T (n; f)
+        # tau_i = S_i^T (n; f) + I_a,i qdd_i (the rotor's inertia, reflected through the gear)
+        tau[:, i] = (f[:, 2] if model.kind[i] == PRISMATIC else nm[:, 2]) + model.armature[i] * qdd[:, i]
     return tau
 
 
@@ -88,9 +97,9 @@ def _tip_rotation(R):
     return R0
 
 
-def bias_torques(model, q, qd, wrench=None):
+def bias_torques(model, q, qd, wrench=None, base_motion=None):
     """b(q, qd) - J^T w = inverse_dynamics(q, qd, 0, wrench)."""
-    return inverse_dynamics(model, q, qd, None, wrench)
+    return inverse_dynamics(model, q, qd, None, wrench, base_motion=base_motion)
 
 
 def gravity_torques(model, q):

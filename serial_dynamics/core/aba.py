@@ -11,12 +11,15 @@ Table 7.1); spatial vectors angular first, S = e_z (index 2 revolute, 5 prismati
     pass 3 (outward)  a'_i = Xup_i a_{i-1} + c_i          qdd_i = (u_i - U_i^T a'_i) / D_i
                       a_i = a'_i + S_i qdd_i              with a_{-1} = (0, -g)
 
-With the DAMPING flag, D_i += damping_i: (M + diag(damping)) qdd = tau - b.
+The armature adds to D_i = S_i^T IA_i S_i + I_a,i (as it adds to M_ii); with the DAMPING flag,
+D_i += damping_i: (M + diag(damping)) qdd = tau - b. A base with known motion (flag BASE)
+starts pass 1 with v_{-1} = (omega_0, 0) and pass 3 with a_{-1} = (alpha_0, acc_0 - g): the
+spatial acceleration of a base origin at rest is its classical one.
 Ia and pa overwrite IA_i and pA_i once U_i, D_i, u_i are taken from them.
 """
 
 from . import flags as F
-from .layout import G, H, IO, KIND, MASS, TIPP
+from .layout import ARM, G, H, IO, KIND, MASS, TIPP, W_ACC, W_ALPHA, W_OMEGA
 from .signatures import D2, D3, In1, Out1, Pm, f8, i8, internal
 from .spatial import finite, joint_transforms, to_child, to_parent
 
@@ -41,6 +44,10 @@ def aba_core(P, sc, R, p, IA, pA, U, c, Du, Y, q, qd, tau, w, damping, flags, ou
     chk = joint_transforms(P, sc, R, p, q, n)
     # --- pass 1, outward: velocities, velocity-product accelerations c, bias forces pA
     vx = vy = vz = ux = uy = uz = 0.0    # (omega; v_O) of the previous body
+    use_base = (flags & F.BASE) != 0
+    if use_base:                         # a moving base: v_{-1} = (omega_0, 0)
+        vx, vy, vz = w[W_OMEGA], w[W_OMEGA + 1], w[W_OMEGA + 2]
+        chk += finite(vx) + finite(vy) + finite(vz)
     for i in range(n):
         dq = qd[i] if use_qd else 0.0
         chk += finite(dq) + finite(tau[i])
@@ -104,7 +111,7 @@ def aba_core(P, sc, R, p, IA, pA, U, c, Du, Y, q, qd, tau, w, damping, flags, ou
     for i in range(n - 1, -1, -1):
         I6 = IA[i]
         s = 2 if P[i, KIND] == 0.0 else 5
-        D = I6[s, s]                                        # D = S^T IA S (+ damping)
+        D = I6[s, s] + P[i, ARM]                            # D = S^T IA S + I_a (+ damping)
         if (flags & F.DAMPING) != 0:
             D += damping[i]
         u = tau[i] - pA[i, s]                               # u = tau - S^T pA
@@ -197,9 +204,13 @@ def aba_core(P, sc, R, p, IA, pA, U, c, Du, Y, q, qd, tau, w, damping, flags, ou
         pA[k, 3] += fx
         pA[k, 4] += fy
         pA[k, 5] += fz
-    # --- pass 3, outward: accelerations; base acceleration (0, -g)
+    # --- pass 3, outward: accelerations; base acceleration (0, -g), moving: (alpha_0, acc_0 - g)
     ax = ay = az = 0.0
     lx, ly, lz = -P[n, G], -P[n, G + 1], -P[n, G + 2]
+    if use_base:
+        ax, ay, az = w[W_ALPHA], w[W_ALPHA + 1], w[W_ALPHA + 2]
+        lx, ly, lz = w[W_ACC] - P[n, G], w[W_ACC + 1] - P[n, G + 1], w[W_ACC + 2] - P[n, G + 2]
+        chk += finite(ax) + finite(ay) + finite(az) + finite(lx) + finite(ly) + finite(lz)
     for i in range(n):
         px, py, pz = p[i, 0], p[i, 1], p[i, 2]
         # a'_i = Xup_i a_{i-1} + c_i

@@ -4,13 +4,14 @@ The same algorithm and frames as ``algorithms/crba.py`` (Featherstone 2008, Tabl
 the composite inertia of bodies i..n-1 about body i's origin, IC_i = I_i + Xup_{i+1}^T
 IC_{i+1} Xup_{i+1}; F = IC_i S_i, carried to the base with F = Xup_j^T F; M_ji = S_j^T F.
 In a chain the composite is carried in registers from the tip to the base as its ten
-inertial parameters (m, h = m c, I_O), not as a 6x6 matrix.
+inertial parameters (m, h = m c, I_O), not as a 6x6 matrix. The armature (reflected
+rotor inertia) adds to the diagonal: M_ii += I_a,i.
 """
 from numba import njit, types
 
 from .data import new_kin
 from .signatures import D2, D3, Out2, Pm, internal
-from .layout import H, IO, KIND, MASS, NJ
+from .layout import ARM, H, IO, KIND, MASS
 from .spatial import joint_transforms, to_parent
 
 
@@ -25,10 +26,10 @@ def crba_core(P, R, p, M):
         # F = IC_i S_i: the momentum of composite i.. moving with a unit joint rate
         if P[i, KIND] == 0.0:       # unit spin about z: n = I_O e_z, f = e_z x h
             nx, ny, nz, fx, fy, fz = Ixz, Iyz, Izz, -hy, hx, 0.0
-            M[i, i] = nz
+            M[i, i] = nz + P[i, ARM]                      # + the armature I_a,i
         else:                       # unit slide along z: n = h x e_z, f = m e_z
             nx, ny, nz, fx, fy, fz = hy, -hx, 0.0, 0.0, 0.0, m
-            M[i, i] = fz
+            M[i, i] = fz + P[i, ARM]
         j = i
         while j > 1:                # carry F into the parent frame: F = Xup_j^T F
             nx, ny, nz, fx, fy, fz = to_parent(R, p, j, nx, ny, nz, fx, fy, fz)
@@ -56,9 +57,9 @@ def crba_core(P, R, p, M):
                 if P[0, KIND] == 0.0:
                     t6, t7, t8 = r6 * Ixx + r7 * Ixy + r8 * Ixz, r6 * Ixy + r7 * Iyy + r8 * Iyz, r6 * Ixz + r7 * Iyz + r8 * Izz
                     d = 2.0 * (gx * px + gy * py) + m * (px * px + py * py)
-                    M[0, 0] = P[0, IO + 2] + t6 * r6 + t7 * r7 + t8 * r8 + d
+                    M[0, 0] = P[0, IO + 2] + t6 * r6 + t7 * r7 + t8 * r8 + d + P[0, ARM]
                 else:
-                    M[0, 0] = P[0, MASS] + m
+                    M[0, 0] = P[0, MASS] + m + P[0, ARM]
                 return
             t0, t1, t2 = r0 * Ixx + r1 * Ixy + r2 * Ixz, r0 * Ixy + r1 * Iyy + r2 * Iyz, r0 * Ixz + r1 * Iyz + r2 * Izz
             t3, t4, t5 = r3 * Ixx + r4 * Ixy + r5 * Ixz, r3 * Ixy + r4 * Iyy + r5 * Iyz, r3 * Ixz + r4 * Iyz + r5 * Izz
@@ -88,7 +89,7 @@ crba_core = internal(types.void(Pm, D3, D2, Out2))(crba_core)   # called by the 
 # ------------------------------------------------------------------ entry points
 def crba(P, q, out):
     """Mass matrix of one configuration into ``out`` (n, n). Returns 0, 1 (NaN/Inf), 2."""
-    n = int(P[0, NJ])
+    n = P.shape[0] - 1
     if q.shape[0] != n or out.shape[0] != n or out.shape[1] != n:
         return 2
     d = new_kin(n)
@@ -99,7 +100,7 @@ def crba(P, q, out):
 
 def crba_batch(P, q, out):
     """Mass matrices (N, n, n) of N configurations (N, n). Returns 0, or 1 on a NaN/Inf."""
-    n = int(P[0, NJ])
+    n = P.shape[0] - 1
     d = new_kin(n)
     bad = 0
     for k in range(q.shape[0]):

@@ -16,8 +16,8 @@ from .aba import aba_core
 from .cholesky import cholesky_solve
 from .crba import crba_core
 from .data import new_art, new_chol, new_kin
+from .layout import W_ALL, W_WRENCH
 from .signatures import D1, D2, D3, In1, Out1, Pm, f8, i8, internal
-from .layout import NJ
 from .rnea import rnea_core, status
 from .spatial import finite
 
@@ -25,7 +25,7 @@ from .spatial import finite
 def cholesky_core(P, sc, R, p, f, M, b, q, qd, tau, w, damping, flags, out):
     """qdd into ``out`` by the Cholesky route. Returns 0.0, or NaN on a NaN/Inf input."""
     n = out.shape[0]
-    chk = rnea_core(P, sc, R, p, f, q, qd, q, w, flags & (F.QD | F.WRENCH), b)   # b - J^T w
+    chk = rnea_core(P, sc, R, p, f, q, qd, q, w, flags & (F.QD | F.WRENCH | F.BASE), b)   # b - J^T w
     for i in range(n):
         chk += finite(tau[i])
         b[i] = tau[i] - b[i]
@@ -45,17 +45,19 @@ cholesky_core = internal(f8(Pm, D2, D3, D2, D2, D2, D1, In1, In1, In1, In1, In1,
 # ------------------------------------------------------------------ entry points
 @njit(cache=True, inline="always")
 def _checked_length(P, q, qd, tau, out):
-    n = int(P[0, NJ])
+    n = P.shape[0] - 1
     return q.shape[0] == n and qd.shape[0] == n and tau.shape[0] == n and out.shape[0] == n
 
 
 def fd(P, q, qd, tau, w, flags, out):
     """Forward dynamics of one state into ``out`` (n,): Cholesky, or ABA with flag ABA;
-    with flag WRENCH the tip wrench ``w`` (6,), [f; m] in base coordinates, on the tip
-    (else ``w`` is not read). Returns 0, 1 (NaN/Inf) or 2 (a wrong length). (One entry
+    with flag WRENCH the tip wrench ``w[:6]``, [f; m] in base coordinates, on the tip
+    (else not read); with flag BASE the base motion (then ``w`` has W_ALL entries,
+    layout.W_*). Returns 0, 1 (NaN/Inf) or 2 (a wrong length). (One entry
     point with and without a wrench: a second one would compile the recursions again,
     ~0.7 s of a cold start, to save ~40 ns a call.)"""
-    if not _checked_length(P, q, qd, tau, out) or w.shape[0] != 6:
+    if (not _checked_length(P, q, qd, tau, out)
+            or w.shape[0] != (W_ALL if (flags & F.BASE) != 0 else W_WRENCH)):
         return 2
     n = out.shape[0]
     d = new_kin(n)
@@ -72,7 +74,7 @@ def fd_batch(P, q, qd, tau, w, flags, out):
     """Forward dynamics of N states (rows broadcast as in ``rnea_batch``). Returns 0, or 1
     if some input had a NaN/Inf."""
     N = out.shape[0]
-    n = int(P[0, NJ])
+    n = P.shape[0] - 1
     d, c, a = new_kin(n), new_chol(n), new_art(n)
     nq, nv, nt, nw = q.shape[0] > 1, qd.shape[0] > 1, tau.shape[0] > 1, w.shape[0] > 1
     flags &= ~F.DAMPING

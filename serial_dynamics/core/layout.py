@@ -1,24 +1,33 @@
 """The model in the compiled core's layout: one array ``P``, built once per model.
 
 Row ``i < n`` describes body ``i`` in joint frames (``Model`` fields of the same names;
-conventions in docs/conventions.md); row ``n`` holds the chain's constants:
+conventions in docs/conventions.md); row ``n`` holds the chain's constants. The number
+of bodies is ``n = P.shape[0] - 1``.
 
-    P[i, XR:XR+9]   Xtree_R, row-major          P[n, G:G+3]      gravity (base frame)
+    P[i, XR:XR+9]   Xtree_R, row-major          P[n, G:G+3]       gravity (base frame)
     P[i, XP:XP+3]   Xtree_p                     P[n, TIPP:TIPP+3] Xtip_p
     P[i, KIND]      1.0 prismatic, 0.0 revolute P[n, TIPR:TIPR+9] Xtip_R, row-major
-    P[i, MASS]      m                           P[0, NJ]          n (as a float)
-    P[i, H:H+3]     h = m c                     P[0, LANES]       lanes of the batch kernels
+    P[i, MASS]      m                           P[n, LANES]       lanes of the batch kernels
+    P[i, H:H+3]     h = m c
     P[i, IO:IO+6]   I_O: xx yy zz xy xz yz
+    P[i, ARM]       armature (reflected rotor inertia, kg m^2 or kg)
+
+The entry points' external inputs ``w`` (flags.WRENCH, flags.BASE) are one vector:
+
+    w[W_F:W_F+3], w[W_M:W_M+3]       the tip wrench [f; m] (base frame, on the tip)
+    w[W_OMEGA:+3], w[W_ALPHA:+3]     the base's angular velocity and acceleration (base frame)
+    w[W_ACC:W_ACC+3]                 the classical acceleration of the base origin (no gravity)
 """
 import numpy as np
 
 from ..joints import PRISMATIC
 
-XR, XP, KIND, MASS, H, IO = 0, 9, 12, 13, 14, 17
-G, TIPP, TIPR = 0, 3, 6
-NJ, LANES = 23, 22
+XR, XP, KIND, MASS, H, IO, ARM = 0, 9, 12, 13, 14, 17, 23
+G, TIPP, TIPR, LANES = 0, 3, 6, 15
 WIDTH = 24
 B = 32          # samples per block of the lane-parallel batch kernel (rnea_lanes.py)
+W_F, W_M, W_OMEGA, W_ALPHA, W_ACC = 0, 3, 6, 9, 12
+W_WRENCH, W_ALL = 6, 15      # lengths of w: a tip wrench only; wrench and base motion
 
 
 def pack(model) -> np.ndarray:
@@ -26,16 +35,20 @@ def pack(model) -> np.ndarray:
     n = model.dof
     P = np.zeros((n + 1, WIDTH))
     for i in range(n):
-        I = model.I_O[i]
+        set_inertia(P, i, model.mass[i], model.h[i], model.I_O[i])
         P[i, XR:XR + 9] = model.Xtree_R[i].ravel()
         P[i, XP:XP + 3] = model.Xtree_p[i]
         P[i, KIND] = 1.0 if model.kind[i] == PRISMATIC else 0.0
-        P[i, MASS] = model.mass[i]
-        P[i, H:H + 3] = model.h[i]
-        P[i, IO:IO + 6] = I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]
+        P[i, ARM] = model.armature[i]
     P[n, G:G + 3] = model.gravity
     P[n, TIPP:TIPP + 3] = model.Xtip_p
     P[n, TIPR:TIPR + 9] = model.Xtip_R.ravel()
-    P[0, NJ] = n
-    P[0, LANES] = B
+    P[n, LANES] = B
     return P        # writable on purpose: numba's dispatcher types a read-only array ~100 ns slower
+
+
+def set_inertia(P, i, m, h, I):
+    """Body ``i``'s inertial parameters (m, h = m c, I_O; joint frame) into row ``i``."""
+    P[i, MASS] = m
+    P[i, H:H + 3] = h
+    P[i, IO:IO + 6] = I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]

@@ -5,19 +5,24 @@ outward, the angular velocity omega (w*), angular acceleration alpha (a*) and cl
 acceleration of the body origin acc (l*) of each body, gravity as the base acceleration
 -g (Luh, Walker & Paul, 1980); the body wrench about its origin; inward, the joint
 wrenches and tau_i = S_i^T f_i (Featherstone 2008, Sec. 5.3). The tip wrench w (ROS
-order [f; m], base frame, exerted on the tip) enters as the load -w on the last body.
+order [f; m], base frame, exerted on the tip) enters as the load -w on the last body. A
+base with known motion (flag BASE; Angeles, Sec. 7.5.2) starts the outward recursion with
+its angular velocity and acceleration and the acceleration of its origin minus gravity;
+the armature adds I_a qdd to each joint's torque.
 """
 from numba import njit
 
 from . import flags as F
 from .data import new_kin
 from .signatures import D2, D3, In1, Out1, Pm, f8, i8, internal
-from .layout import G, H, IO, KIND, MASS, NJ, TIPP
+from .layout import ARM, G, H, IO, KIND, MASS, TIPP, W_ACC, W_ALL, W_ALPHA, W_OMEGA, W_WRENCH
 from .spatial import finite, joint_transforms, to_child, to_parent
 
 
 def rnea_core(P, sc, R, p, f, q, qd, qdd, w, flags, tau):
     """tau = M(q) qdd + b(q, qd) - J^T w into ``tau``; fills the Data arrays sc, R, p, f.
+    ``w``: the external inputs (layout.W_*): the tip wrench (flag WRENCH), the base motion
+    (flag BASE).
     Returns 0.0, or NaN if an input has a NaN/Inf entry. Every operation is that of the lane-parallel
     batch kernel (rnea_lanes.py) in the same order, so both give the same bits."""
     n = tau.shape[0]
@@ -30,6 +35,12 @@ def rnea_core(P, sc, R, p, f, q, qd, qdd, w, flags, tau):
     if use_w:
         ex, ey, ez, mx, my, mz = w[0], w[1], w[2], w[3], w[4], w[5]
         chk += finite(ex) + finite(ey) + finite(ez) + finite(mx) + finite(my) + finite(mz)
+    if (flags & F.BASE) != 0:   # moving base: omega_0, alpha_0, acc_0 - g (Angeles Sec. 7.5.2)
+        wx, wy, wz = w[W_OMEGA], w[W_OMEGA + 1], w[W_OMEGA + 2]
+        ax, ay, az = w[W_ALPHA], w[W_ALPHA + 1], w[W_ALPHA + 2]
+        lx, ly, lz = w[W_ACC] - P[n, G], w[W_ACC + 1] - P[n, G + 1], w[W_ACC + 2] - P[n, G + 2]
+        chk += (finite(wx) + finite(wy) + finite(wz) + finite(ax) + finite(ay) + finite(az)
+                + finite(lx) + finite(ly) + finite(lz))
     for i in range(n):
         dq = qd[i] if use_qd else 0.0
         ddq = qdd[i] if use_qdd else 0.0
@@ -75,12 +86,13 @@ def rnea_core(P, sc, R, p, f, q, qd, qdd, w, flags, tau):
     nx = f[k, 0] - mx - tpy * ez + tpz * ey
     ny = f[k, 1] - my - tpz * ex + tpx * ez
     nz = f[k, 2] - mz - tpx * ey + tpy * ex
-    tau[k] = nz if P[k, KIND] == 0.0 else fz          # tau_i = S_i^T (n; f)
+    # tau_i = S_i^T (n; f) + I_a,i qdd_i  (the rotor's inertia, reflected through the gear)
+    tau[k] = (nz if P[k, KIND] == 0.0 else fz) + P[k, ARM] * (qdd[k] if use_qdd else 0.0)
     for i in range(n - 2, -1, -1):
         nx, ny, nz, fx, fy, fz = to_parent(R, p, i + 1, nx, ny, nz, fx, fy, fz)
         fx, fy, fz = fx + f[i, 3], fy + f[i, 4], fz + f[i, 5]
         nx, ny, nz = nx + f[i, 0], ny + f[i, 1], nz + f[i, 2]
-        tau[i] = nz if P[i, KIND] == 0.0 else fz
+        tau[i] = (nz if P[i, KIND] == 0.0 else fz) + P[i, ARM] * (qdd[i] if use_qdd else 0.0)
     return chk
 
 
@@ -99,18 +111,20 @@ def status(chk):
 # a compiled call costs ~40 ns of dispatch, a fifth of a short chain's whole call.
 def rnea(P, q, qd, qdd, flags, out):
     """Inverse dynamics of one state into ``out`` (n,). Returns 0, 1 (NaN/Inf), 2 (length)."""
-    n = int(P[0, NJ])
+    n = P.shape[0] - 1
     if q.shape[0] != n or qd.shape[0] != n or qdd.shape[0] != n or out.shape[0] != n:
         return 2
     d = new_kin(n)
-    return status(rnea_inline(P, d.sc, d.R, d.p, d.f, q, qd, qdd, q, flags & ~F.WRENCH, out))
+    return status(rnea_inline(P, d.sc, d.R, d.p, d.f, q, qd, qdd, q, flags & (F.QD | F.QDD), out))
 
 
 def rnea_wrench(P, q, qd, qdd, w, flags, out):
-    """``rnea`` with the tip wrench ``w`` (6,), [f; m] in base coordinates, on the tip."""
-    n = int(P[0, NJ])
+    """``rnea`` with external inputs ``w`` (layout.W_*): with flag WRENCH the tip wrench
+    w[:6], [f; m] in base coordinates, on the tip; with flag BASE also the base motion
+    (then ``w`` has W_ALL entries, else W_WRENCH)."""
+    n = P.shape[0] - 1
     if (q.shape[0] != n or qd.shape[0] != n or qdd.shape[0] != n or out.shape[0] != n
-            or w.shape[0] != 6):
+            or w.shape[0] != (W_ALL if (flags & F.BASE) != 0 else W_WRENCH)):
         return 2
     d = new_kin(n)
-    return status(rnea_core(P, d.sc, d.R, d.p, d.f, q, qd, qdd, w, flags | F.WRENCH, out))
+    return status(rnea_core(P, d.sc, d.R, d.p, d.f, q, qd, qdd, w, flags, out))

@@ -15,7 +15,7 @@ import math
 
 from . import flags as F
 from .data import stack_empty
-from .layout import G, H, IO, KIND, LANES, MASS, NJ, TIPP, XP, XR
+from .layout import ARM, G, H, IO, KIND, LANES, MASS, TIPP, W_ACC, W_ALL, W_WRENCH, XP, XR
 from .signatures import In2, Out2, Pm, i8, internal
 from .spatial import SMALL_ANGLE, sincos
 
@@ -31,10 +31,10 @@ def rnea_block(P, q, qd, qdd, w, flags, out, k0):
     TB torques. Every lane loop is innermost and branch-free (the joint kind, the same in
     every lane, picks values by selects), so that it vectorizes."""
     N = out.shape[0]
-    n = int(P[0, NJ])
-    L = int(P[0, LANES])                 # lanes (= B), read at run time on purpose
+    n = P.shape[0] - 1
+    L = int(P[n, LANES])                 # lanes (= B), read at run time on purpose
     nl = min(L, N - k0)
-    QV, WB, TB, ST = stack_empty((3 * n + 1, L)), stack_empty((6, L)), stack_empty((n, L)), stack_empty((15, L))
+    QV, WB, TB, ST = stack_empty((3 * n + 1, L)), stack_empty((W_ALL, L)), stack_empty((n, L)), stack_empty((15, L))
     RB, PB, FB = stack_empty((9 * n, L)), stack_empty((3 * n, L)), stack_empty((6 * n, L))
     nq, nv, na, nw = q.shape[0] > 1, qd.shape[0] > 1, qdd.shape[0] > 1, w.shape[0] > 1
     use_qd, use_qdd = (flags & F.QD) != 0, (flags & F.QDD) != 0
@@ -53,8 +53,8 @@ def rnea_block(P, q, qd, qdd, w, flags, out, k0):
             fin &= y * 0.0 == 0.0 and z * 0.0 == 0.0
         QV[3 * n, b] = 1.0 if lane_small else 0.0
         small &= lane_small
-        if (flags & F.WRENCH) != 0:
-            for j in range(6):
+        if (flags & (F.WRENCH | F.BASE)) != 0:
+            for j in range(W_ALL if (flags & F.BASE) != 0 else W_WRENCH):
                 x = w[k if nw else 0, j]
                 WB[j, b] = x
                 fin &= x * 0.0 == 0.0
@@ -63,11 +63,14 @@ def rnea_block(P, q, qd, qdd, w, flags, out, k0):
             for i in range(n):
                 fin &= QV[i, b] * 0.0 == 0.0
     # --- the recursions, lane by lane
-    use_w = (flags & F.WRENCH) != 0
-    for k in range(15):
-        v = -P[n, G + k - 6] if 6 <= k < 9 else 0.0      # omega = alpha = 0, a = -g
+    use_w, use_base = (flags & F.WRENCH) != 0, (flags & F.BASE) != 0
+    for k in range(15):          # omega = alpha = 0, a = -g; moving base: WB[6:15] - (0, 0, g)
+        v = -P[n, G + k - 6] if 6 <= k < 9 else 0.0
         for b in range(nl):
-            ST[k, b] = WB[k - 9, b] if k >= 9 and use_w else v
+            if k < 9:
+                ST[k, b] = (WB[W_ACC + k - 6, b] - P[n, G + k - 6] if k >= 6 else WB[6 + k, b]) if use_base else v
+            else:
+                ST[k, b] = WB[k - 9, b] if use_w else 0.0
     for i in range(n):
         rp0, rp1, rp2, rp3, rp4, rp5, rp6, rp7, rp8 = (P[i, XR], P[i, XR + 1], P[i, XR + 2],
                                                        P[i, XR + 3], P[i, XR + 4], P[i, XR + 5],
@@ -161,7 +164,7 @@ def rnea_block(P, q, qd, qdd, w, flags, out, k0):
         my = FB[fi + 4, b] - ST[13, b] - tpz * ST[9, b] + tpx * ST[11, b]
         mz = FB[fi + 5, b] - ST[14, b] - tpx * ST[10, b] + tpy * ST[9, b]
         ST[0, b], ST[1, b], ST[2, b], ST[3, b], ST[4, b], ST[5, b] = fx, fy, fz, mx, my, mz
-        TB[n - 1, b] = mz if rev else fz                   # tau_i = S_i^T (n; f)
+        TB[n - 1, b] = (mz if rev else fz) + P[n - 1, ARM] * QV[3 * n - 1, b]   # S_i^T (n; f) + I_a qdd
     for i in range(n - 2, -1, -1):
         fi, rj, pj = 6 * i, 9 * (i + 1), 3 * (i + 1)
         rev = P[i, KIND] == 0.0
@@ -178,7 +181,7 @@ def rnea_block(P, q, qd, qdd, w, flags, out, k0):
             fx, fy, fz = fx + FB[fi, b], fy + FB[fi + 1, b], fz + FB[fi + 2, b]
             mx, my, mz = mx + FB[fi + 3, b], my + FB[fi + 4, b], mz + FB[fi + 5, b]
             ST[0, b], ST[1, b], ST[2, b], ST[3, b], ST[4, b], ST[5, b] = fx, fy, fz, mx, my, mz
-            TB[i, b] = mz if rev else fz
+            TB[i, b] = (mz if rev else fz) + P[i, ARM] * QV[2 * n + i, b]
     # --- scatter
     for b in range(nl):
         for i in range(n):
@@ -189,9 +192,9 @@ def rnea_block(P, q, qd, qdd, w, flags, out, k0):
 # ------------------------------------------------------------------ entry point
 def rnea_batch(P, q, qd, qdd, w, flags, out):
     """Inverse dynamics of N states: q, qd, qdd (N, n) or (1, n) broadcast; w (N, 6) or
-    (1, 6). Blocks of B samples run in lanes (the last one with the samples left). Returns
+    (1, 6), with flag BASE (N or 1, W_ALL) (layout.W_*). Blocks of B samples run in lanes (the last one with the samples left). Returns
     0, or 1 if some input had a NaN/Inf (its rows are then not meaningful)."""
     bad = 0
-    for k0 in range(0, out.shape[0], int(P[0, LANES])):
+    for k0 in range(0, out.shape[0], int(P[P.shape[0] - 1, LANES])):
         bad |= rnea_block(P, q, qd, qdd, w, flags, out, k0)
     return bad

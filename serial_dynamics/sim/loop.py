@@ -17,7 +17,7 @@ from ..core import flags as F
 from ..core.aba import aba_core
 from ..core.data import heap_empty, new_art, new_chol, new_kin, stack_empty
 from ..core.forward import cholesky_core
-from ..core.layout import NJ, pack
+from ..core.layout import pack
 from ..core.signatures import In1, In2, Out2, Pm, compile_internal, f8, i8
 from .steps import semi_implicit_euler_step
 
@@ -28,7 +28,7 @@ def semi_implicit_euler_loop(P, q0, qd0, tau, dt, nsteps, viscous, w, flags):
     qdd = FD(q, qd, tau_k - viscous qd [, w_k]); with flag DAMPING the damping acts on the
     new velocity, (M + dt diag(viscous)) qdd = tau_k - viscous qd - b (as MuJoCo's Euler),
     which is stable for any step; then qd += dt qdd, q += dt qd."""
-    n = int(P[0, NJ])
+    n = P.shape[0] - 1
     qs, qds = heap_empty((nsteps + 1, n)), heap_empty((nsteps + 1, n))
     qs[:, :] = np.nan                   # rows after a divergence stay NaN
     qds[:, :] = np.nan

@@ -1,0 +1,274 @@
+"""Planar fast path: dynamics of a chain that moves in one plane, in planar 3-vectors.
+
+A serial chain is *planar* when every revolute joint axis is parallel (either sense) to
+one unit normal n and every prismatic axis is perpendicular to it. Then every body turns
+about n and slides in the plane: its twist has three non-zero components (omega_z; v_x,
+v_y) and the joint torques need only three components of each wrench (n_z; f_x, f_y)
+(Angeles, *Fundamentals of Robotic Mechanical Systems*, Sec. 7.6.1; Featherstone, *Rigid
+Body Dynamics Algorithms* (2008), Sec. 2.16, planar vectors). This module detects such a
+chain (``planar_pack``), packs it as one array ``Q``, and is the readable reference of the
+planar recursions (``inverse_dynamics``, ``mass_matrix``); ``core/planar.py`` compiles the
+same equations, with the same symbols, line for line.
+
+Why the dropped components do not change a joint torque
+--------------------------------------------------------
+With omega = omega_z n, alpha = alpha_z n and every origin acceleration in the plane (up to
+the gravity component along n, below), the joint torques are tau_i = n . n_i (revolute,
+times the axis sense) and tau_i = d_i . f_i (prismatic, d_i in the plane). What enters them:
+
+- **Products of inertia** I_xn, I_yn (n the normal): the moment about the body origin is
+  I_O alpha + omega x (I_O omega) + h x a. Its n component is I_nn alpha_z (alpha is along
+  n) plus n . (omega x I_O omega) = omega_z^2 n . (n x I_O n) = 0, plus (h x a) . n. So
+  only I_nn, the moment of inertia about the normal through the body origin, enters;
+  I_xn, I_yn produce moments in the plane, which the joint structure carries.
+- **Gravity along n** adds the force m g_n n to every body: no in-plane force, and a
+  moment r x (m g_n n) perpendicular to n for every lever r. The same holds for the
+  force and moment parts of a tip wrench along n and in the plane: only (f_x, f_y, m_n)
+  of it enter.
+- **Offsets along n** (of joint origins, centres of mass, the tip point) change a moment
+  r x f with f in the plane only by (r_n n) x f, which is in the plane: n . (r x f) =
+  r_x f_y - r_y f_x. And I_nn = I_c,nn + m (c_x^2 + c_y^2) does not depend on c_n.
+
+So each body is described by its mass m, its in-plane first moment h = m (c_x, c_y) and
+I_nn, all about the body's *planar origin* (its joint frame origin, projected on the plane,
+which changes nothing by the last point).
+
+Planar frames and the layout ``Q``
+----------------------------------
+The base planar frame has axes E1, E2, N (base coordinates; N = the first revolute joint's
+axis at q = 0). Body i's planar frame has its origin at joint frame i's origin and z = N;
+its x axis is joint frame i's x axis for a revolute joint (the planar frame is then joint
+frame i, or joint frame i turned by pi about x when the joint axis is -N), and parallel to
+the parent's planar x axis at q = 0 for a prismatic joint. Body i in body i-1 (planar):
+
+    rotation by  theta_i = ANG_i + SGN_i q_i          (SGN = +-1 revolute, 0 prismatic)
+    origin at    p_i = (RX_i, RY_i) + q_i Rot(theta_i) d_i     (d_i = (DX_i, DY_i); 0 revolute)
+
+    Q[i, ANG]        fixed angle of planar frame i from planar frame i-1 at q = 0 (about N)
+    Q[i, RX:RY+1]    fixed in-plane offset of its origin, in planar frame i-1
+    Q[i, KIND]       0.0 revolute, 1.0 prismatic
+    Q[i, SGN]        revolute: +1 if the joint axis is +N, -1 if -N; prismatic: 0
+    Q[i, DX:DY+1]    prismatic: the joint axis (unit, in the plane) in planar frame i; else 0
+    Q[i, MASS]       m
+    Q[i, HX:HY+1]    m (c_x, c_y), planar frame i
+    Q[i, IZ]         moment of inertia about the normal through the planar origin
+    Q[i, ARM]        armature (rotor inertia reflected to the joint), kg m^2 or kg:
+                     tau_i += ARM qdd_i, M_ii += ARM
+    Q[n, GX:GY+1]    gravity in the base planar frame (E1 . g, E2 . g)
+    Q[n, TX:TY+1]    the tip point (where a tip wrench acts) in planar frame n-1
+    Q[n, E1:E1+3], Q[n, E2:E2+3], Q[n, NRM:NRM+3]   the base planar axes (base coordinates),
+                     to project a tip wrench: (E1 . f, E2 . f, N . m)
+
+n = Q.shape[0] - 1 joints. A revolute joint's motion subspace in planar coordinates is
+S_i = (SGN_i; 0, 0), a prismatic one's (0; d_i).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..joints import PRISMATIC
+
+# columns of Q, per body (rows 0..n-1)
+ANG, RX, RY, KIND, SGN, DX, DY, MASS, HX, HY, IZ, ARM = range(12)
+# columns of Q's last row (row n)
+GX, GY, TX, TY, E1, E2, NRM = 0, 1, 2, 3, 4, 7, 10
+WIDTH = 13
+TOL = 1e-12     # |sin| of the angle by which an axis may miss being parallel / perpendicular
+
+
+def planar_pack(model, tol=TOL):
+    """``Q`` (n + 1, WIDTH) for a planar ``model`` (module docstring), or None when the
+    chain does not move in one plane (or has no revolute joint)."""
+    n = model.dof
+    kind = np.asarray(model.kind)
+    if not np.any(kind != PRISMATIC):
+        return None                                   # no revolute joint: no plane
+    # joint frame i in the base at q = 0 (R_i = Xtree_R at q = 0 for both kinds)
+    R0 = np.empty((n, 3, 3))
+    R = np.eye(3)
+    for i in range(n):
+        R = R @ model.Xtree_R[i]
+        R0[i] = R
+    axes = R0[:, :, 2]                                # joint axes, base coordinates
+    N = axes[int(np.flatnonzero(kind != PRISMATIC)[0])]
+    for i in range(n):
+        if kind[i] == PRISMATIC:
+            if abs(axes[i] @ N) > tol:                # a prismatic axis out of the plane
+                return None
+        elif np.linalg.norm(np.cross(axes[i], N)) > tol:   # a revolute axis off the normal
+            return None
+    # base planar frame: x = joint 0's x axis (revolute) or its axis (prismatic), in the plane
+    x = R0[0][:, 0] if kind[0] != PRISMATIC else axes[0]
+    x = x - (x @ N) * N
+    e1 = x / np.linalg.norm(x)
+    e2 = np.cross(N, e1)
+    arm = getattr(model, "armature", None)
+    arm = np.zeros(n) if arm is None else np.asarray(arm, dtype=float).reshape(n)
+    Q = np.zeros((n + 1, WIDTH))
+    B_prev = np.column_stack([e1, e2, N])             # planar frame i-1's axes, base coords
+    R_prev = np.eye(3)                                # joint frame i-1 in the base, q = 0
+    for i in range(n):
+        if kind[i] == PRISMATIC:                      # planar frame parallel to the parent's
+            B = B_prev
+            Q[i, KIND] = 1.0
+            Q[i, DX], Q[i, DY] = B[:, :2].T @ axes[i]
+        else:                                         # joint frame i, turned by pi about x if -N
+            s = 1.0 if axes[i] @ N > 0.0 else -1.0
+            B = R0[i] @ np.diag([1.0, s, s])
+            Q[i, SGN] = s
+        xb = B_prev.T @ B[:, 0]                       # planar x axis of i in planar frame i-1
+        Q[i, ANG] = np.arctan2(xb[1], xb[0])
+        Q[i, RX], Q[i, RY] = B_prev[:, :2].T @ (R_prev @ model.Xtree_p[i])
+        Rp = R0[i].T @ B                              # planar frame i's axes in joint frame i
+        Q[i, MASS] = model.mass[i]
+        Q[i, HX], Q[i, HY] = Rp[:, :2].T @ model.h[i]
+        Q[i, IZ] = Rp[:, 2] @ model.I_O[i] @ Rp[:, 2]
+        Q[i, ARM] = arm[i]
+        B_prev, R_prev = B, R0[i]
+    Q[n, GX], Q[n, GY] = e1 @ model.gravity, e2 @ model.gravity
+    Q[n, TX], Q[n, TY] = B_prev[:, :2].T @ (R_prev @ model.Xtip_p)
+    Q[n, E1:E1 + 3], Q[n, E2:E2 + 3], Q[n, NRM:NRM + 3] = e1, e2, N
+    return Q
+
+
+# ------------------------------------------------------------------ planar algebra
+def _rot(c, s, x, y):
+    """Rot(theta) (x, y): a planar vector of body i into body i-1's axes."""
+    return c * x - s * y, s * x + c * y
+
+
+def _rot_t(c, s, x, y):
+    """Rot(theta)^T (x, y): a planar vector of body i-1 into body i's axes."""
+    return c * x + s * y, -s * x + c * y
+
+
+def _cross(ax, ay, bx, by):
+    """n . (a x b) of two in-plane vectors."""
+    return ax * by - ay * bx
+
+
+def _states(Q, *xs):
+    """(single, N, arrays (N, n) or None): rows of length 1 broadcast."""
+    n = Q.shape[0] - 1
+    arrs = [None if x is None else np.asarray(x, dtype=float) for x in xs]
+    single = all(a is None or a.ndim == 1 for a in arrs)
+    arrs = [None if a is None else np.atleast_2d(a) for a in arrs]
+    for a in arrs:
+        if a is not None and (a.ndim != 2 or a.shape[1] != n):
+            raise ValueError(f"a state has shape {a.shape}; expected ({n},) or (N, {n})")
+    N = max(a.shape[0] for a in arrs if a is not None)
+    return single, N, [None if a is None else np.broadcast_to(a, (N, n)) for a in arrs]
+
+
+def joint_transforms(Q, q):
+    """Body i in body i-1 (planar): cos, sin of theta_i and the origin p_i, each (N, n)."""
+    th = Q[:-1, ANG] + Q[:-1, SGN] * q                         # theta = ANG + SGN q
+    c, s = np.cos(th), np.sin(th)
+    dx, dy = _rot(c, s, Q[:-1, DX], Q[:-1, DY])                  # d_i in body i-1's axes
+    px = Q[:-1, RX] + q * Q[:-1, KIND] * dx                      # p = r + q Rot(theta) d
+    py = Q[:-1, RY] + q * Q[:-1, KIND] * dy
+    return c, s, px, py
+
+
+# ------------------------------------------------------------------ inverse dynamics
+def inverse_dynamics(Q, q, qd, qdd, wrench=None):
+    """tau = M(q) qdd + b(q, qd) - J^T w of a planar chain, (n,) or (N, n); ``qd``, ``qdd``
+    None for zeros. ``wrench`` [fx, fy, fz, mx, my, mz] (6,) or (N, 6), base coordinates,
+    exerted by the environment on the tip frame origin: only (E1 . f, E2 . f, N . m) of it
+    enter. Newton-Euler as ``algorithms/rnea.py`` (Featherstone 2008, Table 5.1, classical
+    origin accelerations), with omega, alpha scalars along N and acc, f in-plane."""
+    single, N, (q, qd, qdd) = _states(Q, q, qd, qdd)
+    n = q.shape[1]
+    qd = np.zeros((N, n)) if qd is None else qd
+    qdd = np.zeros((N, n)) if qdd is None else qdd
+    c, s, px, py = joint_transforms(Q, q)
+    g = Q[n]
+    omega = np.zeros(N)                                   # angular velocity of body i-1 (along N)
+    alpha = np.zeros(N)                                   # its angular acceleration
+    ax, ay = np.full(N, -g[GX]), np.full(N, -g[GY])       # acceleration of its origin; base: -g
+    fB = np.empty((N, n, 2))                              # rate of change of momentum: force
+    nB = np.empty((N, n))                                 # and moment about the origin (along N)
+    for i in range(n):
+        # body i-1's motion at body i's origin: acc + alpha x p + omega x (omega x p)
+        ax, ay = ax - alpha * py[:, i] - omega**2 * px[:, i], ay + alpha * px[:, i] - omega**2 * py[:, i]
+        ax, ay = _rot_t(c[:, i], s[:, i], ax, ay)         # into body i
+        if Q[i, KIND] == 1.0:   # slide along d: acc += 2 omega x (qd d) + qdd d
+            dx, dy = Q[i, DX], Q[i, DY]
+            ax = ax - 2.0 * omega * qd[:, i] * dy + qdd[:, i] * dx
+            ay = ay + 2.0 * omega * qd[:, i] * dx + qdd[:, i] * dy
+        else:                   # spin about SGN N: alpha += SGN qdd, omega += SGN qd
+            alpha = alpha + Q[i, SGN] * qdd[:, i]
+            omega = omega + Q[i, SGN] * qd[:, i]
+        # Newton-Euler about the origin: f = m acc + alpha x h + omega x (omega x h),
+        # n = I_nn alpha + h x acc  (the N component of omega x I_O omega is 0)
+        m, hx, hy, Izz = Q[i, MASS], Q[i, HX], Q[i, HY], Q[i, IZ]
+        fB[:, i, 0] = m * ax - alpha * hy - omega**2 * hx
+        fB[:, i, 1] = m * ay + alpha * hx - omega**2 * hy
+        nB[:, i] = Izz * alpha + _cross(hx, hy, ax, ay)
+    # inward: joint forces; the tip load -w acts on the environment
+    fx, fy, nm = np.zeros(N), np.zeros(N), np.zeros(N)
+    if wrench is not None:
+        w = np.broadcast_to(np.asarray(wrench, dtype=float), (N, 6))
+        wx, wy, wn = w[:, :3] @ g[E1:E1 + 3], w[:, :3] @ g[E2:E2 + 3], w[:, 3:] @ g[NRM:NRM + 3]
+        th = np.sum(Q[:-1, ANG] + Q[:-1, SGN] * q, axis=1)          # base -> body n-1
+        wx, wy = _rot_t(np.cos(th), np.sin(th), wx, wy)             # -w in body n-1, moment
+        fx, fy = -wx, -wy                                           # about its origin:
+        nm = -wn + _cross(g[TX], g[TY], fx, fy)                     # -m + t x (-f)
+    tau = np.empty((N, n))
+    for i in range(n - 1, -1, -1):
+        if i < n - 1:           # child's load into body i: f' = Rot f, n' = n + p x f'
+            fx, fy = _rot(c[:, i + 1], s[:, i + 1], fx, fy)
+            nm = nm + _cross(px[:, i + 1], py[:, i + 1], fx, fy)
+        fx, fy, nm = fx + fB[:, i, 0], fy + fB[:, i, 1], nm + nB[:, i]
+        # tau_i = S_i^T (n; f) + armature qdd_i
+        t = Q[i, DX] * fx + Q[i, DY] * fy if Q[i, KIND] == 1.0 else Q[i, SGN] * nm
+        tau[:, i] = t + Q[i, ARM] * qdd[:, i]
+    return tau[0] if single else tau
+
+
+def bias_torques(Q, q, qd, wrench=None):
+    """b(q, qd) - J^T w = inverse_dynamics(q, qd, 0, wrench)."""
+    return inverse_dynamics(Q, q, qd, None, wrench)
+
+
+def gravity_torques(Q, q):
+    """Torques that hold the chain still: inverse_dynamics(q, 0, 0)."""
+    return inverse_dynamics(Q, q, None, None)
+
+
+# ------------------------------------------------------------------ mass matrix
+def mass_matrix(Q, q):
+    """M(q) of a planar chain, (n, n) or (N, n, n): composite rigid bodies as
+    ``algorithms/crba.py`` (Featherstone 2008, Table 6.2), the composite of bodies i..n-1
+    carried as (m, h, I_nn) about body i's planar origin."""
+    single, N, (q,) = _states(Q, q)
+    n = q.shape[1]
+    c, s, px, py = joint_transforms(Q, q)
+    M = np.empty((N, n, n))
+    k = n - 1
+    m = np.full(N, Q[k, MASS])                            # composite k..n-1: IC_k = I_k
+    hx, hy, Izz = np.full(N, Q[k, HX]), np.full(N, Q[k, HY]), np.full(N, Q[k, IZ])
+    for i in range(n - 1, -1, -1):
+        # F = IC_i S_i: revolute (SGN I_nn; SGN N x h), prismatic (h x d; m d)
+        if Q[i, KIND] == 1.0:
+            dx, dy = Q[i, DX], Q[i, DY]
+            nm, fx, fy = _cross(hx, hy, dx, dy), m * dx, m * dy
+        else:
+            sg = Q[i, SGN]
+            nm, fx, fy = sg * Izz, -sg * hy, sg * hx
+        M[:, i, i] = _subspace(Q, i, nm, fx, fy) + Q[i, ARM]      # M_ii = S_i^T F + armature
+        for j in range(i - 1, -1, -1):
+            fx, fy = _rot(c[:, j + 1], s[:, j + 1], fx, fy)     # F = Xup_{j+1}^T F
+            nm = nm + _cross(px[:, j + 1], py[:, j + 1], fx, fy)
+            M[:, i, j] = M[:, j, i] = _subspace(Q, j, nm, fx, fy)   # M_ij = S_j^T F
+        if i > 0:   # IC_{i-1} = I_{i-1} + IC_i carried into body i-1 (parallel axes, eq. 2.63)
+            gx, gy = _rot(c[:, i], s[:, i], hx, hy)              # h_R = Rot h
+            Izz = Q[i - 1, IZ] + Izz + 2.0 * (px[:, i] * gx + py[:, i] * gy) + m * (px[:, i]**2 + py[:, i]**2)
+            hx, hy = Q[i - 1, HX] + gx + m * px[:, i], Q[i - 1, HY] + gy + m * py[:, i]
+            m = Q[i - 1, MASS] + m
+    return M[0] if single else M
+
+
+def _subspace(Q, j, nm, fx, fy):
+    """S_j^T (n; f): SGN n (revolute) or d . f (prismatic)."""
+    return Q[j, DX] * fx + Q[j, DY] * fy if Q[j, KIND] == 1.0 else Q[j, SGN] * nm

@@ -1,0 +1,500 @@
+"""The planar fast path, compiled: Newton-Euler and composite rigid bodies in planar
+3-vectors, twists (omega_z; v_x, v_y) and wrenches (n_z; f_x, f_y) (Angeles, Sec. 7.6.1).
+
+The same equations, frames and symbols as ``algorithms/planar.py`` (the readable
+reference; its docstring defines the layout ``Q`` and says why the dropped components do
+not change a joint torque). Kernels take ``Q`` (``planar_pack``), not ``P``: n = Q.shape[0]
+- 1 joints. Status codes and ``flags`` as ``rnea.py``'s entry points: 0 ok, 1 a NaN/Inf in
+an input, 2 a wrong length; flags QD, QDD (and WRENCH in the batch kernel).
+
+Entry points (module attributes, compiled -- or loaded from numba's cache -- on first
+access, each with its one signature; importing this module compiles nothing):
+
+    planar_rnea(Q, q, qd, qdd, flags, out)               tau of one state into out (n,)
+    planar_rnea_wrench(Q, q, qd, qdd, w, flags, out)     the same with a tip wrench w (6,)
+    planar_crba(Q, q, out)                               M of one configuration, (n, n)
+    planar_rnea_batch(Q, q, qd, qdd, w, flags, out)      N states, rows of length 1 broadcast
+    planar_crba_batch(Q, q, out)                         N configurations, (N, n, n)
+
+``ENTRY_POINTS`` lists them as ``core.ENTRY_POINTS`` does (function, signature, releases
+the GIL, typed core functions it calls), for wiring into ``core.K``. A single-state entry
+point answers 3 (``core.OTHER_TYPES``) for arguments of other types, as ``core.K``'s do.
+
+Scratch: each call makes its own ``S`` (n, 7) on its stack (``stack_empty``), per body:
+cos theta, sin theta, p_x, p_y (body i in body i-1), then the body wrench f_x, f_y, n_z.
+"""
+import math
+import threading
+
+from numba import njit, types
+
+from . import flags as F
+from ..algorithms.planar import (ANG, ARM, DX, DY, E1, E2, GX, GY, HX, HY, IZ, KIND, MASS,
+                                 NRM, RX, RY, SGN, TX, TY)
+from .data import scratch, stack_empty
+from .signatures import (D2, In1, In2, Mat, Out1, Out2, Out3, Pm, Vec, compile_internal, f8,
+                         i8, internal)
+from .spatial import SMALL_ANGLE, sincos
+
+Qm = Pm                 # the packed planar model Q (never written), C-contiguous
+SCRATCH = 7             # columns of S: c, s, px, py, fx, fy, nz
+
+
+@njit(cache=True, inline="always")
+def planar_transforms(Q, S, q, n):
+    """Body i in body i-1 (planar): theta_i = ANG + SGN q_i, its cosine and sine into S[i, 0],
+    S[i, 1], the origin p_i = (RX, RY) + q_i Rot(theta_i) d_i into S[i, 2:4]. Returns 0.0,
+    or NaN when some theta_i is NaN or Inf (q_i NaN or Inf, prismatic joints included:
+    0 * Inf is NaN)."""
+    small = True
+    for i in range(n):
+        th = Q[i, ANG] + Q[i, SGN] * q[i]
+        S[i, 0] = th
+        small &= abs(th) < SMALL_ANGLE
+    chk = 0.0
+    if small:                            # a loop of its own, so that it vectorizes
+        for i in range(n):
+            s, c = sincos(S[i, 0])
+            S[i, 0], S[i, 1] = c, s
+    else:                                # huge, NaN or Inf angles: libm's argument reduction
+        for i in range(n):
+            th = S[i, 0]
+            chk += th * 0.0
+            S[i, 0], S[i, 1] = math.cos(th), math.sin(th)
+    for i in range(n):
+        px, py = Q[i, RX], Q[i, RY]
+        if Q[i, KIND] != 0.0:            # p = r + q Rot(theta) d
+            c, s, x = S[i, 0], S[i, 1], q[i]
+            dx, dy = Q[i, DX], Q[i, DY]
+            px, py = px + x * (c * dx - s * dy), py + x * (s * dx + c * dy)
+        S[i, 2], S[i, 3] = px, py
+    return chk
+
+
+
+def planar_rnea_core(Q, S, q, qd, qdd, w, flags, tau):
+    """tau = M(q) qdd + b(q, qd) - J^T w into ``tau`` (n,). Returns 0.0, or NaN if an input
+    has a NaN/Inf entry."""
+    n = tau.shape[0]
+    use_qd, use_qdd, use_w = (flags & F.QD) != 0, (flags & F.QDD) != 0, (flags & F.WRENCH) != 0
+    chk = planar_transforms(Q, S, q, n)
+    wz = az = 0.0                                   # omega, alpha of the previous body (along N)
+    lx, ly = -Q[n, GX], -Q[n, GY]                   # acc of its origin; base: -g
+    ex = ey = mn = 0.0                              # tip wrench (in-plane f, N . m), carried outward
+    if use_w:
+        chk += w[0] * 0.0 + w[1] * 0.0 + w[2] * 0.0 + w[3] * 0.0 + w[4] * 0.0 + w[5] * 0.0
+        ex = Q[n, E1] * w[0] + Q[n, E1 + 1] * w[1] + Q[n, E1 + 2] * w[2]
+        ey = Q[n, E2] * w[0] + Q[n, E2 + 1] * w[1] + Q[n, E2 + 2] * w[2]
+        mn = Q[n, NRM] * w[3] + Q[n, NRM + 1] * w[4] + Q[n, NRM + 2] * w[5]
+    for i in range(n):
+        dq = qd[i] if use_qd else 0.0
+        ddq = qdd[i] if use_qdd else 0.0
+        chk += dq * 0.0 + ddq * 0.0                 # 0.0, or NaN for a NaN or Inf
+        c, s, px, py = S[i, 0], S[i, 1], S[i, 2], S[i, 3]
+        # acc + alpha x p + omega x (omega x p), then into body i: Rot(theta)^T
+        w2 = wz * wz
+        tx = lx - az * py - w2 * px
+        ty = ly + az * px - w2 * py
+        lx, ly = c * tx + s * ty, -s * tx + c * ty
+        if Q[i, KIND] == 0.0:       # spin about SGN N: alpha += SGN qdd, omega += SGN qd
+            sg = Q[i, SGN]
+            az = az + sg * ddq
+            wz = wz + sg * dq
+        else:                       # slide along d: acc += 2 omega x (qd d) + qdd d
+            dx, dy = Q[i, DX], Q[i, DY]
+            lx = lx - 2.0 * wz * dq * dy + ddq * dx
+            ly = ly + 2.0 * wz * dq * dx + ddq * dy
+        # body wrench about its origin: f = m acc + alpha x h + omega x (omega x h),
+        #                                n = I_nn alpha + h x acc
+        m, hx, hy = Q[i, MASS], Q[i, HX], Q[i, HY]
+        w2 = wz * wz
+        S[i, 4] = m * lx - az * hy - w2 * hx
+        S[i, 5] = m * ly + az * hx - w2 * hy
+        S[i, 6] = Q[i, IZ] * az + (hx * ly - hy * lx)
+        if use_w:
+            ex, ey = c * ex + s * ey, -s * ex + c * ey
+    # inward: f_i = body wrench + Xup_{i+1}^T f_{i+1}, tau_i = S_i^T f_i + armature qdd_i;
+    # the last body carries the load -w (moment about its origin: -m + t x (-f))
+    k = n - 1
+    fx, fy = S[k, 4] - ex, S[k, 5] - ey
+    nz = S[k, 6] + (-mn + (Q[n, TX] * -ey - Q[n, TY] * -ex))
+    ddq = qdd[k] if use_qdd else 0.0
+    t = Q[k, DX] * fx + Q[k, DY] * fy if Q[k, KIND] != 0.0 else Q[k, SGN] * nz
+    tau[k] = t + Q[k, ARM] * ddq
+    for i in range(n - 2, -1, -1):
+        c, s, px, py = S[i + 1, 0], S[i + 1, 1], S[i + 1, 2], S[i + 1, 3]
+        gx, gy = c * fx - s * fy, s * fx + c * fy       # f' = Rot f, n' = n + p x f'
+        nz = nz + (px * gy - py * gx)
+        fx, fy, nz = gx + S[i, 4], gy + S[i, 5], nz + S[i, 6]
+        ddq = qdd[i] if use_qdd else 0.0
+        t = Q[i, DX] * fx + Q[i, DY] * fy if Q[i, KIND] != 0.0 else Q[i, SGN] * nz
+        tau[i] = t + Q[i, ARM] * ddq
+    return chk
+
+
+planar_rnea_core = njit(cache=True, inline="always")(planar_rnea_core)   # into the entries
+
+
+def planar_crba_core(Q, S, M):
+    """M into ``M`` (n, n); S holds the joint transforms (``planar_transforms``). The
+    composite of bodies i..n-1 about body i's origin is carried as (m, h, I_nn)."""
+    n = M.shape[0]
+    k = n - 1
+    m, hx, hy, Izz = Q[k, MASS], Q[k, HX], Q[k, HY], Q[k, IZ]
+    for i in range(n - 1, -1, -1):
+        # F = IC_i S_i: revolute (SGN I_nn; SGN N x h), prismatic (h x d; m d)
+        if Q[i, KIND] == 0.0:
+            sg = Q[i, SGN]
+            nz, fx, fy = sg * Izz, -sg * hy, sg * hx
+            M[i, i] = sg * nz + Q[i, ARM]                 # M_ii = S_i^T F + armature
+        else:
+            dx, dy = Q[i, DX], Q[i, DY]
+            nz, fx, fy = hx * dy - hy * dx, m * dx, m * dy
+            M[i, i] = (dx * fx + dy * fy) + Q[i, ARM]
+        for j in range(i, 0, -1):   # F = Xup_j^T F: f' = Rot f, n' = n + p x f'; M_{j-1,i} = S^T F
+            c, s, px, py = S[j, 0], S[j, 1], S[j, 2], S[j, 3]
+            gx, gy = c * fx - s * fy, s * fx + c * fy
+            nz = nz + (px * gy - py * gx)
+            fx, fy = gx, gy
+            v = Q[j - 1, DX] * fx + Q[j - 1, DY] * fy if Q[j - 1, KIND] != 0.0 else Q[j - 1, SGN] * nz
+            M[j - 1, i] = v
+            M[i, j - 1] = v
+        if i > 0:   # IC_{i-1} = I_{i-1} + IC_i carried into body i-1 (parallel axes, eq. 2.63)
+            c, s, px, py = S[i, 0], S[i, 1], S[i, 2], S[i, 3]
+            gx, gy = c * hx - s * hy, s * hx + c * hy      # h_R = Rot h
+            Izz = Q[i - 1, IZ] + Izz + 2.0 * (px * gx + py * gy) + m * (px * px + py * py)
+            hx, hy = Q[i - 1, HX] + gx + m * px, Q[i - 1, HY] + gy + m * py
+            m = Q[i - 1, MASS] + m
+
+
+planar_crba_core = njit(cache=True, inline="always")(planar_crba_core)
+
+
+@njit(cache=True, inline="always")
+def status(chk):
+    """An entry point's return value: 0 ok, 1 a NaN/Inf in an input."""
+    return 0 if chk == 0.0 else 1
+
+
+# ------------------------------------------------------------------ entry points
+def _planar_rnea(Q, q, qd, qdd, flags, out):
+    """Inverse dynamics of one state into ``out`` (n,). Returns 0, 1 (NaN/Inf), 2 (length)."""
+    n = Q.shape[0] - 1
+    if n < 1 or q.shape[0] != n or qd.shape[0] != n or qdd.shape[0] != n or out.shape[0] != n:
+        return 2
+    S = stack_empty((n, SCRATCH))
+    return status(planar_rnea_core(Q, S, q, qd, qdd, q, flags & ~F.WRENCH, out))
+
+
+def _planar_rnea_wrench(Q, q, qd, qdd, w, flags, out):
+    """``planar_rnea`` with the tip wrench ``w`` (6,), [f; m] in base coordinates, on the tip."""
+    n = Q.shape[0] - 1
+    if (n < 1 or q.shape[0] != n or qd.shape[0] != n or qdd.shape[0] != n or out.shape[0] != n
+            or w.shape[0] != 6):
+        return 2
+    S = stack_empty((n, SCRATCH))
+    return status(planar_rnea_core(Q, S, q, qd, qdd, w, flags | F.WRENCH, out))
+
+
+def _planar_crba(Q, q, out):
+    """Mass matrix of one configuration into ``out`` (n, n). Returns 0, 1 (NaN/Inf), 2."""
+    n = Q.shape[0] - 1
+    if n < 1 or q.shape[0] != n or out.shape[0] != n or out.shape[1] != n:
+        return 2
+    S = stack_empty((n, SCRATCH))
+    chk = planar_transforms(Q, S, q, n)
+    planar_crba_core(Q, S, out)
+    return status(chk)
+
+
+# ------------------------------------------------------------------ batches, in SIMD lanes
+# B samples run in lock step, as in rnea_lanes.py: every quantity is stored with the sample
+# index (lane) last, shape (rows, L), and each step is a branch-free loop over the lanes
+# (the joint kind, the same in every lane, is tested outside it), which the compiler turns
+# into vector instructions. The block functions are compiled apart from the entry points
+# and get the lane count L as an argument, so that it is not a compile-time constant (the
+# compiler vectorizes loops of run-time length; it unrolls one of known length instead).
+# Every lane does the operations of the single-state kernels in the same order (libm's
+# sine and cosine for a sample with an angle beyond SMALL_ANGLE, as there): a sample's
+# result is bitwise the same alone or at any place in any batch.
+B = 32                  # samples per block
+
+
+@internal(i8(Qm, In2, In2, In2, In2, i8, Out2, i8, i8))
+def planar_rnea_block(Q, q, qd, qdd, w, flags, out, k0, L):
+    """Inverse dynamics of the samples k0 .. k0 + L - 1 (fewer at the end) into the same
+    rows of ``out``. Returns 1 if one of them has a NaN/Inf input, else 0. Scratch (rows,
+    L): QV q, qd, qdd, then the mask of the samples whose angles are all below SMALL_ANGLE;
+    TH theta, then cos theta; SN sin theta; PX, PY the origins p; FX, FY, NZ the body
+    wrenches; ST the state: omega, alpha, acc x, y, then the tip wrench (in-plane f, N . m);
+    TB the torques."""
+    N = out.shape[0]
+    n = Q.shape[0] - 1
+    nl = min(L, N - k0)
+    QV, TH, SN = stack_empty((3 * n + 1, L)), stack_empty((n, L)), stack_empty((n, L))
+    PX, PY, TB = stack_empty((n, L)), stack_empty((n, L)), stack_empty((n, L))
+    FX, FY, NZ, ST = stack_empty((n, L)), stack_empty((n, L)), stack_empty((n, L)), stack_empty((7, L))
+    nq, nv, na, nw = q.shape[0] > 1, qd.shape[0] > 1, qdd.shape[0] > 1, w.shape[0] > 1
+    use_qd, use_qdd, use_w = (flags & F.QD) != 0, (flags & F.QDD) != 0, (flags & F.WRENCH) != 0
+    # --- gather the block: theta = ANG + SGN q, rates, accelerations, the projected wrench
+    small = True                         # every angle of the block below SMALL_ANGLE
+    fin = True                           # every rate, acceleration and wrench finite
+    for b in range(nl):
+        k = k0 + b
+        lane_small = True
+        for i in range(n):
+            x = q[k if nq else 0, i]
+            y = qd[k if nv else 0, i] if use_qd else 0.0
+            z = qdd[k if na else 0, i] if use_qdd else 0.0
+            th = Q[i, ANG] + Q[i, SGN] * x
+            QV[i, b], QV[n + i, b], QV[2 * n + i, b], TH[i, b] = x, y, z, th
+            lane_small &= abs(th) < SMALL_ANGLE
+            fin &= y * 0.0 == 0.0 and z * 0.0 == 0.0
+        QV[3 * n, b] = 1.0 if lane_small else 0.0
+        small &= lane_small
+        ex = ey = mn = 0.0
+        if use_w:
+            w0, w1, w2 = w[k if nw else 0, 0], w[k if nw else 0, 1], w[k if nw else 0, 2]
+            w3, w4, w5 = w[k if nw else 0, 3], w[k if nw else 0, 4], w[k if nw else 0, 5]
+            fin &= (w0 * 0.0 + w1 * 0.0 + w2 * 0.0 + w3 * 0.0 + w4 * 0.0 + w5 * 0.0) == 0.0
+            ex = Q[n, E1] * w0 + Q[n, E1 + 1] * w1 + Q[n, E1 + 2] * w2
+            ey = Q[n, E2] * w0 + Q[n, E2 + 1] * w1 + Q[n, E2 + 2] * w2
+            mn = Q[n, NRM] * w3 + Q[n, NRM + 1] * w4 + Q[n, NRM + 2] * w5
+        ST[0, b], ST[1, b], ST[2, b], ST[3, b] = 0.0, 0.0, -Q[n, GX], -Q[n, GY]
+        ST[4, b], ST[5, b], ST[6, b] = ex, ey, mn
+    # --- joint transforms
+    for i in range(n):
+        if small:
+            for b in range(nl):
+                s, c = sincos(TH[i, b])
+                TH[i, b], SN[i, b] = c, s
+        else:                            # a huge angle is legal; NaN or Inf is not
+            for b in range(nl):
+                th = TH[i, b]
+                fin &= th * 0.0 == 0.0
+                s, c = sincos(th) if QV[3 * n, b] == 1.0 else (math.sin(th), math.cos(th))
+                TH[i, b], SN[i, b] = c, s
+        rx, ry = Q[i, RX], Q[i, RY]
+        if Q[i, KIND] != 0.0:            # p = r + q Rot(theta) d
+            dx, dy = Q[i, DX], Q[i, DY]
+            for b in range(nl):
+                c, s, x = TH[i, b], SN[i, b], QV[i, b]
+                PX[i, b], PY[i, b] = rx + x * (c * dx - s * dy), ry + x * (s * dx + c * dy)
+        else:
+            for b in range(nl):
+                PX[i, b], PY[i, b] = rx, ry
+    # --- outward: velocities, accelerations, body wrenches
+    for i in range(n):
+        m, hx, hy, Izz = Q[i, MASS], Q[i, HX], Q[i, HY], Q[i, IZ]
+        rev = Q[i, KIND] == 0.0
+        sg, dx, dy = Q[i, SGN], Q[i, DX], Q[i, DY]
+        for b in range(nl):
+            c, s, px, py = TH[i, b], SN[i, b], PX[i, b], PY[i, b]
+            wz, az, lx, ly = ST[0, b], ST[1, b], ST[2, b], ST[3, b]
+            dq, ddq = QV[n + i, b], QV[2 * n + i, b]
+            # acc + alpha x p + omega x (omega x p), then into body i: Rot(theta)^T
+            w2 = wz * wz
+            tx = lx - az * py - w2 * px
+            ty = ly + az * px - w2 * py
+            lx, ly = c * tx + s * ty, -s * tx + c * ty
+            # spin: alpha += SGN qdd, omega += SGN qd; slide: acc += 2 omega x (qd d) + qdd d
+            az2 = az + sg * ddq
+            wz2 = wz + sg * dq
+            lx2 = lx - 2.0 * wz * dq * dy + ddq * dx
+            ly2 = ly + 2.0 * wz * dq * dx + ddq * dy
+            az = az2 if rev else az
+            wz = wz2 if rev else wz
+            lx = lx if rev else lx2
+            ly = ly if rev else ly2
+            # body wrench about its origin
+            w2 = wz * wz
+            FX[i, b] = m * lx - az * hy - w2 * hx
+            FY[i, b] = m * ly + az * hx - w2 * hy
+            NZ[i, b] = Izz * az + (hx * ly - hy * lx)
+            ST[0, b], ST[1, b], ST[2, b], ST[3, b] = wz, az, lx, ly
+        if use_w:                        # the tip wrench, carried into body i
+            for b in range(nl):
+                c, s, ex, ey = TH[i, b], SN[i, b], ST[4, b], ST[5, b]
+                ST[4, b], ST[5, b] = c * ex + s * ey, -s * ex + c * ey
+    # --- inward (ST rows 0..2: f x, y, n); the last body carries the load -w
+    k = n - 1
+    tpx, tpy = Q[n, TX], Q[n, TY]
+    rev, sg, dx, dy, arm = Q[k, KIND] == 0.0, Q[k, SGN], Q[k, DX], Q[k, DY], Q[k, ARM]
+    for b in range(nl):
+        ex, ey, mn = ST[4, b], ST[5, b], ST[6, b]
+        fx, fy = FX[k, b] - ex, FY[k, b] - ey
+        nz = NZ[k, b] + (-mn + (tpx * -ey - tpy * -ex))
+        t = sg * nz if rev else dx * fx + dy * fy
+        TB[k, b] = t + arm * QV[2 * n + k, b]
+        ST[0, b], ST[1, b], ST[2, b] = fx, fy, nz
+    for i in range(n - 2, -1, -1):
+        rev, sg, dx, dy, arm = Q[i, KIND] == 0.0, Q[i, SGN], Q[i, DX], Q[i, DY], Q[i, ARM]
+        for b in range(nl):              # f' = Rot f, n' = n + p x f', plus the body wrench
+            c, s, px, py = TH[i + 1, b], SN[i + 1, b], PX[i + 1, b], PY[i + 1, b]
+            fx, fy, nz = ST[0, b], ST[1, b], ST[2, b]
+            gx, gy = c * fx - s * fy, s * fx + c * fy
+            nz = nz + (px * gy - py * gx)
+            fx, fy, nz = gx + FX[i, b], gy + FY[i, b], nz + NZ[i, b]
+            t = sg * nz if rev else dx * fx + dy * fy
+            TB[i, b] = t + arm * QV[2 * n + i, b]
+            ST[0, b], ST[1, b], ST[2, b] = fx, fy, nz
+    # --- scatter
+    for b in range(nl):
+        for i in range(n):
+            out[k0 + b, i] = TB[i, b]
+    return 0 if fin else 1
+
+
+@internal(i8(Qm, In2, Out3, i8, i8))
+def planar_crba_block(Q, q, out, k0, L):
+    """Mass matrices of the samples k0 .. k0 + L - 1 (fewer at the end) into out[k0 + b].
+    Returns 1 if one of them has a NaN/Inf angle, else 0. Scratch (rows, L): TH theta then
+    cos theta, SN sin theta, PX, PY the origins, QV q then the small-angle mask, CB the
+    composite (m, h_x, h_y, I_nn) and F (n, f_x, f_y); MB the matrices, row-major (on the
+    heap beyond 64 KiB)."""
+    N = out.shape[0]
+    n = Q.shape[0] - 1
+    nl = min(L, N - k0)
+    nq = q.shape[0] > 1
+    QV, TH, SN = stack_empty((n + 1, L)), stack_empty((n, L)), stack_empty((n, L))
+    PX, PY, CB = stack_empty((n, L)), stack_empty((n, L)), stack_empty((7, L))
+    MB = scratch((n * n, L), n * n * L)
+    small = True
+    for b in range(nl):
+        lane_small = True
+        for i in range(n):
+            x = q[k0 + b if nq else 0, i]
+            th = Q[i, ANG] + Q[i, SGN] * x
+            QV[i, b], TH[i, b] = x, th
+            lane_small &= abs(th) < SMALL_ANGLE
+        QV[n, b] = 1.0 if lane_small else 0.0
+        small &= lane_small
+    fin = True
+    for i in range(n):
+        if small:
+            for b in range(nl):
+                s, c = sincos(TH[i, b])
+                TH[i, b], SN[i, b] = c, s
+        else:
+            for b in range(nl):
+                th = TH[i, b]
+                fin &= th * 0.0 == 0.0
+                s, c = sincos(th) if QV[n, b] == 1.0 else (math.sin(th), math.cos(th))
+                TH[i, b], SN[i, b] = c, s
+        rx, ry = Q[i, RX], Q[i, RY]
+        if Q[i, KIND] != 0.0:
+            dx, dy = Q[i, DX], Q[i, DY]
+            for b in range(nl):
+                c, s, x = TH[i, b], SN[i, b], QV[i, b]
+                PX[i, b], PY[i, b] = rx + x * (c * dx - s * dy), ry + x * (s * dx + c * dy)
+        else:
+            for b in range(nl):
+                PX[i, b], PY[i, b] = rx, ry
+    k = n - 1
+    for b in range(nl):
+        CB[0, b], CB[1, b], CB[2, b], CB[3, b] = Q[k, MASS], Q[k, HX], Q[k, HY], Q[k, IZ]
+    for i in range(n - 1, -1, -1):
+        rev, sg, dx, dy, arm = Q[i, KIND] == 0.0, Q[i, SGN], Q[i, DX], Q[i, DY], Q[i, ARM]
+        for b in range(nl):              # F = IC_i S_i, M_ii = S_i^T F + armature
+            m, hx, hy, Izz = CB[0, b], CB[1, b], CB[2, b], CB[3, b]
+            nz = sg * Izz if rev else hx * dy - hy * dx
+            fx = -sg * hy if rev else m * dx
+            fy = sg * hx if rev else m * dy
+            MB[i * n + i, b] = (sg * nz if rev else dx * fx + dy * fy) + arm
+            CB[4, b], CB[5, b], CB[6, b] = nz, fx, fy
+        for j in range(i, 0, -1):        # F = Xup_j^T F, M_{j-1,i} = S_{j-1}^T F
+            rev, sg, dx, dy = Q[j - 1, KIND] == 0.0, Q[j - 1, SGN], Q[j - 1, DX], Q[j - 1, DY]
+            for b in range(nl):
+                c, s, px, py = TH[j, b], SN[j, b], PX[j, b], PY[j, b]
+                nz, fx, fy = CB[4, b], CB[5, b], CB[6, b]
+                gx, gy = c * fx - s * fy, s * fx + c * fy
+                nz = nz + (px * gy - py * gx)
+                MB[(j - 1) * n + i, b] = sg * nz if rev else dx * gx + dy * gy
+                CB[4, b], CB[5, b], CB[6, b] = nz, gx, gy
+        if i > 0:                        # IC_{i-1} = I_{i-1} + IC_i carried into body i-1
+            m0, hx0, hy0, I0 = Q[i - 1, MASS], Q[i - 1, HX], Q[i - 1, HY], Q[i - 1, IZ]
+            for b in range(nl):
+                c, s, px, py = TH[i, b], SN[i, b], PX[i, b], PY[i, b]
+                m, hx, hy, Izz = CB[0, b], CB[1, b], CB[2, b], CB[3, b]
+                gx, gy = c * hx - s * hy, s * hx + c * hy
+                CB[3, b] = I0 + Izz + 2.0 * (px * gx + py * gy) + m * (px * px + py * py)
+                CB[1, b], CB[2, b] = hx0 + gx + m * px, hy0 + gy + m * py
+                CB[0, b] = m0 + m
+    # --- scatter: the upper triangle, mirrored
+    for b in range(nl):
+        M = out[k0 + b]
+        for i in range(n):
+            for j in range(i, n):
+                v = MB[i * n + j, b]
+                M[i, j] = v
+                M[j, i] = v
+    return 0 if fin else 1
+
+
+def _planar_rnea_batch(Q, q, qd, qdd, w, flags, out):
+    """Inverse dynamics of N = out.shape[0] states: q, qd, qdd (N, n) or (1, n) broadcast;
+    w (N, 6) or (1, 6), read with the flag WRENCH. Blocks of B samples run in lanes (the
+    last one with the samples left). Returns 0, 1 if some input had a NaN/Inf (its rows
+    are then not meaningful), 2 on a wrong shape."""
+    n, N = Q.shape[0] - 1, out.shape[0]
+    use_qd, use_qdd, use_w = (flags & F.QD) != 0, (flags & F.QDD) != 0, (flags & F.WRENCH) != 0
+    if (n < 1 or out.shape[1] != n or q.shape[1] != n or (q.shape[0] != N and q.shape[0] != 1)
+            or (use_qd and (qd.shape[1] != n or (qd.shape[0] != N and qd.shape[0] != 1)))
+            or (use_qdd and (qdd.shape[1] != n or (qdd.shape[0] != N and qdd.shape[0] != 1)))
+            or (use_w and (w.shape[1] != 6 or (w.shape[0] != N and w.shape[0] != 1)))):
+        return 2
+    L = min(B, N)                        # known at run time only (see above)
+    bad = 0
+    for k0 in range(0, N, B):
+        bad |= planar_rnea_block(Q, q, qd, qdd, w, flags, out, k0, L)
+    return bad
+
+
+def _planar_crba_batch(Q, q, out):
+    """Mass matrices (N, n, n) of N = out.shape[0] configurations (N, n), or one (1, n)
+    broadcast; blocks of B samples in lanes. Returns 0, 1 on a NaN/Inf, 2 on a wrong shape."""
+    n, N = Q.shape[0] - 1, out.shape[0]
+    if (n < 1 or out.shape[1] != n or out.shape[2] != n or q.shape[1] != n
+            or (q.shape[0] != N and q.shape[0] != 1)):
+        return 2
+    L = min(B, N)
+    bad = 0
+    for k0 in range(0, N, B):
+        bad |= planar_crba_block(Q, q, out, k0, L)
+    return bad
+
+
+ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core functions it calls)
+    "planar_rnea": (_planar_rnea, i8(Qm, Vec, Vec, Vec, i8, Vec), False, ()),
+    "planar_rnea_wrench": (_planar_rnea_wrench, i8(Qm, Vec, Vec, Vec, Vec, i8, Vec), False, ()),
+    "planar_crba": (_planar_crba, i8(Qm, Vec, Mat), False, ()),
+    "planar_rnea_batch": (_planar_rnea_batch, i8(Qm, In2, In2, In2, In2, i8, Out2), True,
+                          ("planar_rnea_block",)),
+    "planar_crba_batch": (_planar_crba_batch, i8(Qm, In2, Out3), True, ("planar_crba_block",)),
+}
+SINGLE_STATE = ("planar_rnea", "planar_rnea_wrench", "planar_crba")
+OTHER_TYPES = 3
+_LOCK = threading.Lock()
+
+
+def _other_types(*args, **kwargs):
+    return lambda *a, **k: OTHER_TYPES
+
+
+def __getattr__(name):
+    """The compiled entry point ``name`` (first access: compile or load from the cache)."""
+    if name not in ENTRY_POINTS:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    with _LOCK:
+        if name in globals():
+            return globals()[name]
+        func, sig, nogil, calls = ENTRY_POINTS[name]
+        compile_internal(calls)
+        kernel = njit(cache=True, nogil=nogil)(func)
+        kernel.compile(sig)
+        if name in SINGLE_STATE:     # other argument types: a status, not a new compile
+            kernel._compile_for_args = _other_types
+        else:
+            kernel.disable_compile()
+        globals()[name] = kernel
+        return kernel

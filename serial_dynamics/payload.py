@@ -1,0 +1,90 @@
+"""A payload rigidly attached to a link of the chain: ``Payload`` and ``attach``.
+
+Attaching adds the payload's inertia to the body the link belongs to (the parallel-axis
+theorem, ``model.combine_inertias``) and returns a new ``Model``; the model attached to is
+not changed. Only that body's inertial fields (as given and in joint frames) are new; the
+rest is shared, so attaching takes microseconds and compiles nothing
+(``Robot.with_payload`` replaces the body's row of the compiled layout ``P``).
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from .model import (MAX_INERTIA, MAX_LENGTH, MAX_MASS, ModelError, check_inertia,
+                    check_magnitude, combine_inertias)
+
+
+@dataclass(frozen=True, eq=False)
+class Payload:
+    """``mass`` kg; ``com`` (3,) m in ``link``'s frame; ``inertia`` (ixx, iyy, izz, ixy, ixz,
+    iyz) kg m^2 about the center of mass, in ``link``'s axes."""
+
+    mass: float
+    com: tuple
+    inertia: tuple
+    link: str
+
+    @staticmethod
+    def make(mass, com, inertia, link) -> "Payload":
+        """A validated payload; ValueError naming the bad number and the fix."""
+        m = float(mass)
+        c = np.asarray(com, dtype=float)
+        i6 = np.asarray(inertia, dtype=float)
+        if c.shape != (3,) or i6.shape != (6,):
+            raise ValueError(f"payload com must be (x, y, z) and inertia (ixx, iyy, izz, ixy, ixz, "
+                             f"iyz); got shapes {c.shape} and {i6.shape}")
+        for what, v in (("mass", m), ("com", c), ("inertia", i6)):
+            if not np.all(np.isfinite(v)):
+                raise ValueError(f"payload {what} {np.round(v, 6).tolist()} has a NaN or Inf "
+                                 "entry; give finite numbers")
+        try:
+            check_magnitude("payload", "mass", m, MAX_MASS, "kg")
+            check_magnitude("payload", "center of mass", c, MAX_LENGTH, "m")
+            check_magnitude("payload", "inertia", i6, MAX_INERTIA, "kg m^2")
+            check_inertia("payload", m, _matrix(i6))   # m >= 0, PSD, triangle inequality
+        except ModelError as exc:
+            raise ValueError(str(exc).replace("link 'payload'", "payload")) from None
+        return Payload(m, tuple(c.tolist()), tuple(i6.tolist()), str(link))
+
+    @property
+    def inertia_matrix(self) -> np.ndarray:
+        """The 3x3 rotational inertia about the center of mass, link axes."""
+        return _matrix(self.inertia)
+
+
+def _matrix(i6):
+    ixx, iyy, izz, ixy, ixz, iyz = i6
+    return np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]], dtype=float)
+
+
+def attach(model, payload: Payload):
+    """(the model with ``payload`` lumped into its link's body, that body's index)."""
+    if payload.link not in model.frames:
+        raise ValueError(f"payload link {payload.link!r} is not a link of the chain "
+                         f"{model.base_link!r} -> {model.tip_link!r}; use one of "
+                         f"{sorted(k for k, v in model.frames.items() if v[0] >= 0)}")
+    b, R, p = model.frames[payload.link]       # the link's frame in body b's link frame
+    if b < 0:
+        raise ValueError(f"payload link {payload.link!r} is fixed to the base: a payload "
+                         "there moves with no joint; attach it to a link that moves")
+    c = R @ np.asarray(payload.com) + p        # into body b's link frame
+    I = R @ payload.inertia_matrix @ R.T
+    m, com, inertia = combine_inertias([(model.mass[b], model.com[b], model.inertia[b]),
+                                        (payload.mass, c, I)])
+    # body b's fields in joint frames (model._joint_frames, for one body)
+    A = model.A[b]
+    cj, Icj = A.T @ com, A.T @ inertia @ A
+    Icj = 0.5 * (Icj + Icj.T)
+    I_O = Icj + m * (cj @ cj * np.eye(3) - np.outer(cj, cj))
+    new = {"mass": m, "com": com, "inertia": inertia, "c": cj, "h": m * cj, "I_c": Icj,
+           "I_O": 0.5 * (I_O + I_O.T)}
+    changes = {}
+    for key, value in new.items():
+        a = np.array(getattr(model, key))
+        a[b] = value
+        a.setflags(write=False)
+        changes[key] = a
+    return dataclasses.replace(model, **changes), b

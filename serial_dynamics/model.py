@@ -94,6 +94,10 @@ class Model:
     friction: np.ndarray        # (n,) URDF <dynamics friction>, N m or N
     frames: MappingProxyType = field(default_factory=lambda: MappingProxyType({}))
     armature: np.ndarray = None # (n,) reflected rotor inertia N^2 J_rotor, kg m^2 or kg
+    # mimic joints: q_i = multiplier[i] q_leader[i] + offset[i] where leader[i] >= 0
+    mimic_leader: np.ndarray = None      # (n,) int, -1 for an independent joint
+    mimic_multiplier: np.ndarray = None  # (n,)
+    mimic_offset: np.ndarray = None      # (n,) rad or m
     # -- derived by build(): the chain in joint frames (the algorithms' convention)
     A: np.ndarray = None        # (n, 3, 3) joint frame i's axes in link frame i
     Xtree_R: np.ndarray = None  # (n, 3, 3)
@@ -108,13 +112,32 @@ class Model:
 
     @property
     def dof(self) -> int:
+        """The number of bodies (joints) of the chain, mimic joints included."""
         return len(self.joint_names)
+
+    @property
+    def independent(self) -> np.ndarray:
+        """Indices of the joints that mimic none: the coordinates of the reduced system."""
+        return np.flatnonzero(self.mimic_leader < 0)
+
+    @property
+    def mimic_matrix(self):
+        """(G, o): q_all = G q + o maps the independent joints' q to every joint's (G is
+        (n, k), constant), so qd_all = G qd, tau = G^T tau_all and M = G^T M_all G."""
+        ind = self.independent
+        column = {j: k for k, j in enumerate(ind)}
+        G = np.zeros((self.dof, ind.size))
+        for i in range(self.dof):
+            lead = self.mimic_leader[i]
+            G[i, column[i] if lead < 0 else column[lead]] = 1.0 if lead < 0 else self.mimic_multiplier[i]
+        return G, np.where(self.mimic_leader < 0, 0.0, self.mimic_offset)
 
     @staticmethod
     def build(*, name, joint_names, joint_types, link_names, base_link, tip_link,
               R_parent, p_parent, axis, mass, com, inertia, gravity=(0, 0, -9.81),
               tip_R=None, tip_p=None, lower=None, upper=None, velocity_limit=None,
               effort_limit=None, damping=None, friction=None, frames=None, armature=None,
+              mimic_leader=None, mimic_multiplier=None, mimic_offset=None,
               check_mass_matrix=True) -> "Model":
         """Build and validate a model; every array argument is copied and frozen."""
         n = len(joint_names)
@@ -139,6 +162,9 @@ class Model:
             velocity_limit=full(velocity_limit, np.inf), effort_limit=full(effort_limit, np.inf),
             damping=full(damping, 0.0), friction=full(friction, 0.0),
             armature=full(armature, 0.0),
+            mimic_leader=_frozen(np.full(n, -1) if mimic_leader is None else mimic_leader, (n,),
+                                 np.int64),
+            mimic_multiplier=full(mimic_multiplier, 1.0), mimic_offset=full(mimic_offset, 0.0),
             frames=MappingProxyType({link: (int(b), _frozen(R, (3, 3)), _frozen(p, (3,)))
                                      for link, (b, R, p) in (frames or {}).items()}),
         )
@@ -173,6 +199,14 @@ class Model:
         for i in np.flatnonzero(self.armature < 0):
             raise ModelError(f"joint {self.joint_names[i]!r}: armature (reflected rotor inertia) "
                              f"= {self.armature[i]} < 0; give gear_ratio^2 * rotor_inertia >= 0")
+        for i in np.flatnonzero(self.mimic_leader >= 0):
+            lead = self.mimic_leader[i]
+            if not (0 <= lead < self.dof and self.mimic_leader[lead] < 0):
+                raise ModelError(f"joint {self.joint_names[i]!r} mimics body {lead}, which is "
+                                 "not an independent joint of the chain")
+            if self.mimic_multiplier[i] == 0.0 or not np.isfinite(self.mimic_offset[i]):
+                raise ModelError(f"joint {self.joint_names[i]!r}: mimic multiplier must be "
+                                 "finite and non-zero, offset finite")
         for i in np.flatnonzero(self.lower > self.upper):
             raise ModelError(f"joint {self.joint_names[i]!r}: lower limit {self.lower[i]} > "
                              f"upper limit {self.upper[i]}")
@@ -182,18 +216,22 @@ class Model:
     def _check_mass_matrix(self) -> None:
         """A joint that moves no mass makes M(q) singular: name it.
 
-        Checked at q = 0 and at two seeded random configurations within the limits.
+        Checked at q = 0 and at two seeded random configurations within the limits; with
+        mimic joints, the reduced mass matrix G^T M G of the independent joints.
         """
         rng = np.random.default_rng(0)
-        lo = np.where(np.isfinite(self.lower), self.lower, -np.pi)
-        hi = np.where(np.isfinite(self.upper), self.upper, np.pi)
-        qs = np.vstack([np.clip(np.zeros(self.dof), lo, hi), rng.uniform(lo, hi, (2, self.dof))])
+        G, o = self.mimic_matrix
+        ind = self.independent
+        names = [self.joint_names[i] for i in ind]
+        lo = np.where(np.isfinite(self.lower[ind]), self.lower[ind], -np.pi)
+        hi = np.where(np.isfinite(self.upper[ind]), self.upper[ind], np.pi)
+        qs = np.vstack([np.clip(np.zeros(ind.size), lo, hi), rng.uniform(lo, hi, (2, ind.size))])
         for q in qs:
-            M = _mass_matrix(self, q)
+            M = G.T @ _mass_matrix(self, G @ q + o) @ G
             scale = max(np.max(np.abs(np.diag(M))), 1e-300)
             for i in np.flatnonzero(np.diag(M) <= 1e-16 * scale):   # zero to working precision
                 raise ModelError(
-                    f"joint {self.joint_names[i]!r} moves no mass (its diagonal of the mass "
+                    f"joint {names[i]!r} moves no mass (its diagonal of the mass "
                     f"matrix is {M[i, i]:.3g} at q = {np.round(q, 3).tolist()}): the mass matrix "
                     "is singular. Give the links it moves an <inertial>, or make it fixed.")
             eig = np.linalg.eigvalsh(M)

@@ -58,6 +58,13 @@ _pool = None
 class Robot:
     """Dynamics of one serial chain. Build it with ``serial_dynamics.load_urdf``."""
 
+    _mimic_class = None      # mimic.MimicRobot (set there): Robot(model) with mimic joints
+
+    def __new__(cls, model, *args, **kwargs):
+        if cls is Robot and np.any(model.mimic_leader >= 0) and Robot._mimic_class is not None:
+            cls = Robot._mimic_class         # the reduced system of the independent joints
+        return super().__new__(cls)
+
     def __init__(self, model: Model, dissipation: Dissipation | None = None, backend=None,
                  _loaded=None, _payload=None, _P=None):
         self.model = model
@@ -92,6 +99,15 @@ class Robot:
                         doc="reflected rotor inertia per joint, kg m^2 (N^2 J_rotor), base to tip")
     payload = property(lambda self: self._payload,
                        doc="the attached ``Payload`` (``with_payload``), or None")
+    all_joint_names = property(lambda self: list(self.model.joint_names),
+                               doc="every joint of the chain (with mimic joints: MimicRobot)")
+
+    def all_joint_positions(self, q):
+        """Positions of every joint of the chain: q itself (mimic joints: MimicRobot)."""
+        return np.asarray(q, dtype=float)
+
+    def all_joint_velocities(self, qd):
+        return np.asarray(qd, dtype=float)
 
     # ------------------------------------------------------------- payload
     def with_payload(self, mass, com=(0.0, 0.0, 0.0), inertia=(0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
@@ -108,13 +124,13 @@ class Robot:
         if P0 is not None:                     # the loaded P with one body's row replaced
             P = P0.copy()
             layout.set_inertia(P, body, model.mass[body], model.h[body], model.I_O[body])
-        return Robot(model, self._dissipation, self._backend, _loaded=self._loaded,
-                     _payload=payload, _P=P)
+        return type(self)(model, self._dissipation, self._backend, _loaded=self._loaded,
+                          _payload=payload, _P=P)
 
     def without_payload(self) -> "Robot":
         """A new Robot as loaded, without payload (bitwise the results of the loaded one)."""
         model0, P0 = self._loaded
-        return Robot(model0, self._dissipation, self._backend, _P=P0)
+        return type(self)(model0, self._dissipation, self._backend, _P=P0)
 
     @property
     def dissipation(self) -> Dissipation:
@@ -124,7 +140,7 @@ class Robot:
 
     @dissipation.setter
     def dissipation(self, value: Dissipation):
-        if not isinstance(value, Dissipation) or value.joint_names != self.model.joint_names:
+        if not isinstance(value, Dissipation) or tuple(value.joint_names) != tuple(self.joint_names):
             raise ValueError("dissipation must be a serial_dynamics.Dissipation for the joints "
                              f"{self.joint_names}")
         self._dissipation = value

@@ -14,9 +14,9 @@ import warnings
 
 import numpy as np
 
-from .transmissions import reflected_inertias
 from .model import (MAX_INERTIA, MAX_LENGTH, MAX_MASS, Model, ModelError, check_inertia,
                     check_magnitude, combine_inertias)
+from .transmissions import reflected_inertias
 
 MOVABLE = ("revolute", "continuous", "prismatic")
 
@@ -180,9 +180,6 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
     for joint in chain:
         what = f"joint {joint.name!r}"
         X = X_acc @ _finite_or_fail(_transform(joint.origin), what + " origin")
-        if joint.mimic is not None and joint.type != "fixed":    # a fixed joint never moves
-            raise URDFError(f"{what} on the chain mimics {joint.mimic.joint!r}; mimic joints "
-                            "on the chain are not supported. Choose a tip_link above it.")
         if joint.type == "fixed":
             X_acc = X
         elif joint.type in MOVABLE:
@@ -216,6 +213,7 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
                       "held at zero and lumped into the link they hang from",
                       HeldJointsWarning, stacklevel=3)
     rotors = _armature(xml, bodies, armature, base_link, tip_link)
+    leader, multiplier, offset = _mimic(bodies, base_link, tip_link)
 
     if not bodies:
         raise URDFError(f"no movable joint between {base_link!r} and {tip_link!r}; "
@@ -240,8 +238,35 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
         velocity_limit=[b["velocity"] for b in bodies],
         effort_limit=[b["effort"] for b in bodies],
         damping=[b["damping"] for b in bodies], friction=[b["friction"] for b in bodies],
-        frames=frames, armature=rotors,
+        frames=frames, armature=rotors, mimic_leader=leader, mimic_multiplier=multiplier,
+        mimic_offset=offset,
     )
+
+
+def _mimic(bodies, base_link, tip_link):
+    """Per body: the index of the joint it mimics (-1: independent), multiplier, offset."""
+    index = {b["name"]: i for i, b in enumerate(bodies)}
+    leader, multiplier, offset = [-1] * len(bodies), [1.0] * len(bodies), [0.0] * len(bodies)
+    for i, b in enumerate(bodies):
+        if b["mimic"] is None:
+            continue
+        what, lead = f"joint {b['name']!r}", b["mimic"].joint
+        if lead not in index:
+            raise URDFError(f"{what} on the chain mimics {lead!r}, which is not a movable joint "
+                            f"of the chain {base_link!r} -> {tip_link!r}; choose a base_link and "
+                            "tip_link whose chain holds both, or a tip_link above the mimic joint")
+        if bodies[index[lead]]["mimic"] is not None:
+            raise URDFError(f"{what} mimics {lead!r}, which mimics "
+                            f"{bodies[index[lead]]['mimic'].joint!r} in turn: a mimic of a "
+                            "mimic is not supported; make it mimic the independent joint "
+                            "(multiply the multipliers, combine the offsets)")
+        m = _float(b["mimic"].multiplier, 1.0)
+        o = _float(b["mimic"].offset, 0.0)
+        if not (np.isfinite(m) and np.isfinite(o)) or m == 0.0:
+            raise URDFError(f"{what}: <mimic multiplier=\"{m}\" offset=\"{o}\"> must be finite "
+                            "with a multiplier other than 0 (a joint that never moves is fixed)")
+        leader[i], multiplier[i], offset[i] = index[lead], m, o
+    return leader, multiplier, offset
 
 
 def _armature(xml, bodies, override, base_link, tip_link):
@@ -258,7 +283,13 @@ def _armature(xml, bodies, override, base_link, tip_link):
             raise URDFError(f"armature given for {joint!r}, which is not a movable joint of the "
                             f"chain {base_link!r} -> {tip_link!r}; joints are {names}")
     merged = {**found, **(override or {})}
-    return [float(merged.get(name, 0.0)) for name in names]
+    for joint, value in merged.items():
+        try:
+            merged[joint] = float(value)
+        except (TypeError, ValueError):
+            raise URDFError(f"armature of joint {joint!r} is {value!r}, not a number; give the "
+                            "reflected rotor inertia in kg m^2") from None
+    return [merged.get(name, 0.0) for name in names]
 
 
 def _check_tree(root, links, children, parent_joint):
@@ -326,7 +357,7 @@ def _body(joint, X):
         if values[key] <= 0:
             values[key] = np.inf
     return dict(name=joint.name, type=joint.type, link=joint.child, X=X,
-                axis=axis / np.linalg.norm(axis), **values)
+                axis=axis / np.linalg.norm(axis), mimic=joint.mimic, **values)
 
 
 def _default_tip(base, children):

@@ -204,12 +204,32 @@ def test_unsupported_joint_type_on_the_chain(kind):
     raises(sd.URDFError, urdf(j2=joint("j2", "link1", "link2", kind=kind)), "'j2'", kind)
 
 
-def test_mimic_joint_on_the_chain():
-    xml = urdf(j2=joint("j2", "link1", "link2", extra='<mimic joint="j1" multiplier="2"/>'))
-    raises(sd.URDFError, xml, "'j2'", "mimics 'j1'", "tip_link")
-    # choosing a tip above it works (the mimic joint is then held)
-    with pytest.warns(sd.HeldJointsWarning, match="j2"):
-        assert sd.load_urdf(xml, tip_link="link1").joint_names == ["j1"]
+def test_mimic_joint_on_the_chain_is_the_reduced_system():
+    xml = urdf(j2=joint("j2", "link1", "link2", axis="0 0 1",
+                        extra='<mimic joint="j1" multiplier="2" offset="0.1"/>'))
+    robot = sd.load_urdf(xml)
+    assert robot.joint_names == ["j1"] and robot.all_joint_names == ["j1", "j2"]
+    np.testing.assert_allclose(robot.all_joint_positions([0.3]), [0.3, 0.7])
+    # j1 and j2 turn about parallel axes, j2 twice as fast: M = I1 + (1+2)^2 I2z + ...
+    # checked against the two-joint chain's mass matrix through G = [1, 2]^T
+    full = sd.load_urdf(urdf(j2=joint("j2", "link1", "link2", axis="0 0 1")))
+    G = np.array([[1.0], [2.0]])
+    M_all = full.mass_matrix([0.3, 0.7])
+    np.testing.assert_allclose(robot.mass_matrix([0.3]), G.T @ M_all @ G, rtol=1e-13)
+
+
+def test_mimic_errors_name_the_joint():
+    three = dict(l3=link("link3"), j3=joint("j3", "link2", "link3", extra='<mimic joint="j2"/>'))
+    # a mimic of a mimic
+    raises(sd.URDFError, urdf(j2=joint("j2", "link1", "link2", extra='<mimic joint="j1"/>'),
+                              **three), "'j3'", "mimics 'j2'", "mimic of a mimic")
+    # the leader off the chain (the chain starts below it)
+    raises(sd.URDFError, urdf(j2=joint("j2", "link1", "link2", extra='<mimic joint="j1"/>')),
+           "'j2'", "'j1'", "not a movable joint of the chain", base_link="link1")
+    # a multiplier of 0
+    raises(sd.URDFError, urdf(j2=joint("j2", "link1", "link2",
+                                       extra='<mimic joint="j1" multiplier="0"/>')),
+           "'j2'", "multiplier")
 
 
 def test_off_chain_floating_and_mimic_joints_are_held():

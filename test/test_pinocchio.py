@@ -277,6 +277,20 @@ def _branch_ends(robot_xml):
                   if j.type != "fixed" and not movable_below(j.child))
 
 
+def _subtree_mass(xml, link):
+    """Total <inertial> mass of ``link`` and every link below it."""
+    below = {j.parent: [] for j in xml.joints}
+    for j in xml.joints:
+        below[j.parent].append(j.child)
+    mass = {lk.name: (lk.inertial.mass or 0.0) if lk.inertial else 0.0 for lk in xml.links}
+    total, stack = 0.0, [link]
+    while stack:
+        name = stack.pop()
+        total += mass[name]
+        stack += below.get(name, [])
+    return total
+
+
 def _inertia_is_unphysical(link):
     """Independent check: the 3x3 inertia has a negative principal moment or violates
     I1 + I2 >= I3 (both relative to its largest entry)."""
@@ -284,6 +298,22 @@ def _inertia_is_unphysical(link):
     scale = np.max(np.abs(inertia))
     ev = np.linalg.eigvalsh(inertia)
     return ev[0] < -1e-9 * scale or ev[0] + ev[1] < ev[2] - 1e-6 * scale
+
+
+def _check_mimic_reduction(robot):
+    """A chain with mimic joints is the reduced system G^T (.) G of the chain with every
+    joint free (q_all = G q + o): check that, and return the chain with every joint free
+    (test_modelling.py checks the reduction against Pinocchio's own mimic joints)."""
+    import dataclasses
+    n = robot.model.dof
+    free = sd.Robot(dataclasses.replace(robot.model, mimic_leader=np.full(n, -1)))
+    G, o = robot.model.mimic_matrix
+    for q, qd, qdd, w in samples(robot, count=2, seed=3):
+        qa, qda, qdda = G @ q + o, G @ qd, G @ qdd
+        assert rel_err(robot.inverse_dynamics(q, qd, qdd, w),
+                       G.T @ free.inverse_dynamics(qa, qda, qdda, w)) <= 1e-14
+        assert rel_err(robot.mass_matrix(q), G.T @ free.mass_matrix(qa) @ G) <= 1e-14
+    return free
 
 
 @pytest.mark.parametrize("rel", URDFS)
@@ -311,9 +341,13 @@ def test_every_chain_of(rel):
             name = msg.split("'")[1]      # every message starts with "link 'x'" / "joint 'x'"
             if msg.startswith("joint") and "mimics" in msg:
                 assert joints[name].mimic is not None and joints[name].type != "fixed", msg
+            elif msg.startswith("joint") and "moves no mass" in msg:   # a massless subtree
+                assert _subtree_mass(xml, joints[name].child) == 0.0, msg
             else:
                 assert msg.startswith("link") and _inertia_is_unphysical(links[name]), msg
             continue
+        if robot.dof != robot.model.dof:     # mimic joints on the chain: the reduction
+            robot = _check_mimic_reduction(robot)    # is checked; then the chain, all joints free
         try:
             ref = reference(robot, path)
         except ValueError as exc:   # Pinocchio cannot reduce a model whose joint and link

@@ -13,7 +13,7 @@ import warnings
 
 import numpy as np
 import rclpy
-from rcl_interfaces.msg import ParameterDescriptor
+from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import String
@@ -112,12 +112,30 @@ def _coerce(name, kind, value):
     raise AssertionError(kind)
 
 
+# Parameters that may be set while the node runs (ros2 param set, SetParameters[Atomically]):
+# a payload picked up or put down. All the others are read-only.
+PAYLOAD_PARAMETERS = {
+    "payload.mass": ("double", 0.0, "mass (kg) of a payload rigidly attached to payload.link; "
+                     "0 with zero inertia = no payload. Settable while running"),
+    "payload.com": ("double[]", [0.0, 0.0, 0.0], "center of mass (x, y, z) of the payload in "
+                    "payload.link's frame (m). Settable while running"),
+    "payload.inertia": ("double[]", [0.0] * 6, "inertia of the payload about its center of "
+                        "mass, in payload.link's axes: ixx iyy izz ixy ixz iyz (kg m^2). "
+                        "Settable while running"),
+    "payload.link": ("string", "", "link that carries the payload ('' = the tip link). "
+                     "Settable while running"),
+}
+WRITABLE = frozenset(PAYLOAD_PARAMETERS)
+
+
 def declare(node, spec: dict) -> dict:
-    """Declare every parameter of ``spec`` (with its description) and return their values,
-    checked and converted. Raises StartupError naming the parameter."""
+    """Declare every parameter of ``spec`` (with its description; read-only unless in
+    ``WRITABLE``) and return their values, checked and converted. Raises StartupError
+    naming the parameter."""
     values = {}
     for name, (kind, default, text) in spec.items():
-        descriptor = ParameterDescriptor(description=text, dynamic_typing=True, read_only=True)
+        descriptor = ParameterDescriptor(description=text, dynamic_typing=True,
+                                         read_only=name not in WRITABLE)
         node.declare_parameter(name, default, descriptor)
         values[name] = _coerce(name, kind, node.get_parameter(name).value)
     return values
@@ -217,6 +235,74 @@ def _dissipation(robot, p):
         return robot.dissipation.override(**changes) if changes else robot.dissipation
     except ValueError as exc:
         raise StartupError(f"dissipation parameters: {exc}") from None
+
+
+# ------------------------------------------------------------------ payload at run time
+def _payload_robot(loaded, values: dict):
+    """(``loaded`` with the payload of the payload.* ``values``, a description of it).
+    Raises ValueError naming the parameter or the physical reason."""
+    try:
+        v = {name: _coerce(name, kind, values[name])
+             for name, (kind, _, _) in PAYLOAD_PARAMETERS.items()}
+    except StartupError as exc:
+        raise ValueError(str(exc)) from None
+    mass, com, inertia, link = (v[f"payload.{k}"] for k in ("mass", "com", "inertia", "link"))
+    for name, x, size, what in (("payload.com", com, 3, "x, y, z in m"),
+                                ("payload.inertia", inertia, 6, "ixx iyy izz ixy ixz iyz in kg m^2")):
+        if x is None or len(x) != size:
+            raise ValueError(f"parameter {name!r} must have {size} values ({what}), got {x or []}")
+    robot = loaded.with_payload(mass, com, inertia, link or None)   # validates (ValueError)
+    if mass == 0.0 and not any(inertia):
+        return loaded, "no payload"
+    return robot, (f"payload {mass:g} kg on {robot.payload.link}, center of mass {com} m, "
+                   f"inertia {inertia} kg m^2")
+
+
+def with_payload_parameters(node, loaded, p: dict, apply):
+    """The payload.* parameters (``PAYLOAD_PARAMETERS``) of ``node``.
+
+    Returns ``loaded`` (the robot as loaded) with the payload of the start-up values ``p``
+    (StartupError if they are bad). From then on every set of payload.* parameters is
+    validated before it takes effect (a bad one is refused, with the reason, and the payload
+    in force stays) and, once set, ``apply(robot)`` gets the new model -- a Robot built
+    here, off the node's hot path; ``apply`` only swaps a reference. The parameters of one
+    SetParametersAtomically call apply together (one ``apply``); a parameter not named
+    keeps its value. Mass 0 with zero inertia is ``loaded`` itself (no payload).
+    """
+    log = node.get_logger()
+    current = lambda: {name: node.get_parameter(name).value for name in PAYLOAD_PARAMETERS}  # noqa: E731
+    try:
+        robot, text = _payload_robot(loaded, {name: p[name] for name in PAYLOAD_PARAMETERS})
+    except ValueError as exc:
+        raise StartupError(f"payload parameters: {exc}") from None
+    if robot is not loaded:
+        log.info(text)
+
+    def validate(parameters):
+        new = {x.name: x.value.tolist() if hasattr(x.value, "tolist") else x.value
+               for x in parameters if x.name in PAYLOAD_PARAMETERS}     # array('d') -> list
+        if not new:
+            return SetParametersResult(successful=True)
+        try:
+            _payload_robot(loaded, {**current(), **new})
+        except ValueError as exc:
+            log.warning(f"rejected payload parameters {new}: {exc}; the payload in force stays")
+            return SetParametersResult(successful=False, reason=str(exc))
+        return SetParametersResult(successful=True)
+
+    def applied(parameters):   # after rclpy has stored the (validated) values
+        if any(x.name in PAYLOAD_PARAMETERS for x in parameters):
+            try:
+                robot, text = _payload_robot(loaded, current())
+                apply(robot)
+            except Exception as exc:  # noqa: BLE001 -- validated above; never kill the node
+                log.error(f"payload parameters set but not applied: {exc}")
+                return
+            log.info(f"{text} (applied)")
+
+    node.add_on_set_parameters_callback(validate)
+    node.add_post_set_parameters_callback(applied)
+    return robot
 
 
 # ------------------------------------------------------------------ rejected input

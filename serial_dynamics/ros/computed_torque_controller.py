@@ -37,6 +37,7 @@ PARAMETERS = {
     "kd": ("double[]", [40.0], "velocity gains (1/s), one or one per joint"),
     "compensate_dissipation": ("bool", False, "add the torque that overcomes the joint "
                                "dissipation (friction) at the measured velocity"),
+    **common.PAYLOAD_PARAMETERS,
 }
 MAX_STATE_AGE = 0.5   # s; an older (or future) state stamp is taken as "now" (clock mismatch)
 
@@ -47,7 +48,9 @@ class ComputedTorqueController(Node):
     def __init__(self, **kwargs):
         super().__init__(self.NAME, **kwargs)
         p = common.declare(self, PARAMETERS)
-        self.robot = robot = common.load_robot(self, p)
+        # payload.* may be set while running: the model is swapped between two commands
+        self.robot = robot = common.with_payload_parameters(
+            self, common.load_robot(self, p), p, lambda robot: setattr(self, "robot", robot))
         self.kp = common.per_joint("kp", p["kp"], robot, None, positive=True)
         self.kd = common.per_joint("kd", p["kd"], robot, None, positive=True)
         if not 0 < p["control_rate"] < np.inf:
@@ -119,9 +122,10 @@ class ComputedTorqueController(Node):
         e = q_ref - q
         e[self.wrap] = np.angle(np.exp(1j * e[self.wrap]))     # shortest way round
         v = qdd_ff + self.kp * e + self.kd * (qd_ref - qd)
-        tau = self.robot.inverse_dynamics(q, qd, v)
+        robot = self.robot
+        tau = robot.inverse_dynamics(q, qd, v)
         if self.compensate:
-            tau = tau - self.robot.dissipation_torques(qd)
+            tau = tau - robot.dissipation_torques(qd)
         self.pub.publish(Float64MultiArray(data=tau.tolist()))
 
     def close(self):

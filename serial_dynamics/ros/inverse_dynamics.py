@@ -25,6 +25,7 @@ PARAMETERS = {
     "include_gravity": ("bool", True, "include the gravity torques"),
     "compensate_dissipation": ("bool", False, "add the torque that overcomes the joint "
                                "dissipation (friction) at the requested velocities"),
+    **common.PAYLOAD_PARAMETERS,
 }
 
 
@@ -35,7 +36,10 @@ class InverseDynamics(Node):
         super().__init__(self.NAME, **kwargs)
         p = common.declare(self, PARAMETERS)
         gravity = None if p["include_gravity"] else [0.0, 0.0, 0.0]
-        self.robot = common.load_robot(self, p, gravity=gravity)
+        # payload.* may be set while running: the model is swapped between two requests
+        self.robot = common.with_payload_parameters(
+            self, common.load_robot(self, p, gravity=gravity), p,
+            lambda robot: setattr(self, "robot", robot))
         self.compensate = p["compensate_dissipation"]
         self.wrench = None            # latest tip wrench: (6,) in base_link, or (6,) in tip_link
         self.wrench_in_tip = False
@@ -68,14 +72,15 @@ class InverseDynamics(Node):
         return np.concatenate([R @ self.wrench[:3], R @ self.wrench[3:]], axis=-1)
 
     def on_request(self, msg):
+        robot = self.robot      # one model for the whole request
         try:
-            _, q, qd, qdd, _, _ = common.trajectory_arrays(msg, self.robot, "inverse_dynamics/request")
+            _, q, qd, qdd, _, _ = common.trajectory_arrays(msg, robot, "inverse_dynamics/request")
             if len(q) == 1:     # one point: the single-state path (cheaper to call)
-                tau = self.robot.inverse_dynamics(q[0], qd[0], qdd[0], self._wrench(q[0]))[None]
+                tau = robot.inverse_dynamics(q[0], qd[0], qdd[0], self._wrench(q[0]))[None]
             else:               # many: one batched call over the (N, n) arrays
-                tau = self.robot.inverse_dynamics(q, qd, qdd, self._wrench(q))
+                tau = robot.inverse_dynamics(q, qd, qdd, self._wrench(q))
             if self.compensate:
-                tau = tau - self.robot.dissipation_torques(qd)
+                tau = tau - robot.dissipation_torques(qd)
             if not np.all(np.isfinite(tau)):
                 raise Rejected("result NaN/Inf", "the torques came out non-finite")
         except Rejected as exc:
@@ -83,7 +88,7 @@ class InverseDynamics(Node):
         except ValueError as exc:     # anything else the library refuses
             return self.reject("inverse_dynamics/request", Rejected("library", str(exc)),
                                "; no response sent")
-        out = JointTrajectory(header=msg.header, joint_names=self.robot.joint_names)
+        out = JointTrajectory(header=msg.header, joint_names=robot.joint_names)
         out.points = [JointTrajectoryPoint(positions=q[i].tolist(), velocities=qd[i].tolist(),
                                            accelerations=qdd[i].tolist(), effort=tau[i].tolist(),
                                            time_from_start=pt.time_from_start)

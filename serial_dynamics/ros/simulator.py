@@ -50,6 +50,7 @@ PARAMETERS = {
     "effort_limits": ("double[]", None, "effort limits (N m; N), one or one per joint "
                       "([] = the URDF's <limit effort>; .inf = none)"),
     "start_paused": ("bool", False, "start paused (resume with ~/pause false)"),
+    **common.PAYLOAD_PARAMETERS,
 }
 MAX_LAG = 0.1   # s of wall time behind schedule before the pacing re-anchors
 
@@ -60,7 +61,9 @@ class Simulator(Node):
     def __init__(self, **kwargs):
         super().__init__(self.NAME, **kwargs)
         p = common.declare(self, PARAMETERS)
-        self.robot = robot = common.load_robot(self, p)
+        # payload.* may be set while running: a new plant, swapped in between two steps
+        self.robot = robot = common.with_payload_parameters(self, common.load_robot(self, p), p,
+                                                            self._set_plant)
         n = robot.dof
         self.q0 = common.per_joint("initial_positions", p["initial_positions"], robot, np.zeros(n))
         outside = np.flatnonzero((self.q0 < robot.lower) | (self.q0 > robot.upper))
@@ -78,10 +81,11 @@ class Simulator(Node):
         if not 0 <= p["real_time_factor"] < np.inf or not p["command_timeout"] >= 0:
             raise StartupError("parameters 'real_time_factor' and 'command_timeout' must be >= 0")
         self.dt_ns = round(p["sim_dt"] * 1e9)
+        self._integrator_for = lambda robot: FixedStepIntegrator(
+            robot, p["integrator"], self.dt_ns * 1e-9, p["dissipation.enabled"],
+            position_limits=p["position_limits"])
         try:
-            self.integrator = FixedStepIntegrator(robot, p["integrator"], self.dt_ns * 1e-9,
-                                                  p["dissipation.enabled"],
-                                                  position_limits=p["position_limits"])
+            self.integrator = self._integrator_for(robot)
         except ValueError as exc:
             raise StartupError(str(exc)) from None
         dt = self.integrator.dt
@@ -152,6 +156,15 @@ class Simulator(Node):
         response.success, response.message = True, "state reset to initial_positions, at rest"
         return response
 
+    def _set_plant(self, robot):
+        """A new payload (the parameter callback): the integrator of the new model is built
+        here, outside the step lock (it compiles nothing, ~0.1 ms), then swapped in by one
+        assignment under the lock that every step holds -- so the swap falls between two
+        steps, and the step loop takes no extra lock."""
+        integrator = self._integrator_for(robot)
+        with self.lock:
+            self.robot, self.integrator = robot, integrator
+
     def on_pause(self, request, response):
         with self.lock:
             self.paused = request.data
@@ -200,18 +213,19 @@ class Simulator(Node):
         with self.lock:
             if self.paused:
                 return
+            integrator = self.integrator     # the plant of this step (swapped under the lock)
             if self.timeout_steps and not self.timed_out and self.k - self.cmd_step > self.timeout_steps:
                 self.timed_out, self.tau = True, np.zeros(self.robot.dof)
-                self.get_logger().warning(f"no command for {self.timeout_steps * self.integrator.dt}"
+                self.get_logger().warning(f"no command for {self.timeout_steps * integrator.dt}"
                                           " s (command_timeout): applied effort back to zero")
             try:
-                q, qd = self.integrator.step(self.q, self.qd, self.tau, t=self.k * self.integrator.dt)
+                q, qd = integrator.step(self.q, self.qd, self.tau, t=self.k * integrator.dt)
                 if not (np.all(np.isfinite(q)) and np.all(np.isfinite(qd))):
                     raise SimulationError("the state is no longer finite")
             except (SimulationError, ValueError) as exc:
                 self.paused = True
                 self.get_logger().error(f"{exc} -- paused at the last good state "
-                                        f"(t = {self.k * self.integrator.dt:.3f} s); call ~/reset, then ~/pause false")
+                                        f"(t = {self.k * integrator.dt:.3f} s); call ~/reset, then ~/pause false")
                 return
             self.q, self.qd, self.k = q, qd, self.k + 1
         if self.clock_pub is not None and self.k % self.clock_every == 0:

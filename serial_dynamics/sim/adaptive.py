@@ -23,7 +23,7 @@ def run_adaptive(robot, duration, q0, qd0, inputs, method, rtol, atol, max_step,
     eq = Equations(robot, dissipation, smoothing)
     n = eq.n
     smooth = eq.coulomb_on
-    has_w = inputs.wrench is not None
+    has_w = inputs.wrench is not None or inputs.base is not None
     counter = [0]
 
     def fun(t, y):

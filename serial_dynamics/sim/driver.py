@@ -16,7 +16,8 @@ Methods (see docs/simulation.md):
   ``stops.JointStops``).
 
 Energies are integrated alongside: the work of the actuators int tau.qd dt, of the
-dissipation int delta.qd dt (<= 0) and of the tip wrench int (J^T w).qd dt, so that
+dissipation int delta.qd dt (<= 0) and of the environment (the tip wrench int (J^T w).qd dt
+and a moving base's torques int -beta.qd dt, ``Equations.ext_power``), so that
 E(t) - E(0) = W_act + W_diss + W_ext along any run. Divergence (NaN/Inf, a speed
 beyond any physical bound, energy growing without input) raises ``SimulationError``.
 """
@@ -26,6 +27,7 @@ import time
 
 import numpy as np
 
+from ..base_motion import BaseMotion
 from .adaptive import run_adaptive
 from .equations import Inputs
 from .fixed_step import run_compiled, run_fixed
@@ -82,6 +84,25 @@ def input_fn(value, width, name, duration, joint_names):
                      "callable f(t, q, qd)")
 
 
+def base_fn(base_motion):
+    """None, or f(t) -> BaseMotion (checked on each call) for a constant or a callable."""
+    if base_motion is None:
+        return None
+    if isinstance(base_motion, BaseMotion):
+        return lambda t: base_motion
+
+    def fn(t, _f=base_motion):
+        bm = _f(t)
+        if not isinstance(bm, BaseMotion):
+            raise TypeError(f"the base_motion callable returned {type(bm).__name__} at "
+                            f"t = {t:.6g} s; it must return a serial_dynamics.BaseMotion")
+        return bm
+    if not callable(base_motion):
+        raise TypeError(f"base_motion must be None, a serial_dynamics.BaseMotion or a callable "
+                        f"f(t) -> BaseMotion; got {type(base_motion).__name__}")
+    return fn
+
+
 def interp_fn(ts, vals):
     if not np.all(np.isfinite(vals)):
         raise ValueError("input samples have a NaN or Inf entry")
@@ -96,7 +117,7 @@ def interp_fn(ts, vals):
 def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853", rtol=None,
              atol=None, dt=None, dissipation=True, wrench=None, output_dt=None,
              max_step=np.inf, first_step=None, friction_smoothing=1e-4, check_energy=True,
-             position_limits=False, progress=False) -> SimulationResult:
+             position_limits=False, progress=False, base_motion=None) -> SimulationResult:
     """Simulate ``duration`` seconds of motion from (q0, qd0) (zeros by default).
 
     torque: None (zero), a scalar or (n,) constant, (K, n) samples uniformly spaced over
@@ -119,6 +140,10 @@ def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853"
         work is counted in W_diss); fixed-step methods only.
     progress: True for a progress bar on stderr (shown when the run lasts over 1 s), or a
         callable(fraction).
+    base_motion: None (a base at rest), a ``BaseMotion`` or a callable ``f(t) ->
+        BaseMotion`` (a ship's deck, a vehicle): q stays relative to the base, the energies
+        are relative to the base, and ``work_external`` includes the work of the base's
+        motion, so that the energy balance still holds.
     """
     if method not in METHODS:
         raise ValueError(f"method {method!r} unknown; use one of {list(METHODS)}")
@@ -142,7 +167,8 @@ def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853"
                          "simulate without position_limits")
     torque_fn, _ = input_fn(torque, n, "torque", duration, robot.joint_names)
     wrench_fn, wrench_kind = input_fn(wrench, 6, "wrench", duration, robot.joint_names)
-    inputs = Inputs(torque_fn, None if wrench_kind == "zero" else wrench_fn)
+    inputs = Inputs(torque_fn, None if wrench_kind == "zero" else wrench_fn,
+                    base_fn(base_motion))
     if output_dt is not None and not output_dt > 0:
         raise ValueError(f"output_dt = {output_dt}; give a spacing > 0 s")
     bar = Progress(duration, progress)
@@ -155,7 +181,9 @@ def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853"
             args = (robot, duration, q0, qd0, inputs, method, dt, dissipation, output_dt,
                     check_energy, bar)
             if (method == "semi_implicit_euler" and robot.backend == "numba"
-                    and not callable(torque) and inputs.wrench is None and not position_limits):
+                    and robot.dof == robot.model.dof        # no mimic joints
+                    and not callable(torque) and inputs.wrench is None and inputs.base is None
+                    and not position_limits):
                 out = run_compiled(*args)           # the compiled loop has no stops
             else:
                 out = run_fixed(*args, position_limits)

@@ -31,16 +31,33 @@ SPEED_BOUND_FACTOR = 1e3    # divergence: |qd| > 1000 x velocity limit (1e5 wher
 PRISMATIC_BOUND = 1e3        # m: no prismatic joint travels a kilometre
 
 
+class External(NamedTuple):
+    """What the environment does to the chain: the tip wrench (None, (6,) or (N, 6)) and the
+    base's motion (a ``BaseMotion``, or a list of them, one per state of a batch)."""
+
+    wrench: object
+    base: object
+
+
+def split(w):
+    """(wrench, base motion) of an input ``w``: None, a wrench, or an ``External``."""
+    return (w.wrench, w.base) if isinstance(w, External) else (w, None)
+
+
 class Inputs(NamedTuple):
-    """The applied torques ``torque(t, q, qd) -> (n,)`` and the tip wrench
-    ``wrench(t, q, qd) -> (6,)`` (None: no wrench)."""
+    """The applied torques ``torque(t, q, qd) -> (n,)``, the tip wrench
+    ``wrench(t, q, qd) -> (6,)`` (None: no wrench) and the base motion ``base(t) ->
+    BaseMotion`` (None: a base at rest)."""
 
     torque: object
     wrench: object = None
+    base: object = None
 
     def __call__(self, t, q, qd):
-        """(tau, w) at one state; w is None without a wrench."""
-        return self.torque(t, q, qd), (None if self.wrench is None else self.wrench(t, q, qd))
+        """(tau, w) at one state; w is None without a wrench or base motion, the wrench
+        without base motion, else an ``External``."""
+        w = None if self.wrench is None else self.wrench(t, q, qd)
+        return self.torque(t, q, qd), (w if self.base is None else External(w, self.base(t)))
 
     def batch(self, t, Q, V):
         """(tau, w) stacked over states (Q, V) (N, n) at the time ``t`` or times (N,)."""
@@ -48,7 +65,9 @@ class Inputs(NamedTuple):
         tau = np.array([self.torque(t, a, b) for t, a, b in zip(ts, Q, V)])
         w = (None if self.wrench is None else
              np.array([self.wrench(t, a, b) for t, a, b in zip(ts, Q, V)]))
-        return tau, w
+        if self.base is None:
+            return tau, w
+        return tau, External(w, self.base(t) if np.ndim(t) == 0 else [self.base(x) for x in t])
 
 
 class StepStart(NamedTuple):
@@ -118,11 +137,23 @@ class Equations:
             return self.diss.torque(qd)
         return -self.beta * qd - self.diss.sliding_friction(qd) * sign
 
-    # -- dynamics through the facade
+    # -- dynamics through the facade; ``w``: None, a wrench or an ``External``
     def fd(self, q, qd, tau, w=None):
         self.calls += 1
         self.states += 1 if np.ndim(q) == 1 else len(q)
-        return self.robot.forward_dynamics(q, qd, tau, w)
+        wrench, base = split(w)
+        if isinstance(base, list):       # states at different times: one call per state
+            return np.array([self.robot.forward_dynamics(*x, base_motion=bm) for *x, bm in
+                             zip(q, qd, tau, _rows(wrench, len(q)), base)])
+        return self.robot.forward_dynamics(q, qd, tau, wrench, base_motion=base)
+
+    def bias(self, q, qd, w=None):
+        """b(q, qd) - J^T w, with the base motion's torques; batches of states."""
+        wrench, base = split(w)
+        if isinstance(base, list):
+            return np.array([self.robot.bias_torques(*x, base_motion=bm) for *x, bm in
+                             zip(q, qd, _rows(wrench, len(q)), base)])
+        return self.robot.bias_torques(q, qd, wrench, base_motion=base)
 
     def accel(self, q, qd, tau, w=None, stuck=None, sign=None, smooth=False, coulomb=None):
         """qdd and delta for (batches of) states. ``stuck``: joints held by static friction
@@ -139,17 +170,26 @@ class Equations:
         self.calls += 2
         self.states += 2 * (1 if np.ndim(q) == 1 else len(q))
         M = self.robot.mass_matrix(q)
-        r = tau + delta - self.robot.bias_torques(q, qd, w)
+        r = tau + delta - self.bias(q, qd, w)
         return held(M, r, stuck, delta)
 
     def ext_power(self, q, qd, w):
-        """(J^T w) . qd, the power of the tip wrench; batches of states."""
-        J = self.robot.jacobian(q)
-        return np.einsum("...i,...ij,...j->...", w, J, qd)
+        """The power of the environment on the chain, batches of states: (J^T w) . qd of the
+        tip wrench, and -qd . (b(q, qd; base) - b(q, qd)) of the base's motion (its
+        torques, moved to the right-hand side: M qdd + b = tau + delta + J^T w - beta gives
+        dE/dt = qd . (tau + delta + J^T w - beta), E = T + V relative to the base)."""
+        wrench, base = split(w)
+        p = 0.0
+        if wrench is not None:
+            p = np.einsum("...i,...ij,...j->...", wrench, self.robot.jacobian(q), qd)
+        if base is not None:
+            beta = self.bias(q, qd, External(None, base)) - self.robot.bias_torques(q, qd)
+            p = p - np.einsum("...i,...i->...", qd, beta)
+        return p
 
     def power(self, q, qd, tau, delta, w):
-        """[tau.qd, delta.qd, (J^T w).qd]: the power of the actuators, the dissipation and
-        the tip wrench at one state."""
+        """[tau.qd, delta.qd, ext_power]: the power of the actuators, the dissipation and
+        the environment (tip wrench, base motion) at one state."""
         return np.array([tau @ qd, delta @ qd,
                          0.0 if w is None else float(self.ext_power(q, qd, w))])
 
@@ -168,7 +208,7 @@ class Equations:
         self.calls += 2
         self.states += 2
         M = self.robot.mass_matrix(q)
-        b = self.robot.bias_torques(q, qd, w)
+        b = self.bias(q, qd, w)
         stuck = rest.copy()
         for _ in range(int(rest.sum()) + 1):
             delta = self.delta(qd, sign)
@@ -204,6 +244,11 @@ class Equations:
             what = f"its position {q[j]:.4g} m is beyond {PRISMATIC_BOUND:g} m"
         raise SimulationError(f"simulation diverged at t = {t:.6g} s: joint {self.names[j]!r}: "
                               f"{what}. {advice(method, dt)}", t, self.names[j], reason)
+
+
+def _rows(wrench, N):
+    """The per-state rows of a batch's wrench (None: none)."""
+    return [None] * N if wrench is None else np.broadcast_to(wrench, (N, 6))
 
 
 def held(M, r, stuck, delta):

@@ -52,7 +52,7 @@ class JointStops:
         qd = np.where(kept, 0.0, qd)
         eq.calls += 2
         eq.states += 2
-        M, b = robot.mass_matrix(q), robot.bias_torques(q, qd, s.w)
+        M, b = robot.mass_matrix(q), eq.bias(q, qd, s.w)
         d0 = eq.delta(qd, sign)
         for _ in range(int(kept.sum()) + 1):
             qdd, delta = held(M, s.tau + d0 - b, base | kept, d0)

@@ -1,0 +1,159 @@
+"""Mimic joints: the reduced system of a chain whose joints follow others.
+
+A joint with ``<mimic joint="leader" multiplier="m" offset="o">`` moves as
+q_i = m q_leader + o. With G the constant (n, k) matrix of the map from the k independent
+joints to all n joints of the chain (``Model.mimic_matrix``), q_all = G q + o,
+qd_all = G qd and qdd_all = G qdd (G constant: no velocity-product term), and by virtual
+work the reduced system is
+
+    tau = G^T tau_all(q_all, qd_all, qdd_all)       M = G^T M_all G       C = G^T C_all G
+
+(Featherstone 2008, Sec. 3.2: a constraint q_all = G q). ``MimicRobot`` is the ``Robot``
+facade of that system: every method maps its inputs to all joints, calls the chain's
+algorithms (compiled or reference) on them, and maps the results back; forward dynamics
+solves (G^T M G) qdd = tau - G^T b. Its coordinates, names, limits and dissipation are the
+independent joints'; a mimic joint's viscous and Coulomb friction act on its leader as
+m^2 beta and |m| tau_c (exact: its friction torque, times m by virtual work).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .algorithms._batch import as_batch, unbatch
+from .dissipation import Dissipation
+from .robot import FD_METHODS, Robot, _into
+
+
+class _Independent:
+    """What ``as_batch`` needs to validate the reduced coordinates: dof and names."""
+
+    def __init__(self, names):
+        self.dof, self.joint_names = len(names), tuple(names)
+
+
+class MimicRobot(Robot):
+    """A ``Robot`` whose coordinates are the independent joints (see the module docstring).
+    ``sd.load_urdf`` and ``sd.Robot(model)`` return one for a model with mimic joints."""
+
+    def __init__(self, model, dissipation=None, backend=None, **kwargs):
+        self._G, self._o = model.mimic_matrix
+        self._ind = model.independent
+        self._src = np.argmax(self._G != 0.0, axis=1)     # joint i follows coordinate src[i]
+        self._m = self._G[np.arange(model.dof), self._src]  # with multiplier m[i] (1: itself)
+        self._followers = [(i, self._src[i], self._m[i]) for i in np.flatnonzero(model.mimic_leader >= 0)]
+        self._view = _Independent([model.joint_names[i] for i in self._ind])
+        if dissipation is None:
+            dissipation = _reduced_dissipation(model, self._G, self._view.joint_names)
+        super().__init__(model, dissipation, backend, **kwargs)
+
+    # ------------------------------------------------------------- description
+    dof = property(lambda self: self._view.dof)
+    joint_names = property(lambda self: list(self._view.joint_names))
+    joint_types = property(lambda self: [self.model.joint_types[i] for i in self._ind])
+    lower = property(lambda self: self.model.lower[self._ind])
+    upper = property(lambda self: self.model.upper[self._ind])
+    velocity_limit = property(lambda self: self.model.velocity_limit[self._ind])
+    effort_limit = property(lambda self: self.model.effort_limit[self._ind])
+    armature = property(lambda self: (self._G ** 2).T @ self.model.armature,
+                        doc="the reduced armature: sum of m^2 I_a over each joint's followers")
+    all_joint_names = property(lambda self: list(self.model.joint_names),
+                               doc="every joint of the chain, mimic joints included")
+
+    def all_joint_positions(self, q):
+        """Positions of every joint of the chain (e.g. for robot_state_publisher)."""
+        return self._expand(np.asarray(q, dtype=float), self._o)
+
+    def all_joint_velocities(self, qd):
+        return self._expand(np.asarray(qd, dtype=float), 0.0)
+
+    # G x and G^T y as gathers and ordered sums (not matrix products, whose summation order
+    # BLAS may change with the shape): a state gives the same bits alone or in a batch.
+    def _expand(self, x, offset):
+        """G x + offset over the last axis: x[src] m + offset."""
+        return x[..., self._src] * self._m + offset
+
+    def _reduce(self, y):
+        """G^T y over the last axis: y[independent] + sum of m y[follower], in joint order."""
+        out = y[..., self._ind].copy()
+        for i, k, m in self._followers:
+            out[..., k] += m * y[..., i]
+        return out
+
+    def _reduce2(self, M):
+        """G^T M G."""
+        return np.swapaxes(self._reduce(np.swapaxes(self._reduce(M), -1, -2)), -1, -2)
+
+    def _all(self, *named):
+        """Validate the reduced states together (as_batch: names the culprit); return
+        (single, reduced arrays (N, k), every joint's arrays): q_all = G q + o, rates G x;
+        a single state's as 1-D arrays (the compiled single-state path)."""
+        single, arrays = as_batch(self._view, *named)
+        full = []
+        for (name, _), x in zip(named, arrays):
+            y = self._expand(x, self._o if name == "q" else 0.0)
+            full.append(np.ascontiguousarray(y[0] if single else y))
+        return single, arrays, full
+
+    # ------------------------------------------------------------- dynamics
+    def inverse_dynamics(self, q, qd, qdd, wrench=None, base_motion=None, out=None):
+        _, _, (q, qd, qdd) = self._all(("q", q), ("qd", qd), ("qdd", qdd))
+        tau = super().inverse_dynamics(q, qd, qdd, wrench, base_motion)
+        return _into(out, self._reduce(tau))             # tau = G^T tau_all
+
+    def bias_torques(self, q, qd, wrench=None, base_motion=None, out=None):
+        _, _, (q, qd) = self._all(("q", q), ("qd", qd))
+        return _into(out, self._reduce(super().bias_torques(q, qd, wrench, base_motion)))
+
+    def gravity_torques(self, q, out=None):
+        _, _, (q,) = self._all(("q", q))
+        return _into(out, self._reduce(super().gravity_torques(q)))
+
+    def mass_matrix(self, q, out=None):
+        _, _, (q,) = self._all(("q", q))
+        return _into(out, self._reduce2(super().mass_matrix(q)))   # G^T M_all G
+
+    def coriolis_matrix(self, q, qd):
+        _, _, (q, qd) = self._all(("q", q), ("qd", qd))
+        return self._reduce2(super().coriolis_matrix(q, qd))
+
+    def forward_dynamics(self, q, qd, tau, wrench=None, method="auto", base_motion=None,
+                         out=None):
+        """qdd of the reduced system, (G^T M G) qdd = tau - G^T b, for every ``method``
+        (the articulated-body recursion has no mimic constraint)."""
+        if method not in FD_METHODS:
+            raise ValueError(f"forward-dynamics method {method!r} unknown; use one of "
+                             f"{FD_METHODS}")
+        single, (_, _, tau), (q, qd, _) = self._all(("q", q), ("qd", qd), ("tau", tau))
+        M = self._reduce2(super().mass_matrix(q))
+        r = (tau[0] if single else tau) - self._reduce(super().bias_torques(q, qd, wrench, base_motion))
+        if single:
+            return _into(out, np.linalg.solve(M, r))
+        return _into(out, np.array([np.linalg.solve(Mk, rk) for Mk, rk in zip(M, r)]))
+
+    # ------------------------------------------------------------- kinematics, energy
+    def forward_kinematics(self, q, link=None):
+        return super().forward_kinematics(self._all(("q", q))[2][0], link)
+
+    def jacobian(self, q, link=None):
+        return self._reduce(super().jacobian(self._all(("q", q))[2][0], link))
+
+    def kinetic_energy(self, q, qd):
+        """T = 1/2 qd^T (G^T M G) qd (J)."""
+        single, (_, qd), (q, _) = self._all(("q", q), ("qd", qd))
+        M = self._reduce2(super().mass_matrix(q))
+        T = 0.5 * np.einsum("ni,nij,nj->n", qd, M.reshape((-1,) + self._G.shape[1:] * 2), qd)
+        return unbatch(single, T)
+
+    def potential_energy(self, q):
+        return super().potential_energy(self._all(("q", q))[2][0])
+
+
+def _reduced_dissipation(model, G, names):
+    """Joint friction of the independent joints: a mimic joint's viscous beta and Coulomb
+    tau_c act on its leader as m^2 beta and |m| tau_c."""
+    zero = np.zeros(len(names))
+    return Dissipation(tuple(names), (G ** 2).T @ model.damping, np.abs(G).T @ model.friction,
+                       zero, zero)
+
+
+Robot._mimic_class = MimicRobot      # Robot(model) of a model with mimic joints builds one

@@ -1,0 +1,191 @@
+"""Mimic joints on the chain: the reduced system of the independent joints, against
+Pinocchio's own mimic joints (``buildModel(..., mimic=True)``), to 1e-9 relative.
+
+Synthetic chains (a revolute and a prismatic follower, tilted axes, offsets, a negative
+multiplier) and a real one (PR2's right arm down to a gripper fingertip, whose joint
+mimics the finger joint above it)."""
+import warnings
+
+import numpy as np
+import pytest
+
+from pin_reference import erd, pin
+
+import serial_dynamics as sd
+
+RTOL = 1e-9
+
+
+def rel_err(a, b):
+    return np.max(np.abs(np.asarray(a) - b)) / max(np.max(np.abs(b)), 1.0)
+
+
+def mimic_chain(follower="revolute"):
+    """base -j1(z)- l1 -j2- l2 -j3 (mimics j2: 1.5 q2 + 0.2)- l3 -j4 (mimics j1: -0.7 q1)- l4,
+    axes tilted, every link with products of inertia, damping and friction."""
+    def link(name, m, c, I):
+        return (f'<link name="{name}"><inertial><origin xyz="{c}" rpy="0.1 0.2 0.3"/>'
+                f'<mass value="{m}"/><inertia ixx="{I[0]}" iyy="{I[1]}" izz="{I[2]}" ixy="0.001" '
+                f'ixz="-0.002" iyz="0.0015"/></inertial></link>')
+
+    def joint(name, parent, child, kind, xyz, rpy, axis, extra=""):
+        return (f'<joint name="{name}" type="{kind}"><parent link="{parent}"/><child link="{child}"/>'
+                f'<origin xyz="{xyz}" rpy="{rpy}"/><axis xyz="{axis}"/>'
+                '<limit lower="-2" upper="2" effort="100" velocity="5"/>'
+                f'<dynamics damping="0.3" friction="0.1"/>{extra}</joint>')
+    prismatic = follower == "prismatic"
+    return ('<robot name="mimic"><link name="base"/>'
+            + link("l1", 2.0, "0.1 0 0.05", (0.05, 0.06, 0.04))
+            + link("l2", 1.5, "0.2 0.01 0", (0.03, 0.05, 0.04))
+            + link("l3", 1.0, "0.05 0.02 0.1", (0.02, 0.03, 0.025))
+            + link("l4", 0.5, "0.02 0 0.03", (0.01, 0.012, 0.009))
+            + joint("j1", "base", "l1", "revolute", "0 0 0.1", "0 0 0", "0 0 1")
+            + joint("j2", "l1", "l2", "revolute", "0.3 0 0", "0.3 0 0", "0 1 0")
+            + joint("j3", "l2", "l3", "prismatic" if prismatic else "revolute", "0.4 0 0",
+                    "0 0.2 0", "1 0 0" if prismatic else "0 0.6 0.8",
+                    '<mimic joint="j2" multiplier="1.5" offset="0.2"/>')
+            + joint("j4", "l3", "l4", "revolute", "0.2 0.1 0", "0.1 0 0", "0 0 1",
+                    '<mimic joint="j1" multiplier="-0.7"/>')
+            + "</robot>")
+
+
+class PinMimic:
+    """Pinocchio's model of the same chain with mimic joints (nv = independent joints)."""
+
+    def __init__(self, robot, model):
+        self.model, self.robot = model, robot
+        self.model.gravity.linear[:] = robot.gravity
+        self.data = model.createData()
+        self.jid = [model.getJointId(n) for n in robot.joint_names]
+        self.iv = np.array([model.idx_vs[j] for j in self.jid])
+        assert model.nv == robot.dof
+
+    def q(self, q):
+        qp = pin.neutral(self.model)
+        for k, j in enumerate(self.jid):
+            i = self.model.idx_qs[j]
+            if self.model.nqs[j] == 2:
+                qp[i:i + 2] = np.cos(q[k]), np.sin(q[k])
+            else:
+                qp[i] = q[k]
+        return qp
+
+    def v(self, x):
+        out = np.zeros(self.model.nv)
+        out[self.iv] = x
+        return out
+
+    def rnea(self, q, qd, qdd):
+        return pin.rnea(self.model, self.data, self.q(q), self.v(qd), self.v(qdd))[self.iv]
+
+    def mass_matrix(self, q):
+        M = pin.crba(self.model, self.data, self.q(q))
+        M = np.triu(M) + np.triu(M, 1).T
+        return M[np.ix_(self.iv, self.iv)]
+
+
+def synthetic(follower):
+    xml = mimic_chain(follower)
+    robot = sd.load_urdf(xml)
+    return robot, PinMimic(robot, pin.buildModelFromXML(xml, mimic=True))
+
+
+def pr2():
+    path = erd("pr2_description/urdf/pr2.urdf")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", sd.HeldJointsWarning)
+        robot = sd.load_urdf(path, "r_shoulder_pan_link", "r_gripper_l_finger_tip_link")
+    full = pin.buildModelFromUrdf(path, mimic=True)
+    keep = set(robot.all_joint_names)
+    lock = [full.getJointId(n) for n in full.names[1:] if n not in keep]
+    model = pin.buildReducedModel(full, lock, pin.neutral(full))
+    # our base is r_shoulder_pan_link, Pinocchio's the world: give it our base-frame gravity
+    # by expressing it in its world (the base at neutral is a fixed pose of the world)
+    ref = PinMimic(robot, model)
+    return robot, ref
+
+
+CHAINS = {"revolute follower": lambda: synthetic("revolute"),
+          "prismatic follower": lambda: synthetic("prismatic"), "pr2 fingertip": pr2}
+
+
+@pytest.fixture(scope="module", params=sorted(CHAINS))
+def chain(request):
+    return CHAINS[request.param]()
+
+
+def states(robot, count=3, seed=0):
+    rng = np.random.default_rng(seed)
+    for _ in range(count):
+        q, qd = robot.random_state(rng, speed=2.0)
+        yield q, qd, rng.uniform(-3, 3, robot.dof)
+
+
+def test_the_coordinates_are_the_independent_joints(chain):
+    robot, ref = chain
+    assert robot.dof == ref.model.nv < len(robot.all_joint_names)
+    assert set(robot.joint_names) < set(robot.all_joint_names)
+
+
+@pytest.mark.parametrize("backend", ["numba", "numpy"])
+def test_against_pinocchio_mimic_joints(chain, backend):
+    robot, ref = chain
+    if robot.base_link != "base":     # PR2: our base frame is not Pinocchio's world
+        R0 = pin.SE3.Identity()
+        data = ref.model.createData()
+        pin.forwardKinematics(ref.model, data, pin.neutral(ref.model))
+        ref.model.gravity.linear[:] = robot.gravity   # set below from the base's pose
+        parent = ref.model.getFrameId(robot.base_link)
+        pin.updateFramePlacements(ref.model, data)
+        R0 = data.oMf[parent].rotation
+        ref.model.gravity.linear[:] = R0 @ robot.gravity
+        ref.data = ref.model.createData()
+    r = sd.Robot(robot.model, backend=backend)
+    assert type(r) is type(robot)
+    Q, V, A = (np.array(x) for x in zip(*states(robot)))
+    for q, qd, qdd in zip(Q, V, A):
+        tau = ref.rnea(q, qd, qdd)
+        assert rel_err(r.inverse_dynamics(q, qd, qdd), tau) <= RTOL
+        assert rel_err(r.mass_matrix(q), ref.mass_matrix(q)) <= RTOL
+        assert rel_err(r.gravity_torques(q), ref.rnea(q, 0 * qd, 0 * qd)) <= RTOL
+        for method in ("auto", "cholesky", "aba"):
+            assert rel_err(r.forward_dynamics(q, qd, tau, method=method), qdd) <= RTOL
+    # batches: row k is the single state's (bitwise, compiled: the reduction is ordered sums)
+    T = r.inverse_dynamics(Q, V, A)
+    for k in range(len(Q)):
+        single = r.inverse_dynamics(Q[k], V[k], A[k])
+        if backend == "numba":
+            np.testing.assert_array_equal(T[k], single)
+        assert rel_err(T[k], single) <= 1e-14
+    np.testing.assert_allclose(r.forward_dynamics(Q, V, T), A, rtol=0, atol=1e-9 * np.max(np.abs(A)))
+
+
+def test_energy_coriolis_and_jacobian_of_the_reduced_system(chain):
+    robot, _ = chain
+    G, o = robot.model.mimic_matrix
+    for q, qd, _ in states(robot, seed=4):
+        M = robot.mass_matrix(q)
+        assert abs(robot.kinetic_energy(q, qd) - 0.5 * qd @ M @ qd) <= 1e-13 * (qd @ M @ qd)
+        # C qd + g = b, and the tip velocity J qd of the reduced Jacobian is the chain's
+        np.testing.assert_allclose(robot.coriolis_matrix(q, qd) @ qd + robot.gravity_torques(q),
+                                   robot.bias_torques(q, qd), atol=1e-10)
+        np.testing.assert_allclose(robot.all_joint_positions(q), G @ q + o)
+        assert robot.jacobian(q).shape == (6, robot.dof)
+
+
+def test_friction_of_a_mimic_joint_acts_on_its_leader():
+    robot, _ = synthetic("revolute")
+    # j1 <- j4 (m = -0.7), j2 <- j3 (m = 1.5); every joint: damping 0.3, friction 0.1
+    np.testing.assert_allclose(robot.dissipation.viscous, 0.3 * np.array([1 + 0.49, 1 + 2.25]))
+    np.testing.assert_allclose(robot.dissipation.coulomb, 0.1 * np.array([1 + 0.7, 1 + 1.5]))
+
+
+def test_simulation_of_a_mimic_chain_keeps_its_energy_balance():
+    robot, _ = synthetic("prismatic")
+    res = sd.simulate(robot, 1.0, [0.3, -0.4], [1.0, 0.5], method="DOP853", rtol=1e-10,
+                      atol=1e-12, dissipation=False)
+    assert res.q.shape[1] == 2
+    assert res.relative_energy_error() < 1e-8
+    semi = sd.simulate(robot, 0.2, [0.3, -0.4], [1.0, 0.5], method="semi_implicit_euler",
+                       dt=1e-4, dissipation=True)
+    assert np.all(np.isfinite(semi.q)) and semi.relative_energy_error() < 1e-2

@@ -236,8 +236,11 @@ class Simulator(Node):
     def _publish(self):
         with self.lock:
             q, qd, tau, k = self.q, self.qd, self.tau, self.k
-        msg = JointState(name=self.robot.joint_names, position=q.tolist(),
-                         velocity=qd.tolist(), effort=tau.tolist())
+        robot = self.robot               # every joint, mimic joints too (robot_state_publisher)
+        effort = np.zeros(len(robot.all_joint_names))
+        effort[robot.model.independent] = tau      # a mimic joint has no actuator: 0
+        msg = JointState(name=robot.all_joint_names, position=robot.all_joint_positions(q).tolist(),
+                         velocity=robot.all_joint_velocities(qd).tolist(), effort=effort.tolist())
         stamp = Time(nanoseconds=k * self.dt_ns) if self.publish_clock else self.get_clock().now()
         msg.header.stamp = stamp.to_msg()
         self.state_pub.publish(msg)

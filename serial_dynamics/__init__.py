@@ -10,7 +10,7 @@ from .base_motion import BaseMotion
 from .dissipation import Dissipation
 from .model import Model, ModelError
 from .robot import Robot
-from . import mimic  # noqa: F401,E402  (registers MimicRobot: Robot(model) with mimic joints)
+from . import mimic, planar_robot  # noqa: F401  (register MimicRobot and PlanarRobot with Robot)
 from .robots import builtin_path, builtin_robot, default_robot
 from .sim.driver import SimulationError, simulate   # sd.simulate is the function
 from .urdf import HeldJointsWarning, URDFError, load_model

@@ -20,7 +20,9 @@ from .core import ENTRY_POINTS, K
 from .sim.loop import _loop
 
 # two halves of about equal cold-compile time (bench/BENCHMARKS.md, *First call*)
-HALVES = (("fd", "fd_batch", "loop"), ("rnea", "rnea_wrench", "crba", "rnea_batch", "crba_batch"))
+HALVES = (("fd", "fd_batch", "loop", "planar_rnea_batch"),
+          ("rnea", "rnea_wrench", "crba", "rnea_batch", "crba_batch", "planar_rnea",
+           "planar_rnea_wrench", "planar_crba", "planar_crba_batch"))
 assert set(HALVES[0] + HALVES[1]) == set(ENTRY_POINTS) | {"loop"}
 
 

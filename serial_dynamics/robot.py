@@ -32,6 +32,7 @@ import numpy as np
 
 from .algorithms import aba, crba, energy, forward, kinematics, noc, rnea
 from .algorithms._batch import as_batch
+from .algorithms.planar import planar_pack
 from .base_motion import BaseMotion, check_base_motion
 from .core import ENTRY_POINTS, K, layout
 from .core import flags as F
@@ -51,18 +52,25 @@ _FD_FLAGS = {"cholesky": F.QD, "aba": F.QD | F.ABA}
 # states; splitting a batch over 2 cores paid from about 2048 states for inverse dynamics,
 # 1500 for the mass matrix and 800 for forward dynamics (UR5e, measured 2026-11-23)
 PARALLEL_MIN = 2048
-ROBOT_KERNELS = tuple(ENTRY_POINTS)        # what warmup() loads: every compiled entry point
+ROBOT_KERNELS = tuple(k for k in ENTRY_POINTS if not k.startswith("planar"))   # warmup() loads
+PLANAR_KERNELS = tuple(k for k in ENTRY_POINTS if k.startswith("planar"))    # and, if planar
 _pool = None
 
 
 class Robot:
     """Dynamics of one serial chain. Build it with ``serial_dynamics.load_urdf``."""
 
-    _mimic_class = None      # mimic.MimicRobot (set there): Robot(model) with mimic joints
+    # Robot(model) builds the facade the chain needs: mimic.MimicRobot for a chain with mimic
+    # joints (the reduced system), planar_robot.PlanarRobot for a planar chain (the planar
+    # fast path); each module registers its class here (they import this one).
+    _kinds = {}
+    is_planar = False        # a planar chain on the planar fast path (PlanarRobot)
 
     def __new__(cls, model, *args, **kwargs):
-        if cls is Robot and np.any(model.mimic_leader >= 0) and Robot._mimic_class is not None:
-            cls = Robot._mimic_class         # the reduced system of the independent joints
+        if cls is Robot and np.any(model.mimic_leader >= 0):
+            cls = Robot._kinds["mimic"]
+        elif cls is Robot and planar_pack(model) is not None:
+            cls = Robot._kinds["planar"]
         return super().__new__(cls)
 
     def __init__(self, model: Model, dissipation: Dissipation | None = None, backend=None,
@@ -78,6 +86,7 @@ class Robot:
         self._fd_auto = _FD_FLAGS["aba" if model.dof >= aba.CROSSOVER else "cholesky"]
         self._compiled = backend == "numba"
         self._P = _P if _P is not None else layout.pack(model) if self._compiled else None
+        self._rnea_batch, self._crba_batch = ("rnea_batch", self._P), ("crba_batch", self._P)
         # with_payload's bookkeeping: the model (and P) as loaded, and the payload attached
         self._loaded, self._payload = _loaded or (model, self._P), _payload
 
@@ -183,7 +192,7 @@ class Robot:
         single, (q,) = as_batch(self.model, ("q", q))
         q = _rows(q)
         M = np.empty((q.shape[0], self._n, self._n))
-        _parallel(K.crba_batch, self._P, q.shape[0], (q,), (), M)
+        _parallel(getattr(K, self._crba_batch[0]), self._crba_batch[1], q.shape[0], (q,), (), M)
         return _into(out, M[0] if single else M)
 
     def bias_torques(self, q, qd, wrench=None, base_motion=None, out=None):
@@ -260,7 +269,8 @@ class Robot:
         qdd = _rows(qdd) if flags & F.QDD else q
         w, flags = self._external_rows(wrench, base_motion, N, flags)
         out = np.empty((N, self._n))
-        if _parallel(K.rnea_batch, self._P, N, (q, qd, qdd, w), (flags,), out) != 0:
+        kernel, model = self._rnea_batch if base_motion is None else ("rnea_batch", self._P)
+        if _parallel(getattr(K, kernel), model, N, (q, qd, qdd, w), (flags,), out) != 0:
             raise ValueError("wrench has a NaN or Inf entry; give finite numbers")
         return out[0] if single else out
 
@@ -311,7 +321,7 @@ class Robot:
         methods, single and batch, from the numba cache when it is warm), so that the first
         real call is fast. Nodes call this before they report ready. Returns self."""
         if self._compiled:
-            K.load_all(ROBOT_KERNELS)
+            K.load_all(ROBOT_KERNELS + (PLANAR_KERNELS if self.is_planar else ()))
         q = np.zeros(self.dof)
         qb = np.zeros((2, self.dof))
         w = np.zeros(6)

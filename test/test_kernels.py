@@ -18,7 +18,7 @@ from serial_dynamics import Robot
 from serial_dynamics import core
 from serial_dynamics.core import flags as F
 from serial_dynamics.core.spatial import sincos
-from serial_dynamics.robot import ROBOT_KERNELS
+from serial_dynamics.robot import PLANAR_KERNELS, ROBOT_KERNELS
 from serial_dynamics.sim.loop import _loop, simulate_fixed_step
 from serial_dynamics.algorithms import aba, forward, rnea
 from serial_dynamics.robots.synthetic import chain_urdf
@@ -269,10 +269,14 @@ def test_backends_and_the_environment_switch(monkeypatch):
 
 def test_warmup_loads_every_kernel_of_the_robot_methods():
     robot = sd.default_robot().warmup()
-    assert set(ROBOT_KERNELS) == set(core.ENTRY_POINTS)
+    assert set(ROBOT_KERNELS) | set(PLANAR_KERNELS) == set(core.ENTRY_POINTS)
     for name in ROBOT_KERNELS:
         assert name in vars(core.K), name             # compiled (or loaded) entry point
-    assert robot.backend == "numba"
+    assert robot.backend == "numba" and not robot.is_planar
+    planar = sd.builtin_robot("planar_3r").warmup()   # a planar chain: its kernels too
+    assert planar.is_planar
+    for name in PLANAR_KERNELS:
+        assert name in vars(core.K), name
 
 
 def test_sincos_to_one_ulp():

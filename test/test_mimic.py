@@ -156,6 +156,7 @@ def test_against_pinocchio_mimic_joints(chain, backend):
         single = r.inverse_dynamics(Q[k], V[k], A[k])
         if backend == "numba":
             np.testing.assert_array_equal(T[k], single)
+            np.testing.assert_array_equal(r.mass_matrix(Q)[k], r.mass_matrix(Q[k]))
         assert rel_err(T[k], single) <= 1e-14
     np.testing.assert_allclose(r.forward_dynamics(Q, V, T), A, rtol=0, atol=1e-9 * np.max(np.abs(A)))
 

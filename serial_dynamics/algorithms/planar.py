@@ -182,38 +182,40 @@ def inverse_dynamics(Q, q, qd, qdd, wrench=None):
     qd = np.zeros((N, n)) if qd is None else qd
     qdd = np.zeros((N, n)) if qdd is None else qdd
     c, s, px, py = joint_transforms(Q, q)
-    g = Q[n]
+    last = Q[n]                                           # the chain's constants
     omega = np.zeros(N)                                   # angular velocity of body i-1 (along N)
     alpha = np.zeros(N)                                   # its angular acceleration
-    ax, ay = np.full(N, -g[GX]), np.full(N, -g[GY])       # acceleration of its origin; base: -g
+    acc_x, acc_y = np.full(N, -last[GX]), np.full(N, -last[GY])   # acc of its origin; base: -g
     fB = np.empty((N, n, 2))                              # rate of change of momentum: force
     nB = np.empty((N, n))                                 # and moment about the origin (along N)
-    for i in range(n):
+    for i in range(n):          # outward (Featherstone 2008, Table 5.1; Luh, Walker & Paul 1980)
         # body i-1's motion at body i's origin: acc + alpha x p + omega x (omega x p)
-        ax, ay = ax - alpha * py[:, i] - omega**2 * px[:, i], ay + alpha * px[:, i] - omega**2 * py[:, i]
-        ax, ay = _rot_t(c[:, i], s[:, i], ax, ay)         # into body i
+        acc_x = acc_x - alpha * py[:, i] - omega**2 * px[:, i]
+        acc_y = acc_y + alpha * px[:, i] - omega**2 * py[:, i]
+        acc_x, acc_y = _rot_t(c[:, i], s[:, i], acc_x, acc_y)     # into body i
         if Q[i, KIND] == 1.0:   # slide along d: acc += 2 omega x (qd d) + qdd d
             dx, dy = Q[i, DX], Q[i, DY]
-            ax = ax - 2.0 * omega * qd[:, i] * dy + qdd[:, i] * dx
-            ay = ay + 2.0 * omega * qd[:, i] * dx + qdd[:, i] * dy
+            acc_x = acc_x - 2.0 * omega * qd[:, i] * dy + qdd[:, i] * dx
+            acc_y = acc_y + 2.0 * omega * qd[:, i] * dx + qdd[:, i] * dy
         else:                   # spin about SGN N: alpha += SGN qdd, omega += SGN qd
             alpha = alpha + Q[i, SGN] * qdd[:, i]
             omega = omega + Q[i, SGN] * qd[:, i]
         # Newton-Euler about the origin: f = m acc + alpha x h + omega x (omega x h),
         # n = I_nn alpha + h x acc  (the N component of omega x I_O omega is 0)
         m, hx, hy, Izz = Q[i, MASS], Q[i, HX], Q[i, HY], Q[i, IZ]
-        fB[:, i, 0] = m * ax - alpha * hy - omega**2 * hx
-        fB[:, i, 1] = m * ay + alpha * hx - omega**2 * hy
-        nB[:, i] = Izz * alpha + _cross(hx, hy, ax, ay)
-    # inward: joint forces; the tip load -w acts on the environment
+        fB[:, i, 0] = m * acc_x - alpha * hy - omega**2 * hx
+        fB[:, i, 1] = m * acc_y + alpha * hx - omega**2 * hy
+        nB[:, i] = Izz * alpha + _cross(hx, hy, acc_x, acc_y)
+    # inward (Table 5.1): joint forces; the tip load -w acts on the environment
     fx, fy, nm = np.zeros(N), np.zeros(N), np.zeros(N)
     if wrench is not None:
         w = np.broadcast_to(np.asarray(wrench, dtype=float), (N, 6))
-        wx, wy, wn = w[:, :3] @ g[E1:E1 + 3], w[:, :3] @ g[E2:E2 + 3], w[:, 3:] @ g[NRM:NRM + 3]
+        wx, wy = w[:, :3] @ last[E1:E1 + 3], w[:, :3] @ last[E2:E2 + 3]     # projected on
+        wn = w[:, 3:] @ last[NRM:NRM + 3]                                   # the plane
         th = np.sum(Q[:-1, ANG] + Q[:-1, SGN] * q, axis=1)          # base -> body n-1
         wx, wy = _rot_t(np.cos(th), np.sin(th), wx, wy)             # -w in body n-1, moment
         fx, fy = -wx, -wy                                           # about its origin:
-        nm = -wn + _cross(g[TX], g[TY], fx, fy)                     # -m + t x (-f)
+        nm = -wn + _cross(last[TX], last[TY], fx, fy)               # -m + t x (-f)
     tau = np.empty((N, n))
     for i in range(n - 1, -1, -1):
         if i < n - 1:           # child's load into body i: f' = Rot f, n' = n + p x f'
@@ -263,8 +265,9 @@ def mass_matrix(Q, q):
             M[:, i, j] = M[:, j, i] = _subspace(Q, j, nm, fx, fy)   # M_ij = S_j^T F
         if i > 0:   # IC_{i-1} = I_{i-1} + IC_i carried into body i-1 (parallel axes, eq. 2.63)
             gx, gy = _rot(c[:, i], s[:, i], hx, hy)              # h_R = Rot h
-            Izz = Q[i - 1, IZ] + Izz + 2.0 * (px[:, i] * gx + py[:, i] * gy) + m * (px[:, i]**2 + py[:, i]**2)
-            hx, hy = Q[i - 1, HX] + gx + m * px[:, i], Q[i - 1, HY] + gy + m * py[:, i]
+            p_x, p_y = px[:, i], py[:, i]                        # I' = I + 2 p.h_R + m p.p
+            Izz = Q[i - 1, IZ] + Izz + 2.0 * (p_x * gx + p_y * gy) + m * (p_x**2 + p_y**2)
+            hx, hy = Q[i - 1, HX] + gx + m * p_x, Q[i - 1, HY] + gy + m * p_y   # h' = h_R + m p
             m = Q[i - 1, MASS] + m
     return M[0] if single else M
 

@@ -5,10 +5,11 @@ The same equations, frames and symbols as ``algorithms/planar.py`` (the readable
 reference; its docstring defines the layout ``Q`` and says why the dropped components do
 not change a joint torque). Kernels take ``Q`` (``planar_pack``), not ``P``: n = Q.shape[0]
 - 1 joints. Status codes and ``flags`` as ``rnea.py``'s entry points: 0 ok, 1 a NaN/Inf in
-an input, 2 a wrong length; flags QD, QDD (and WRENCH in the batch kernel).
+an input, 2 a wrong length (or a flag the planar path does not model: BASE, a moving
+base); flags QD, QDD (and WRENCH: read by the batch kernel, implied by the wrench entry).
 
-Entry points (module attributes, compiled -- or loaded from numba's cache -- on first
-access, each with its one signature; importing this module compiles nothing):
+Entry points (``core.K.<name>``, compiled -- or loaded from numba's cache -- on first use,
+each with its one signature):
 
     planar_rnea(Q, q, qd, qdd, flags, out)               tau of one state into out (n,)
     planar_rnea_wrench(Q, q, qd, qdd, w, flags, out)     the same with a tip wrench w (6,)
@@ -16,27 +17,26 @@ access, each with its one signature; importing this module compiles nothing):
     planar_rnea_batch(Q, q, qd, qdd, w, flags, out)      N states, rows of length 1 broadcast
     planar_crba_batch(Q, q, out)                         N configurations, (N, n, n)
 
-``ENTRY_POINTS`` lists them as ``core.ENTRY_POINTS`` does (function, signature, releases
-the GIL, typed core functions it calls), for wiring into ``core.K``. A single-state entry
-point answers 3 (``core.OTHER_TYPES``) for arguments of other types, as ``core.K``'s do.
+``ENTRY_POINTS`` lists them in the format of ``core.ENTRY_POINTS``, which includes them:
+they are ``core.K.planar_*``, compiled on first use like the others.
 
 Scratch: each call makes its own ``S`` (n, 7) on its stack (``stack_empty``), per body:
 cos theta, sin theta, p_x, p_y (body i in body i-1), then the body wrench f_x, f_y, n_z.
 """
 import math
-import threading
 
-from numba import njit, types
+from numba import njit
 
 from . import flags as F
 from ..algorithms.planar import (ANG, ARM, DX, DY, E1, E2, GX, GY, HX, HY, IZ, KIND, MASS,
                                  NRM, RX, RY, SGN, TX, TY)
 from .data import scratch, stack_empty
-from .signatures import (D2, In1, In2, Mat, Out1, Out2, Out3, Pm, Vec, compile_internal, f8,
-                         i8, internal)
+from .signatures import In2, Mat, Out2, Out3, Pm, Vec, compile_internal, i8, internal
 from .spatial import SMALL_ANGLE, sincos
 
 Qm = Pm                 # the packed planar model Q (never written), C-contiguous
+UNSUPPORTED = getattr(F, "BASE", 0)   # flags the planar path does not model (a moving base):
+                                      # status 2, so that the caller takes its general path
 SCRATCH = 7             # columns of S: c, s, px, py, fx, fy, nz
 
 
@@ -69,7 +69,6 @@ def planar_transforms(Q, S, q, n):
             px, py = px + x * (c * dx - s * dy), py + x * (s * dx + c * dy)
         S[i, 2], S[i, 3] = px, py
     return chk
-
 
 
 def planar_rnea_core(Q, S, q, qd, qdd, w, flags, tau):
@@ -180,7 +179,8 @@ def status(chk):
 def _planar_rnea(Q, q, qd, qdd, flags, out):
     """Inverse dynamics of one state into ``out`` (n,). Returns 0, 1 (NaN/Inf), 2 (length)."""
     n = Q.shape[0] - 1
-    if n < 1 or q.shape[0] != n or qd.shape[0] != n or qdd.shape[0] != n or out.shape[0] != n:
+    if (n < 1 or q.shape[0] != n or qd.shape[0] != n or qdd.shape[0] != n or out.shape[0] != n
+            or (flags & UNSUPPORTED) != 0):
         return 2
     S = stack_empty((n, SCRATCH))
     return status(planar_rnea_core(Q, S, q, qd, qdd, q, flags & ~F.WRENCH, out))
@@ -190,7 +190,7 @@ def _planar_rnea_wrench(Q, q, qd, qdd, w, flags, out):
     """``planar_rnea`` with the tip wrench ``w`` (6,), [f; m] in base coordinates, on the tip."""
     n = Q.shape[0] - 1
     if (n < 1 or q.shape[0] != n or qd.shape[0] != n or qdd.shape[0] != n or out.shape[0] != n
-            or w.shape[0] != 6):
+            or w.shape[0] != 6 or (flags & UNSUPPORTED) != 0):
         return 2
     S = stack_empty((n, SCRATCH))
     return status(planar_rnea_core(Q, S, q, qd, qdd, w, flags | F.WRENCH, out))
@@ -210,8 +210,8 @@ def _planar_crba(Q, q, out):
 # ------------------------------------------------------------------ batches, in SIMD lanes
 # B samples run in lock step, as in rnea_lanes.py: every quantity is stored with the sample
 # index (lane) last, shape (rows, L), and each step is a branch-free loop over the lanes
-# (the joint kind, the same in every lane, is tested outside it), which the compiler turns
-# into vector instructions. The block functions are compiled apart from the entry points
+# (the joint kind, the same in every lane, picks values by selects), which the compiler
+# turns into vector instructions. The block functions are compiled apart from the entry points
 # and get the lane count L as an argument, so that it is not a compile-time constant (the
 # compiler vectorizes loops of run-time length; it unrolls one of known length instead).
 # Every lane does the operations of the single-state kernels in the same order (libm's
@@ -236,26 +236,45 @@ def planar_rnea_block(Q, q, qd, qdd, w, flags, out, k0, L):
     FX, FY, NZ, ST = stack_empty((n, L)), stack_empty((n, L)), stack_empty((n, L)), stack_empty((7, L))
     nq, nv, na, nw = q.shape[0] > 1, qd.shape[0] > 1, qdd.shape[0] > 1, w.shape[0] > 1
     use_qd, use_qdd, use_w = (flags & F.QD) != 0, (flags & F.QDD) != 0, (flags & F.WRENCH) != 0
-    # --- gather the block: theta = ANG + SGN q, rates, accelerations, the projected wrench
-    small = True                         # every angle of the block below SMALL_ANGLE
-    fin = True                           # every rate, acceleration and wrench finite
+    # --- gather the block, joint by joint: theta = ANG + SGN q, rates, accelerations
+    for b in range(nl):                  # ST[4]: 0.0, or NaN for a NaN/Inf rate or acceleration;
+        ST[4, b] = 0.0                   # QV[3n]: 1.0 if every angle of the lane is below SMALL_ANGLE
+        QV[3 * n, b] = 1.0
+    for i in range(n):
+        an, sg = Q[i, ANG], Q[i, SGN]
+        for b in range(nl):
+            x = q[k0 + b if nq else 0, i]
+            QV[i, b] = x
+            th = an + sg * x
+            TH[i, b] = th
+            QV[3 * n, b] = QV[3 * n, b] if abs(th) < SMALL_ANGLE else 0.0
+        if use_qd:
+            for b in range(nl):
+                y = qd[k0 + b if nv else 0, i]
+                QV[n + i, b] = y
+                ST[4, b] += y * 0.0
+        else:
+            for b in range(nl):
+                QV[n + i, b] = 0.0
+        if use_qdd:
+            for b in range(nl):
+                z = qdd[k0 + b if na else 0, i]
+                QV[2 * n + i, b] = z
+                ST[4, b] += z * 0.0
+        else:
+            for b in range(nl):
+                QV[2 * n + i, b] = 0.0
+    small = True
+    fin = True
     for b in range(nl):
-        k = k0 + b
-        lane_small = True
-        for i in range(n):
-            x = q[k if nq else 0, i]
-            y = qd[k if nv else 0, i] if use_qd else 0.0
-            z = qdd[k if na else 0, i] if use_qdd else 0.0
-            th = Q[i, ANG] + Q[i, SGN] * x
-            QV[i, b], QV[n + i, b], QV[2 * n + i, b], TH[i, b] = x, y, z, th
-            lane_small &= abs(th) < SMALL_ANGLE
-            fin &= y * 0.0 == 0.0 and z * 0.0 == 0.0
-        QV[3 * n, b] = 1.0 if lane_small else 0.0
-        small &= lane_small
+        small &= QV[3 * n, b] == 1.0
+        fin &= ST[4, b] == 0.0
+    # the state, and the tip wrench projected on the plane
+    for b in range(nl):
         ex = ey = mn = 0.0
         if use_w:
-            w0, w1, w2 = w[k if nw else 0, 0], w[k if nw else 0, 1], w[k if nw else 0, 2]
-            w3, w4, w5 = w[k if nw else 0, 3], w[k if nw else 0, 4], w[k if nw else 0, 5]
+            k = k0 + b if nw else 0
+            w0, w1, w2, w3, w4, w5 = w[k, 0], w[k, 1], w[k, 2], w[k, 3], w[k, 4], w[k, 5]
             fin &= (w0 * 0.0 + w1 * 0.0 + w2 * 0.0 + w3 * 0.0 + w4 * 0.0 + w5 * 0.0) == 0.0
             ex = Q[n, E1] * w0 + Q[n, E1 + 1] * w1 + Q[n, E1 + 2] * w2
             ey = Q[n, E2] * w0 + Q[n, E2 + 1] * w1 + Q[n, E2 + 2] * w2
@@ -359,16 +378,18 @@ def planar_crba_block(Q, q, out, k0, L):
     QV, TH, SN = stack_empty((n + 1, L)), stack_empty((n, L)), stack_empty((n, L))
     PX, PY, CB = stack_empty((n, L)), stack_empty((n, L)), stack_empty((7, L))
     MB = scratch((n * n, L), n * n * L)
+    for b in range(nl):                  # QV[n]: 1.0 if every angle of the lane is below SMALL_ANGLE
+        QV[n, b] = 1.0
+    for i in range(n):
+        an, sg = Q[i, ANG], Q[i, SGN]
+        for b in range(nl):
+            x = q[k0 + b if nq else 0, i]
+            th = an + sg * x
+            QV[i, b], TH[i, b] = x, th
+            QV[n, b] = QV[n, b] if abs(th) < SMALL_ANGLE else 0.0
     small = True
     for b in range(nl):
-        lane_small = True
-        for i in range(n):
-            x = q[k0 + b if nq else 0, i]
-            th = Q[i, ANG] + Q[i, SGN] * x
-            QV[i, b], TH[i, b] = x, th
-            lane_small &= abs(th) < SMALL_ANGLE
-        QV[n, b] = 1.0 if lane_small else 0.0
-        small &= lane_small
+        small &= QV[n, b] == 1.0
     fin = True
     for i in range(n):
         if small:
@@ -438,8 +459,8 @@ def _planar_rnea_batch(Q, q, qd, qdd, w, flags, out):
     are then not meaningful), 2 on a wrong shape."""
     n, N = Q.shape[0] - 1, out.shape[0]
     use_qd, use_qdd, use_w = (flags & F.QD) != 0, (flags & F.QDD) != 0, (flags & F.WRENCH) != 0
-    if (n < 1 or out.shape[1] != n or q.shape[1] != n or (q.shape[0] != N and q.shape[0] != 1)
-            or (use_qd and (qd.shape[1] != n or (qd.shape[0] != N and qd.shape[0] != 1)))
+    if (n < 1 or (flags & UNSUPPORTED) != 0 or out.shape[1] != n or q.shape[1] != n
+            or (q.shape[0] != N and q.shape[0] != 1) or (use_qd and (qd.shape[1] != n or (qd.shape[0] != N and qd.shape[0] != 1)))
             or (use_qdd and (qdd.shape[1] != n or (qdd.shape[0] != N and qdd.shape[0] != 1)))
             or (use_w and (w.shape[1] != 6 or (w.shape[0] != N and w.shape[0] != 1)))):
         return 2
@@ -472,29 +493,3 @@ ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core fu
                           ("planar_rnea_block",)),
     "planar_crba_batch": (_planar_crba_batch, i8(Qm, In2, Out3), True, ("planar_crba_block",)),
 }
-SINGLE_STATE = ("planar_rnea", "planar_rnea_wrench", "planar_crba")
-OTHER_TYPES = 3
-_LOCK = threading.Lock()
-
-
-def _other_types(*args, **kwargs):
-    return lambda *a, **k: OTHER_TYPES
-
-
-def __getattr__(name):
-    """The compiled entry point ``name`` (first access: compile or load from the cache)."""
-    if name not in ENTRY_POINTS:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    with _LOCK:
-        if name in globals():
-            return globals()[name]
-        func, sig, nogil, calls = ENTRY_POINTS[name]
-        compile_internal(calls)
-        kernel = njit(cache=True, nogil=nogil)(func)
-        kernel.compile(sig)
-        if name in SINGLE_STATE:     # other argument types: a status, not a new compile
-            kernel._compile_for_args = _other_types
-        else:
-            kernel.disable_compile()
-        globals()[name] = kernel
-        return kernel

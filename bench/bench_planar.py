@@ -40,6 +40,7 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 import serial_dynamics as sd                                        # noqa: E402
 from serial_dynamics.algorithms.planar import planar_pack           # noqa: E402
 from serial_dynamics.core import K                                  # noqa: E402
+from _report import stamp, write_section                           # noqa: E402
 from serial_dynamics.core import flags as F                         # noqa: E402
 from serial_dynamics.core.signatures import Mat, Pm, Vec, i8        # noqa: E402
 from serial_dynamics.robots.synthetic import chain_urdf             # noqa: E402
@@ -182,15 +183,25 @@ def main(argv=None):
         r, i = rows_for(name, robot, rounds, floor)
         rows += r
         inner += i
-    print(f"Planar fast path against the general compiled core; median of {rounds} interleaved "
-          f"rounds, one thread, gain = 1 - planar / general.\n")
-    print(table(rows))
-    print("\nDispatch alone (a compiled no-op with the same argument types), part of every "
-          "single-state row above: " + "; ".join(
-              f"{name}: {a * 1e9:.0f} ns (rnea's arguments), {b * 1e9:.0f} ns (crba's)"
-              for name, a, b in floor) + ".")
-    print("\nThe single-state kernels called from compiled code (no Python dispatch):\n")
-    print(table(inner))
+    text = "\n".join([
+        "## Planar fast path (textbook 7.6.1)", "", stamp(),
+        "`python bench/bench_planar.py`. The planar kernels (`core/planar.py`, used by "
+        "`PlanarRobot` when `robot.is_planar`) against the general compiled core on the same "
+        f"chain; median of {rounds} interleaved rounds, one thread, gain = 1 - planar / general.",
+        "", table(rows), "",
+        "Dispatch alone (a compiled no-op with the same argument types), part of every "
+        "single-state row above: " + "; ".join(
+            f"{name}: {a * 1e9:.0f} ns (rnea's arguments), {b * 1e9:.0f} ns (crba's)"
+            for name, a, b in floor) + ".", "",
+        "The single-state kernels called from compiled code (no Python dispatch):", "",
+        table(inner), "",
+        "Batches gain well over 20 %; single calls 8-20 % (the `rnea_wrench` row also gains "
+        "because the general wrench entry calls the Newton-Euler core without inlining it), "
+        "bounded by the dispatch. The path is on for single states too, so that a state "
+        "gives the same bits alone and in a batch."])
+    print(text)
+    if not args.quick:
+        write_section("planar", text)
 
 
 if __name__ == "__main__":

@@ -370,7 +370,9 @@ def _external(base_motion, wrench, flags):
     general path (which names the culprit): w is then empty, and the entry point answers 2."""
     if not isinstance(base_motion, BaseMotion) or (wrench is not None and np.shape(wrench) != (6,)):
         return _W_BAD, flags
-    return base_motion.external(wrench), flags | F.BASE | (0 if wrench is None else F.WRENCH)
+    if wrench is None:                     # the motion's own vector (no kernel writes w)
+        return base_motion._ext, flags | F.BASE
+    return base_motion.external(wrench), flags | F.BASE | F.WRENCH
 
 
 def _rows(a):

@@ -41,9 +41,9 @@ class MimicRobot(Robot):
         self._ind = model.independent
         self._src = np.argmax(self._G != 0.0, axis=1)     # joint i follows coordinate src[i]
         self._m = self._G[np.arange(model.dof), self._src]  # with multiplier m[i] (1: itself)
-        self._followers = [(i, self._src[i], self._m[i]) for i in np.flatnonzero(model.mimic_leader >= 0)]
-        self._fi, self._fk, self._fm = (np.array(x, dtype=t) for x, t in
-                                        zip(zip(*self._followers), (np.int64, np.int64, float)))
+        fi = np.flatnonzero(model.mimic_leader >= 0)         # the followers, in chain order:
+        self._fi, self._fk, self._fm = fi, self._src[fi], self._m[fi]   # joint, coordinate, m
+        self._followers = list(zip(fi, self._src[fi], self._m[fi]))
         self._view = _Independent([model.joint_names[i] for i in self._ind])
         self._zero = np.zeros(model.dof)
         if dissipation is None:

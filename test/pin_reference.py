@@ -36,14 +36,7 @@ class PinReference:
         self.iv = np.array([self.model.idx_vs[j] for j in self.jid])
 
     def q(self, q):
-        qp = pin.neutral(self.model)
-        for k, j in enumerate(self.jid):
-            i = self.model.idx_qs[j]
-            if self.model.nqs[j] == 2:      # continuous joint: (cos, sin)
-                qp[i:i + 2] = np.cos(q[k]), np.sin(q[k])
-            else:
-                qp[i] = q[k]
-        return qp
+        return configuration(self.model, self.jid, q)
 
     def v(self, x):
         out = np.zeros(self.model.nv)
@@ -69,6 +62,19 @@ class PinReference:
     def coriolis_times_qd(self, q, qd):
         C = pin.computeCoriolisMatrix(self.model, self.data, self.q(q), self.v(qd))
         return (C @ self.v(qd))[self.iv]
+
+
+def configuration(model, jid, q):
+    """Pinocchio's configuration vector of ``model`` with our ``q`` on the joints ``jid``
+    (the others, a free-flyer root included, at neutral)."""
+    qp = pin.neutral(model)
+    for k, j in enumerate(jid):
+        i = model.idx_qs[j]
+        if model.nqs[j] == 2:               # continuous joint: (cos, sin)
+            qp[i:i + 2] = np.cos(q[k]), np.sin(q[k])
+        else:
+            qp[i] = q[k]
+    return qp
 
 
 def load(path, base=None, tip=None, **kw):

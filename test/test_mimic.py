@@ -9,7 +9,7 @@ import warnings
 import numpy as np
 import pytest
 
-from pin_reference import erd, pin
+from pin_reference import configuration, erd, pin
 
 import serial_dynamics as sd
 
@@ -61,14 +61,7 @@ class PinMimic:
         assert model.nv == robot.dof
 
     def q(self, q):
-        qp = pin.neutral(self.model)
-        for k, j in enumerate(self.jid):
-            i = self.model.idx_qs[j]
-            if self.model.nqs[j] == 2:
-                qp[i:i + 2] = np.cos(q[k]), np.sin(q[k])
-            else:
-                qp[i] = q[k]
-        return qp
+        return configuration(self.model, self.jid, q)
 
     def v(self, x):
         out = np.zeros(self.model.nv)

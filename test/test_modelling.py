@@ -24,7 +24,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from pin_reference import PinReference, erd, pin
+from pin_reference import PinReference, configuration, erd, pin
 
 import serial_dynamics as sd
 from serial_dynamics.robots.synthetic import chain_urdf
@@ -159,14 +159,7 @@ class FreeFlyerReference:
         self.robot = robot
 
     def q(self, q):
-        qp = pin.neutral(self.model)          # identity base pose
-        for k, j in enumerate(self.jid):
-            i = self.model.idx_qs[j]
-            if self.model.nqs[j] == 2:
-                qp[i:i + 2] = np.cos(q[k]), np.sin(q[k])
-            else:
-                qp[i] = q[k]
-        return qp
+        return configuration(self.model, self.jid, q)     # identity base pose
 
     def v(self, head, x):
         out = np.zeros(self.model.nv)
@@ -176,17 +169,7 @@ class FreeFlyerReference:
 
     def fext(self, q, w):
         """Our tip wrench (tip origin, base axes) as a force on the last joint (its axes)."""
-        m, d = self.model, self.data
-        pin.forwardKinematics(m, d, self.q(q))
-        pin.updateFramePlacements(m, d)
-        oMb = d.oMf[m.getFrameId(self.robot.base_link, pin.BODY)]
-        oMt = d.oMf[m.getFrameId(self.robot.tip_link, pin.BODY)]
-        oMj = d.oMi[self.jid[-1]]
-        f, mo = oMb.rotation @ w[:3], oMb.rotation @ w[3:]
-        r = oMt.translation - oMj.translation
-        out = [pin.Force.Zero() for _ in range(m.njoints)]
-        out[self.jid[-1]] = pin.Force(oMj.rotation.T @ f, oMj.rotation.T @ (mo + np.cross(r, f)))
-        return out
+        return pin_fext_fixed(self, self.robot, q, w)
 
     def rnea(self, q, qd, qdd, bm, w=None):
         v = self.v(np.r_[0, 0, 0, bm.angular_velocity], qd)

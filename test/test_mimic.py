@@ -9,7 +9,7 @@ import warnings
 import numpy as np
 import pytest
 
-from pin_reference import configuration, erd, pin
+from pin_reference import PinReference, erd, pin
 
 import serial_dynamics as sd
 
@@ -49,7 +49,7 @@ def mimic_chain(follower="revolute"):
             + "</robot>")
 
 
-class PinMimic:
+class PinMimic(PinReference):
     """Pinocchio's model of the same chain with mimic joints (nv = independent joints)."""
 
     def __init__(self, robot, model):
@@ -59,22 +59,6 @@ class PinMimic:
         self.jid = [model.getJointId(n) for n in robot.joint_names]
         self.iv = np.array([model.idx_vs[j] for j in self.jid])
         assert model.nv == robot.dof
-
-    def q(self, q):
-        return configuration(self.model, self.jid, q)
-
-    def v(self, x):
-        out = np.zeros(self.model.nv)
-        out[self.iv] = x
-        return out
-
-    def rnea(self, q, qd, qdd):
-        return pin.rnea(self.model, self.data, self.q(q), self.v(qd), self.v(qdd))[self.iv]
-
-    def mass_matrix(self, q):
-        M = pin.crba(self.model, self.data, self.q(q))
-        M = np.triu(M) + np.triu(M, 1).T
-        return M[np.ix_(self.iv, self.iv)]
 
 
 def synthetic(follower):

@@ -573,7 +573,7 @@ def test_payload_properties():
 def test_without_payload_is_bitwise_the_loaded_robot(case, backend):
     robot = case.robots[backend]
     Q, QD, QDD, W = batch(robot, 5, seed=10)
-    q, qd, qdd, w = Q[0], QD[0], QDD[0], W[0]
+    q, qd, qdd = Q[0], QD[0], QDD[0]
 
     def results(r):
         return [r.inverse_dynamics(q, qd, qdd), r.inverse_dynamics(Q, QD, QDD, wrench=W),

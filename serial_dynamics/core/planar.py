@@ -31,7 +31,7 @@ from . import flags as F
 from ..algorithms.planar import (ANG, ARM, DX, DY, E1, E2, GX, GY, HX, HY, IZ, KIND, MASS,
                                  NRM, RX, RY, SGN, TX, TY)
 from .data import scratch, stack_empty
-from .signatures import In2, Mat, Out2, Out3, Pm, Vec, compile_internal, i8, internal
+from .signatures import In2, Mat, Out2, Out3, Pm, Vec, i8, internal
 from .spatial import SMALL_ANGLE, sincos
 
 Qm = Pm                 # the packed planar model Q (never written), C-contiguous

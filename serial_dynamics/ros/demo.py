@@ -35,7 +35,8 @@ from serial_dynamics.trajectory import pick_and_place
 from . import common
 from .processes import NodeProcess
 
-LEAD, SETTLE = 0.5, 0.5        # s of simulated time before the trajectory and after its end
+LEAD, SETTLE = 1.5, 0.5        # s of simulated time before the trajectory (discovery can take
+                               # a second on a loaded machine; copies are resent until then) and after
 RESEND = 0.05                  # s of wall time between sends of the trajectory before it starts
 NOT_FOLLOWED = 0.1             # rad: a larger tracking error means the controller did not follow
 STARTUP_TIMEOUT = 150.0        # s of wall time for the nodes to come up (a first run compiles)

@@ -28,7 +28,7 @@ setup(
             "ros-jazzy-rmw-fastrtps-cpp",
         ],
         "plot": ["matplotlib"],
-        "test": ["pytest", "pin", "example-robot-data", "matplotlib", "mpmath"],
+        "test": ["pytest", "hypothesis", "pin", "example-robot-data", "matplotlib", "mpmath"],
         "bench": ["pin", "example-robot-data", "mujoco", "matplotlib"],
     },
     zip_safe=True,

@@ -1,8 +1,9 @@
-"""Command line: ``serial-dynamics {info,demo,simulate} ...``."""
+"""Command line: serial-dynamics {info,demo,simulate} [URDF] [options]."""
 from __future__ import annotations
 
 import argparse
 import sys
+import warnings
 
 import numpy as np
 
@@ -19,6 +20,12 @@ def cmd_info(args):
     q = np.zeros(robot.dof)
     np.set_printoptions(precision=4, suppress=True, linewidth=120)
     print(robot)
+    if np.any(robot.armature):
+        print("armature (reflected rotor inertia, kg m^2):", robot.armature)
+    if robot.all_joint_names != robot.joint_names:
+        print("every joint (mimic joints follow the independent ones):", robot.all_joint_names)
+    if robot.is_planar:
+        print("planar chain: computed on the planar fast path")
     print("gravity torques at q = 0 (N m):", robot.gravity_torques(q))
     print("mass matrix at q = 0 (kg m^2):\n", robot.mass_matrix(q))
     return 0
@@ -140,8 +147,11 @@ def main(argv=None):
                             ("simulate", cmd_simulate, "simulate the forward dynamics; plot, CSV")):
         p = sub.add_parser(name, help=help_)
         p.add_argument("urdf", nargs="?", default=None, help="URDF path (default: built-in UR5e)")
-        p.add_argument("--base-link", default=None)
-        p.add_argument("--tip-link", default=None)
+        p.add_argument("--base-link", default=None, metavar="LINK",
+                       help="first link of the modelled chain (default: the URDF root)")
+        p.add_argument("--tip-link", default=None, metavar="LINK",
+                       help="last link of the chain (default: the end of the movable chain "
+                            "when it does not branch, followed down fixed links, e.g. tool0)")
         p.set_defaults(func=fn)
         if name == "demo":   # the ROS demo's options (serial_dynamics.ros.demo)
             p.add_argument("--plot", metavar="PNG", default=None, help="write a plot of the tracking")
@@ -151,11 +161,17 @@ def main(argv=None):
         if name == "simulate":
             _simulate_options(p)
     args = parser.parse_args(argv)
+    warnings.showwarning = _warning_line
     try:
         return args.func(args)
     except (ValueError, OSError) as exc:   # URDFError, ModelError are ValueErrors
         print(f"serial-dynamics: error: {exc}", file=sys.stderr)
         return 2
+
+
+def _warning_line(message, category, filename, lineno, file=None, line=None):
+    """A warning (e.g. HeldJointsWarning) as one line, without Python's source line."""
+    print(f"serial-dynamics: {category.__name__}: {message}", file=sys.stderr if file is None else file)
 
 
 if __name__ == "__main__":

@@ -178,7 +178,8 @@ def report(r) -> str:
     w = max(12, *(len(x) + 2 for x in names))
     row = lambda label, vals, fmt: f"  {label:<24}" + "".join(f"{fmt(v):>{w}}" for v in vals)  # noqa: E731
     lines = [f"computed-torque tracking of the pick-and-place trajectory on {r['robot']} "
-             f"({r['samples']} joint states):",
+             f"({r['samples']} joint states from the trajectory's start to {SETTLE:g} s after "
+             "its end; the hold before it is not counted):",
              row("joint", names, str),
              row("RMS error (mrad)", r["rms"], lambda v: f"{1e3 * v:.3f}"),
              row("max error (mrad)", r["max"], lambda v: f"{1e3 * v:.3f}"),
@@ -204,7 +205,10 @@ def plot(r, path):
     ax1.set_ylabel("joint position (rad); dashed: desired")
     ax1.legend(fontsize=7, ncol=3)
     ax2.set_ylabel("tracking error (mrad)")
-    ax2.set_xlabel("time from the trajectory start (s, simulated)")
+    ax2.set_xlabel("time from the trajectory start (s, simulated); the table's errors count "
+                   "from 0 on")
+    for ax in (ax1, ax2):
+        ax.axvspan(t[0], 0.0, color="0.9", zorder=0)       # the hold before the start
     ax1.set_title(f"computed-torque control, {r['robot']}: real-time factor "
                   f"{r['real_time_factor']:.2f}")
     fig.tight_layout()

@@ -153,14 +153,36 @@ def test_coriolis_matrix_pieces(robot):
 
 
 # ---------------------------------------------------------------- dynamics
+@pytest.fixture(scope="module")
+def lagrange(robot):
+    """tau = M(q) qdd + C(q, qd) qd + g(q) - J(q)^T w by a route that shares no code with
+    Newton-Euler's velocity terms: the NumPy reference's composite-rigid-body M, the natural
+    orthogonal complement's C (reference code on either backend), the reference gravity
+    torques and the kinematic Jacobian."""
+    ref = sd.Robot(robot.model, backend="numpy")
+
+    def tau(q, qd, qdd, w=None):
+        out = (ref.mass_matrix(q) @ qdd + ref.coriolis_matrix(q, qd) @ qd
+               + ref.gravity_torques(q))
+        return out if w is None else out - ref.jacobian(q).T @ w
+    return tau
+
+
 @pytest.mark.parametrize("method", ["cholesky", "qr", "aba", "auto"])
-def test_forward_inverse_identity(robot, method):
+def test_forward_inverse_identity(robot, lagrange, method):
+    w = np.array([3.0, -2.0, 5.0, 0.4, -0.3, 0.2])
     for q, qd, qdd in states(robot, 5, seed=8):
-        tau = robot.inverse_dynamics(q, qd, qdd)
+        # the torques from the independent route, not from this robot's own Newton-Euler:
+        # a forward route that shares a wrong velocity term with inverse dynamics would
+        # otherwise take its own torques back exactly
+        tau, tau_w = lagrange(q, qd, qdd), lagrange(q, qd, qdd, w)
+        assert rel_err(robot.inverse_dynamics(q, qd, qdd), tau) < 1e-12
+        assert rel_err(robot.inverse_dynamics(q, qd, qdd, wrench=w), tau_w) < 1e-12
         assert rel_err(robot.forward_dynamics(q, qd, tau, method=method), qdd) < 1e-9
-        w = np.array([3.0, -2.0, 5.0, 0.4, -0.3, 0.2])
-        tau_w = robot.inverse_dynamics(q, qd, qdd, wrench=w)
         assert rel_err(robot.forward_dynamics(q, qd, tau_w, wrench=w, method=method), qdd) < 1e-9
+        # the velocity terms weigh here: with their sign flipped qdd is off by 2 M^-1 C qd
+        flip = 2 * np.linalg.solve(robot.mass_matrix(q), robot.coriolis_matrix(q, qd) @ qd)
+        assert rel_err(qdd + flip, qdd) > 1e-3
 
 
 def test_kinetic_energy_two_ways(robot):

@@ -331,17 +331,29 @@ def test_fixed_step_loop_matches_a_python_loop():
 
 def test_simulate_fixed_step_wrapper():
     robot = sd.default_robot()
+    ref = Robot(robot.model, backend="numpy")          # the wrapper packs its model on the fly
     n = robot.dof
     q0 = np.array([0.1, -1.2, 1.0, -0.5, 0.3, 0.0])
-    tau = robot.gravity_torques(q0)
+    tau = ref.gravity_torques(q0)                      # the reference's gravity torques
     q, qd = simulate_fixed_step(robot, q0, np.zeros(n), tau, 1e-3, 200)
-    assert q.shape == (201, n) and np.max(np.abs(q - q0)) < 1e-9      # held by gravity torques
-    ref = Robot(robot.model, backend="numpy")                          # packs on the fly
-    beta = np.full(n, 0.7)
-    a, _ = simulate_fixed_step(robot, q0, np.ones(n), list(tau * 0.5), 1e-3, 50, beta)
-    b, _ = simulate_fixed_step(ref, q0, np.ones(n), np.tile(tau * 0.5, (50, 1)), 1e-3, 50, beta,
-                                       wrench=np.zeros(6), method="aba")
-    assert rel(a, b) <= TOL
+    assert q.shape == (201, n) and np.max(np.abs(q - q0)) < 1e-9      # hold the arm
+    # both routes of the compiled loop against a Python loop on the NumPy reference
+    # (implicit damping, the default: (M + dt diag(beta)) qdd = tau - beta qd - b)
+    beta, dt, steps = np.full(n, 0.7), 1e-3, 50
+    a, ad = simulate_fixed_step(robot, q0, np.ones(n), list(tau * 0.5), dt, steps, beta)
+    b, bd = simulate_fixed_step(ref, q0, np.ones(n), np.tile(tau * 0.5, (steps, 1)), dt, steps,
+                                beta, wrench=np.zeros(6), method="aba")
+    Q, QD = [q0], [np.ones(n)]
+    for _ in range(steps):
+        x, v = Q[-1], QD[-1]
+        A = ref.mass_matrix(x) + dt * np.diag(beta)
+        v = v + dt * np.linalg.solve(A, 0.5 * tau - beta * v - ref.bias_torques(x, v))
+        Q.append(x + dt * v)
+        QD.append(v)
+    Q, QD = np.array(Q), np.array(QD)
+    assert np.max(np.abs(Q[-1] - q0)) > 0.05                          # it moved
+    for x, v in ((a, ad), (b, bd)):
+        assert rel(x, Q) <= TOL and rel(v, QD) <= 1e-11
     with pytest.raises(ValueError, match="tau has shape"):
         simulate_fixed_step(robot, q0, q0, np.zeros((3, n)), 1e-3, 50)
     with pytest.raises(ValueError, match="q0 has a NaN"):

@@ -232,12 +232,55 @@ def test_stribeck_breakaway(method):
     robot.dissipation = robot.dissipation.override(stribeck=0.5, stribeck_rate=20.0)
     inertia = robot.mass_matrix(np.zeros(1))[0, 0]
     stuck = sd.simulate(robot, 0.5, None, None, [1.4], method=method, dt=1e-3)
-    assert np.all(stuck.qd == 0.0)
+    # held by static friction: at rest, exactly, with the friction torque that balances
+    # the applied one (-1.4 N m, within tau_c + eps = 1.5; breaking away on tau_c = 1
+    # alone would record the kinetic friction -1.5 and qdd = -0.1 / I = -3.3 rad/s^2)
+    assert np.all(stuck.qd == 0.0) and np.all(stuck.q == 0.0)
+    np.testing.assert_array_equal(stuck.qdd, 0.0)
+    np.testing.assert_allclose(stuck.delta[:, 0], -1.4, rtol=0, atol=1e-12)
+    assert stuck.energy_dissipated[-1] == 0.0
     res = sd.simulate(robot, 0.5, None, None, [1.6], method=method, dt=1e-4)
     ref = solve_ivp(lambda t, v: (1.6 - 1.0 - 0.5 * np.exp(-20 * v)) / inertia, (0, 0.5), [0.0],
                     rtol=1e-12, atol=1e-14)
     tol = 2e-3 if method == "semi_implicit_euler" else 1e-6
     np.testing.assert_allclose(res.qd[-1, 0], ref.y[0, -1], rtol=tol)
+
+
+@pytest.mark.parametrize("method", FIXED_STEP)
+def test_stribeck_holds_a_reaction_between_coulomb_and_static_friction(method):
+    """Two joints about z (no gravity torque): joint 1 has tau_c = 1, eps = 0.6 (static
+    friction 1.6 N m), joint 2 none and is driven by 0.5 sin(6 t). With joint 1 held,
+    joint 2 is a lone rod on its axis, and the torque that holds joint 1 (the reaction
+    M_12 qdd_2 + b_1) reaches 1.44 N m: above tau_c, within the static friction. So joint 1
+    never moves and joint 2 moves exactly as the one-joint model of its rod."""
+    two = sd.load_urdf(chain_urdf(2, axes=("z", "z"), masses=(2.0, 1.0)))
+    two.dissipation = two.dissipation.override(coulomb=[1.0, 0.0], stribeck=[0.6, 0.0],
+                                               stribeck_rate=[20.0, 0.0])
+    one = sd.load_urdf(chain_urdf(1, axes=("z",), masses=(1.0,)))     # link 2 alone
+
+    def drive(t, q, qd):
+        return np.array([0.0, 0.5 * np.sin(6 * t)])
+
+    res = sd.simulate(two, 1.0, None, None, drive, method=method, dt=1e-3)
+    ref = sd.simulate(one, 1.0, None, None, lambda t, q, qd: drive(t, q, qd)[1:],
+                      method=method, dt=1e-3)
+    assert np.all(res.q[:, 0] == 0.0) and np.all(res.qd[:, 0] == 0.0)
+    np.testing.assert_array_equal(res.qdd[:, 0], 0.0)
+    # joint 2 as with joint 1 locked (same steps on the same one-joint ODE: to round-off)
+    np.testing.assert_allclose(res.q[:, 1], ref.q[:, 0], rtol=0, atol=1e-10)
+    np.testing.assert_allclose(res.qd[:, 1], ref.qd[:, 0], rtol=0, atol=1e-10)
+    np.testing.assert_allclose(res.qdd[:, 1], ref.qdd[:, 0], rtol=0, atol=1e-9)
+    assert res.q[-1, 1] > 2.5                                   # it did move (2.9 rad)
+    # the holding torque, in closed form for two rods of 0.3 m on parallel axes (joint 1
+    # at rest): h_1 = M_12 qdd_2 + b_1, M_12 = I_2 + m_2 l_1 (l_2 / 2) cos q_2,
+    # b_1 = -m_2 l_1 (l_2 / 2) sin q_2 qd_2^2, I_2 = m_2 (3 r^2 + l_2^2) / 12 + m_2 l_2^2 / 4
+    q2, qd2, qdd2 = ref.q[:, 0], ref.qd[:, 0], ref.qdd[:, 0]
+    I2, c = (3 * 0.02**2 + 0.3**2) / 12 + 0.3**2 / 4, 0.3 * 0.15
+    h1 = (I2 + c * np.cos(q2)) * qdd2 - c * np.sin(q2) * qd2**2
+    np.testing.assert_allclose(res.delta[:, 0], h1, rtol=0, atol=1e-9)
+    assert 1.0 < np.max(np.abs(h1)) < 1.6                    # between tau_c and tau_c + eps
+    assert np.sum(np.abs(h1) > 1.0) > 50
+    np.testing.assert_array_equal(res.delta[:, 1], 0.0)
 
 
 @pytest.mark.parametrize("method", FIXED_STEP)

@@ -1,18 +1,24 @@
-"""ROS latency: round trip of single-point inverse-dynamics requests at 1 kHz, and the
-simulator's achieved real-time factor at sim_dt = 1 ms.
+"""ROS latency: round trip of single-point inverse-dynamics requests at 1 kHz, the
+highest request rate served without loss on shared cores, and the simulator's achieved
+real-time factor at sim_dt = 1 ms.
 
-    python bench/bench_ros_latency.py [--seconds 10]
+    python bench/bench_ros_latency.py [--seconds 10] [--step-seconds 5]
 
-Both nodes run as separate processes (python -m serial_dynamics.ros.<node>), on a ROS
+Every node runs as a separate process (python -m serial_dynamics.ros.<node>), on a ROS
 domain of their own, with the Fast DDS RMW of the PyPI wheels. The client is an rclpy
 node too: a thread publishes the requests on a wall-clock schedule, the executor thread
 takes the answers; the round trip is from just before publish to the answer's callback.
-Writes the "ros_latency" section of bench/BENCHMARKS.md.
+The client's publisher and subscription keep the last REQUEST_DEPTH (100) messages, as
+docs/ros.md advises for a fast client. "Under load": the simulator (real time) and the
+computed-torque controller (500 Hz) run in a closed loop beside the inverse-dynamics node,
+with one more process spinning on a core; the request rate steps up until requests are
+lost. Writes the "ros_latency" section of bench/BENCHMARKS.md.
 """
 from __future__ import annotations
 
 import argparse
 import os
+import subprocess
 import sys
 import threading
 import time
@@ -25,6 +31,7 @@ os.environ.setdefault("ROS_DOMAIN_ID", str(150 + os.getpid() % 60))
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 
 import rclpy  # noqa: E402
+from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
 from std_msgs.msg import Float64MultiArray  # noqa: E402
@@ -32,12 +39,14 @@ from std_srvs.srv import SetBool  # noqa: E402
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint  # noqa: E402
 
 import serial_dynamics as sd  # noqa: E402
+from serial_dynamics.ros.common import REQUEST_DEPTH  # noqa: E402
 from serial_dynamics.ros.processes import NodeProcess  # noqa: E402
 
 from _report import stamp, write_section  # noqa: E402
 
 NO_TOPIC = {"robot_description_timeout": 0.0}
 HOME = [0.0, -1.571, 1.571, -1.571, -1.571, 0.0]
+LADDER = (250, 500, 750, 1000, 1250, 1500, 2000)   # Hz, request rates under load
 
 
 def spin_until(executor, done, timeout, what):
@@ -48,25 +57,52 @@ def spin_until(executor, done, timeout, what):
         executor.spin_once(timeout_sec=0.01)
 
 
-def latency(node, executor, seconds, rate=1000.0):
-    robot = sd.default_robot()
-    sent, received = {}, {}
-    pub = node.create_publisher(JointTrajectory, "inverse_dynamics/request", 10)
-    node.create_subscription(JointTrajectory, "inverse_dynamics/response",
-                             lambda m: received.setdefault(int(m.header.frame_id),
-                                                           time.perf_counter()), 10)
-    proc = NodeProcess("inverse_dynamics", NO_TOPIC)
-    try:
-        spin_until(executor, lambda: pub.get_subscription_count() > 0, 150, "the node")
+class Client:
+    """Requests to the inverse-dynamics node of namespace ``ns``, tagged ``run:k`` in
+    frame_id; answers matched by tag; the node's own counts read from /diagnostics."""
+
+    def __init__(self, node, executor, ns="", depth=REQUEST_DEPTH):
+        self.executor, self.run_id = executor, 0
+        self.sent, self.received, self.node_counts = {}, {}, None
+        self.pub = node.create_publisher(JointTrajectory, f"{ns}/inverse_dynamics/request",
+                                         depth)
+        self.sub = node.create_subscription(JointTrajectory, f"{ns}/inverse_dynamics/response",
+                                            self.on_answer, depth)
+        node.create_subscription(DiagnosticArray, "/diagnostics", self.on_diagnostics, 10)
+        self.name = f"{ns}/inverse_dynamics"
+        robot = sd.default_robot()
         q, qd = robot.random_state(0)
-        template = JointTrajectory(joint_names=robot.joint_names, points=[
+        self.template = JointTrajectory(joint_names=robot.joint_names, points=[
             JointTrajectoryPoint(positions=q.tolist(), velocities=qd.tolist(),
                                  accelerations=[0.5] * robot.dof)])
-        for i in range(200):                    # warm the path; not counted
-            template.header.frame_id = str(-1 - i)
-            pub.publish(template)
-            executor.spin_once(timeout_sec=0.002)
-        stop = threading.Event()
+        spin_until(executor, lambda: self.pub.get_subscription_count() > 0, 150, "the node")
+        spin_until(executor, lambda: self.node_counts is not None, 10, "its /diagnostics")
+
+    def on_answer(self, m):
+        run, k = map(int, m.header.frame_id.split(":"))
+        if run == self.run_id:
+            self.received.setdefault(k, time.perf_counter())
+
+    def on_diagnostics(self, msg):
+        for s in msg.status:
+            if s.name == self.name:
+                self.node_counts = {v.key: int(v.value) for v in s.values}
+
+    def node_received(self):
+        return self.node_counts.get("received inverse_dynamics/request", 0)
+
+    def run(self, seconds, rate, warmup=200):
+        """Requests at ``rate`` for ``seconds``: counts and round-trip percentiles (ms)."""
+        self.run_id += 1
+        self.sent, self.received = {}, {}
+        for i in range(warmup):                 # warm the path; not counted
+            self.template.header.frame_id = f"0:{i}"
+            self.pub.publish(self.template)
+            self.executor.spin_once(timeout_sec=0.002)
+        deadline = time.monotonic() + 1.5       # a fresh /diagnostics report
+        while time.monotonic() < deadline:
+            self.executor.spin_once(timeout_sec=0.01)
+        node_before, stop = self.node_received(), threading.Event()
 
         def publisher():
             t0, k = time.perf_counter(), 0
@@ -74,9 +110,9 @@ def latency(node, executor, seconds, rate=1000.0):
                 due = t0 + k / rate
                 while (now := time.perf_counter()) < due:
                     time.sleep(min(due - now, 0.0005))
-                template.header.frame_id = str(k)
-                sent[k] = time.perf_counter()
-                pub.publish(template)
+                self.template.header.frame_id = f"{self.run_id}:{k}"
+                self.sent[k] = time.perf_counter()
+                self.pub.publish(self.template)
                 k += 1
             stop.set()
 
@@ -84,18 +120,63 @@ def latency(node, executor, seconds, rate=1000.0):
         t_start = time.perf_counter()
         thread.start()
         while not stop.is_set():
-            executor.spin_once(timeout_sec=0.01)
+            self.executor.spin_once(timeout_sec=0.01)
         t_sent = time.perf_counter() - t_start
-        deadline = time.monotonic() + 2.0       # late answers
-        while time.monotonic() < deadline and len([k for k in received if k >= 0]) < len(sent):
-            executor.spin_once(timeout_sec=0.01)
+        deadline = time.monotonic() + 2.0       # late answers, and a fresh report
+        while time.monotonic() < deadline:
+            self.executor.spin_once(timeout_sec=0.01)
         thread.join()
+        rtt = np.array([self.received[k] - self.sent[k] for k in self.sent
+                        if k in self.received] or [np.nan]) * 1e3
+        return dict(sent=len(self.sent), lost=len(self.sent) - len(self.received),
+                    node_received=self.node_received() - node_before,
+                    rate=len(self.sent) / t_sent, p50=np.percentile(rtt, 50),
+                    p99=np.percentile(rtt, 99), max=rtt.max(), mean=rtt.mean())
+
+
+def latency(node, executor, seconds, rate=1000.0):
+    proc = NodeProcess("inverse_dynamics", NO_TOPIC, ros_args=["-r", "__ns:=/bench_quiet"])
+    try:
+        return Client(node, executor, "/bench_quiet").run(seconds, rate)
     finally:
         proc.stop()
-    rtt = np.array([received[k] - sent[k] for k in sent if k in received]) * 1e3
-    return dict(sent=len(sent), lost=len(sent) - len(rtt), rate=len(sent) / t_sent,
-                p50=np.percentile(rtt, 50), p99=np.percentile(rtt, 99), max=rtt.max(),
-                mean=rtt.mean())
+
+
+def loss_free_rate(node, executor, seconds):
+    """The ladder of request rates with the simulator and the controller in a closed loop
+    and one busy process on the 2 cores: (rows, highest rate without loss)."""
+    ns = "/bench_load"
+    procs = [NodeProcess("simulator", {**NO_TOPIC, "initial_positions": HOME,
+                                       "command_timeout": 0.0}, ros_args=["-r", f"__ns:={ns}"]),
+             NodeProcess("computed_torque_controller", NO_TOPIC, ros_args=["-r", f"__ns:={ns}"]),
+             NodeProcess("inverse_dynamics", NO_TOPIC, ros_args=["-r", f"__ns:={ns}"])]
+    efforts = []
+    node.create_subscription(Float64MultiArray, f"{ns}/effort_commands",
+                             lambda m: efforts.append(1), 10)
+    busy = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+    rows, best = [], 0
+    try:
+        client = Client(node, executor, ns)
+        spin_until(executor, lambda: efforts, 30, "the controller's commands")
+        for rate in LADDER:
+            r = client.run(seconds, rate)
+            rows.append((f"{rate} Hz", r))
+            print(f"under load, {rate} Hz:", {k: round(float(v), 3) for k, v in r.items()})
+            if all(x["lost"] == 0 for _, x in rows):
+                best = rate
+        node.destroy_publisher(client.pub)
+        node.destroy_subscription(client.sub)
+        shallow = Client(node, executor, ns, depth=10)   # what the ROS default depth gives
+        r = shallow.run(seconds, 1000)
+        rows.append(("1000 Hz, client queues of 10", r))
+        print("under load, 1000 Hz, client depth 10:",
+              {k: round(float(v), 3) for k, v in r.items()})
+    finally:
+        busy.kill()
+        busy.wait()
+        for p in procs:
+            p.stop()
+    return rows, best
 
 
 def sim_rtf(node, executor, seconds, rtf):
@@ -137,7 +218,10 @@ def sim_rtf(node, executor, seconds, rtf):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seconds", type=float, default=10.0)
+    ap.add_argument("--step-seconds", type=float, default=5.0,
+                    help="duration of each request rate under load")
     args = ap.parse_args(argv)
+    load = os.getloadavg()[0]
     rclpy.init()
     node = rclpy.create_node("bench_ros_latency")
     executor = SingleThreadedExecutor()
@@ -145,15 +229,22 @@ def main(argv=None):
     try:
         lat = latency(node, executor, args.seconds)
         print("inverse dynamics round trip:", {k: round(float(v), 3) for k, v in lat.items()})
+        ladder, best = loss_free_rate(node, executor, args.step_seconds)
+        print(f"highest request rate without loss under load: {best} Hz")
         rt = sim_rtf(node, executor, args.seconds, 1.0)
         fast = sim_rtf(node, executor, args.seconds, 0.0)
         print("simulator real-time factor (asked 1.0, asked 0 = as fast as possible):", rt, fast)
     finally:
         node.destroy_node()
         rclpy.try_shutdown()
+    ladder_rows = "\n".join(
+        f"| {rate} | {r['rate']:.0f} Hz | {r['sent']} | {r['node_received']} | {r['lost']} | "
+        f"{r['p50']:.2f} ms | {r['p99']:.2f} ms | {r['max']:.1f} ms |" for rate, r in ladder)
     body = f"""## ROS 2 nodes: latency and real-time factor
 
 {stamp()}
+Load average of the machine when the run started: {load:.1f}.
+
 `python bench/bench_ros_latency.py` (ROS 2 Jazzy rclpy and Fast DDS from the PyPI wheels; each
 node a separate process on one machine; the client is an rclpy node as well, so its own
 Python overhead is in the round trip).
@@ -165,6 +256,22 @@ Python overhead is in the round trip).
 | requests sent | achieved send rate | p50 | p99 | max | mean | lost |
 | ---: | ---: | ---: | ---: | ---: | ---: | ---: |
 | {lat['sent']} | {lat['rate']:.0f} Hz | {lat['p50']:.3f} ms | {lat['p99']:.3f} ms | {lat['max']:.3f} ms | {lat['mean']:.3f} ms | {lat['lost']} |
+
+**Under load: the highest request rate served without loss is {best} Hz.** The same
+requests, {args.step_seconds:g} s at each rate, while the 2 cores are shared with the
+simulator (real time, 1 kHz steps) and the computed-torque controller (500 Hz) in a closed
+loop, one extra process spinning, and the client itself. Client and node queues keep the
+last {REQUEST_DEPTH} messages. *Reached the node*: requests the node counted as received
+(its `/diagnostics`); the others were dropped on the way (a full queue). Above the
+loss-free rate the node does not get enough of the shared cores to keep up: the queues
+fill (the median round trip grows to tens of ms) and requests are dropped. A deeper queue
+absorbs a burst or a stall (compare the last row, with the ROS default depth of 10), not a
+sustained overload: a 1 kHz client needs a core for the node (docs/ros.md, "A fast
+client").
+
+| rate asked | achieved send rate | sent | reached the node | lost | p50 | p99 | max |
+| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |
+{ladder_rows}
 
 **Simulator** (UR5e, `sim_dt` = 1 ms, semi-implicit Euler, joint_states at 100 Hz and /clock
 at 1 kHz): real-time factor achieved over {args.seconds:g} s of wall time, from the simulated

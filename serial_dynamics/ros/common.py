@@ -1,5 +1,6 @@
-"""What every node shares: parameters, the robot loading rule, message validation,
-once-per-cause logging of rejected input, and ``run`` (start-up errors, spin, shutdown).
+"""What every node shares: parameters, the robot loading rule, message validation (with
+bounds on what one message may carry), once-per-cause logging of rejected input, the
+message counts on /diagnostics, and ``run`` (start-up errors, spin, shutdown).
 
 The nodes only convert messages and parameters and call the library; the library never
 imports rclpy.
@@ -13,7 +14,9 @@ import warnings
 
 import numpy as np
 import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import String
@@ -23,6 +26,16 @@ import serial_dynamics as sd
 # Queue depth of every command, request and state topic (reliable, volatile: compatible
 # with the ROS defaults of rclcpp/rclpy publishers, ros2_control and robot_state_publisher).
 QOS_DEPTH = 10
+# ... except the inverse-dynamics requests: a deeper queue absorbs a stall of the node (a
+# busy core) of up to 0.1 s at 1 kHz instead of dropping requests. A depth is no part of
+# QoS compatibility: any reliable or best-effort publisher matches.
+REQUEST_DEPTH = 100
+# What one message may carry. Beyond these it is refused whole, before anything else in it
+# is looked at (far beyond any robot, far below what would cost the node noticeable time).
+MAX_NAMES = 1000        # joint names in a JointState or JointTrajectory
+MAX_POINTS = 10_000     # points in a JointTrajectory (10 s at 1 kHz)
+MAX_VALUE = 1e6         # |position| (rad, m), |velocity|, |acceleration|, |wrench| (N, N m)
+DIAGNOSTICS_PERIOD = 1.0   # s of wall time between two /diagnostics reports
 # robot_state_publisher (Jazzy) publishes robot_description reliable + transient local.
 DESCRIPTION_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                              durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -138,6 +151,14 @@ def declare(node, spec: dict) -> dict:
                                          read_only=name not in WRITABLE)
         node.declare_parameter(name, default, descriptor)
         values[name] = _coerce(name, kind, node.get_parameter(name).value)
+    # given (-p, --params-file) but not a parameter of this node: a typo or the wrong node.
+    # rclpy keeps the overrides of the command line and parameter files in this attribute.
+    unknown = sorted(x for x in getattr(node, "_parameter_overrides", {})
+                     if not node.has_parameter(x))
+    if unknown:
+        node.get_logger().warning(
+            f"ignoring unknown parameter(s) {unknown}: {node.get_name()} takes "
+            f"{', '.join(spec)} (and use_sim_time)")
     return values
 
 
@@ -197,6 +218,9 @@ def load_robot(node, p: dict, gravity=None):
 def _wait_for_description(node, timeout):
     if not timeout > 0:
         return None
+    node.get_logger().info(f"waiting up to {timeout} s for a robot_description message "
+                           "(neither urdf_path nor robot_description is set; "
+                           "robot_description_timeout:=0 skips the wait)")
     got = []
     sub = node.create_subscription(String, "robot_description", lambda m: got.append(m.data),
                                    DESCRIPTION_QOS)
@@ -308,13 +332,27 @@ def with_payload_parameters(node, loaded, p: dict, apply):
 # ------------------------------------------------------------------ rejected input
 class Rejections:
     """Log rejected input once per cause, then a count of repeats at most every
-    ``period`` seconds. The node carries on; what was in force stays in force."""
+    ``period`` seconds. The node carries on; what was in force stays in force.
 
-    def __init__(self, logger, period: float = 10.0):
-        self.logger, self.period = logger, period
+    Also counts, per topic, the messages the node received, refused and sent, and reports
+    them on ``/diagnostics`` (diagnostic_msgs/DiagnosticArray, one status named after the
+    node) every DIAGNOSTICS_PERIOD s of wall time: level WARN when something was refused
+    since the last report, else OK. A message dropped before the node saw it (a full
+    queue) is in no count: the sender compares its own count with "received"."""
+
+    def __init__(self, node, period: float = 10.0, hardware_id: str = ""):
+        self.logger, self.period = node.get_logger(), period
         self.counts, self._logged_at, self._logged_count = {}, {}, {}
+        self.received, self.sent, self.refused = {}, {}, {}
+        self._name, self._hardware_id, self._refused_reported = (
+            node.get_fully_qualified_name(), hardware_id, 0)
+        self._clock = node.get_clock()
+        self._diagnostics = node.create_publisher(DiagnosticArray, "/diagnostics", QOS_DEPTH)
+        node.create_timer(DIAGNOSTICS_PERIOD, self.report,
+                          clock=Clock(clock_type=ClockType.STEADY_TIME))
 
     def __call__(self, where: str, exc: Rejected, consequence: str = ""):
+        self.refused[where] = self.refused.get(where, 0) + 1
         self.once((where, exc.cause), f"rejected {where}: {exc}{consequence}",
                   f"rejected {{}} more {where} message(s) since: {exc.cause}")
 
@@ -331,46 +369,107 @@ class Rejections:
             return
         self._logged_at[key], self._logged_count[key] = now, n
 
+    def got(self, topic: str):
+        self.received[topic] = self.received.get(topic, 0) + 1
 
-def finite_vector(values, n, what, cause):
-    """values as a float array of length n, all finite, else Rejected."""
+    def put(self, topic: str):
+        self.sent[topic] = self.sent.get(topic, 0) + 1
+
+    def report(self):
+        # copies: the simulator counts from its stepping thread (a dict copy is atomic)
+        received, sent, refused = dict(self.received), dict(self.sent), dict(self.refused)
+        total = sum(refused.values())
+        values = ([KeyValue(key=f"received {t}", value=str(n)) for t, n in received.items()]
+                  + [KeyValue(key=f"sent {t}", value=str(n)) for t, n in sent.items()]
+                  + [KeyValue(key=f"refused {t}", value=str(n)) for t, n in refused.items()])
+        text = "; ".join(f"{k.key}: {k.value}" for k in values) or "no messages yet"
+        level = DiagnosticStatus.WARN if total > self._refused_reported else DiagnosticStatus.OK
+        self._refused_reported = total
+        msg = DiagnosticArray(status=[DiagnosticStatus(
+            level=level, name=self._name, message=text, hardware_id=self._hardware_id,
+            values=values)])
+        msg.header.stamp = self._clock.now().to_msg()
+        self._diagnostics.publish(msg)
+
+
+def subscribe(node, rejections, msg_type, topic, handler, depth=QOS_DEPTH):
+    """A subscription whose messages are counted (``received`` on /diagnostics) before
+    ``handler`` takes them. The handler refuses bad input itself; an exception that
+    escapes it anyway (a bug) is logged once per type and the node carries on."""
+    def callback(msg):
+        rejections.got(topic)
+        try:
+            handler(msg)
+        except Exception as exc:  # noqa: BLE001 -- a node never dies on a message
+            rejections.once(("bug", topic, type(exc).__name__),
+                            f"internal error on a {topic} message (please report): "
+                            f"{type(exc).__name__}: {exc}; the node carries on",
+                            f"internal error on {{}} more {topic} message(s)")
+    return node.create_subscription(msg_type, topic, callback, depth)
+
+
+def _show(values, at_most=8):
+    """A list for a log line, shortened when long."""
+    values = list(values)
+    if len(values) <= at_most:
+        return str(values)
+    return f"[{', '.join(map(repr, values[:at_most]))}, ... ({len(values)} in all)]"
+
+
+def finite_vector(values, n, what, cause, bound=MAX_VALUE):
+    """values as a float array of length n, all finite and (unless bound is None) within
+    +-bound, else Rejected."""
+    if len(values) != n:
+        raise Rejected(f"{cause} length", f"{what} has {len(values)} values; expected {n}")
     a = np.asarray(values, dtype=float).reshape(-1)
-    if a.size != n:
-        raise Rejected(f"{cause} length", f"{what} has {a.size} values; expected {n}")
     if not np.all(np.isfinite(a)):
-        raise Rejected(f"{cause} NaN/Inf", f"{what} contains NaN or Inf: {a.tolist()}")
+        raise Rejected(f"{cause} NaN/Inf", f"{what} contains NaN or Inf: {_show(a.tolist())}")
+    if bound is not None and np.any(np.abs(a) > bound):
+        raise Rejected(f"{cause} out of range", f"{what} has values beyond +-{bound:g} (the "
+                       f"bound of every message value): {_show(a.tolist())}")
     return a
 
 
 def name_index(names, robot, what, require_all=True, allow_extra=False):
     """For message joint names: (positions in the message, matching model indices).
-    Rejects empty, duplicate, unknown (unless allow_extra) and missing (if require_all)."""
+    Rejects more than MAX_NAMES (before looking at them), empty, duplicate, unknown (unless
+    allow_extra) and missing (if require_all). Linear in the number of names."""
+    if len(names) > MAX_NAMES:
+        raise Rejected("too many joint names", f"{what} names {len(names)} joints; at most "
+                       f"{MAX_NAMES} are accepted (the chain has {robot.dof})")
     names = list(names)
     if not names:
         raise Rejected("no joint names", f"{what} names no joints")
-    if len(set(names)) != len(names):
-        dup = sorted({x for x in names if names.count(x) > 1})
-        raise Rejected("duplicate joint names", f"{what} names joints {dup} more than once")
-    model = robot.joint_names
+    first, dup = {}, []
+    for i, x in enumerate(names):
+        if first.setdefault(x, i) != i and x not in dup:
+            dup.append(x)
+    if dup:
+        raise Rejected("duplicate joint names", f"{what} names joints {_show(sorted(dup))} "
+                       "more than once")
+    model = {x: j for j, x in enumerate(robot.joint_names)}
     unknown = [x for x in names if x not in model]
     if unknown and not allow_extra:
-        raise Rejected("unknown joint names", f"{what} names joints {unknown} that are not in "
-                       f"the chain {model}")
-    missing = [x for x in model if x not in names]
+        raise Rejected("unknown joint names", f"{what} names joints {_show(unknown)} that are "
+                       f"not in the chain {robot.joint_names}")
+    missing = [x for x in model if x not in first]
     if missing and require_all:
         raise Rejected("missing joints", f"{what} lacks joints {missing}")
     msg_idx = [i for i, x in enumerate(names) if x in model]
-    return np.array(msg_idx, dtype=int), np.array([model.index(names[i]) for i in msg_idx],
-                                                  dtype=int)
+    return np.array(msg_idx, dtype=int), np.array([model[names[i]] for i in msg_idx], dtype=int)
 
 
 def trajectory_arrays(msg, robot, what, need_increasing_time=False):
     """trajectory_msgs/JointTrajectory -> (t (N,), q, qd, qdd (N, n) in model order,
-    have_velocities, have_accelerations). Missing velocities/accelerations are zeros."""
+    have_velocities, have_accelerations). Missing velocities/accelerations are zeros.
+    Rejects more than MAX_POINTS points, values beyond +-MAX_VALUE and NaN/Inf."""
     msg_idx, model_idx = name_index(msg.joint_names, robot, what)
     m, n, N = len(msg.joint_names), robot.dof, len(msg.points)
     if N == 0:
         raise Rejected("no points", f"{what} has no points")
+    if N > MAX_POINTS:
+        raise Rejected("too many points", f"{what} has {N} points; at most {MAX_POINTS} are "
+                       "accepted (send a longer trajectory in parts)")
     out = np.zeros((3, N, n))
     have = [True, True, True]
     for k, field in enumerate(("positions", "velocities", "accelerations")):
@@ -380,10 +479,15 @@ def trajectory_arrays(msg, robot, what, need_increasing_time=False):
             continue
         if sizes != {m}:
             raise Rejected(f"{field} length", f"{what}: every point needs {m} {field} (one per "
-                           f"joint name){'' if k == 0 else ' or none'}; got lengths {sorted(sizes)}")
+                           f"joint name){'' if k == 0 else ' or none'}; got lengths "
+                           f"{_show(sorted(sizes))}")
         vals = np.array([getattr(pt, field) for pt in msg.points], dtype=float)
         if not np.all(np.isfinite(vals)):
             raise Rejected(f"{field} NaN/Inf", f"{what}: {field} contain NaN or Inf")
+        if np.any(np.abs(vals) > MAX_VALUE):
+            raise Rejected(f"{field} out of range", f"{what}: {field} beyond +-{MAX_VALUE:g} "
+                           f"(the bound of every message value): up to "
+                           f"{np.max(np.abs(vals)):.3g}")
         out[k][:, model_idx] = vals[:, msg_idx]
     t = np.array([pt.time_from_start.sec + 1e-9 * pt.time_from_start.nanosec
                   for pt in msg.points])

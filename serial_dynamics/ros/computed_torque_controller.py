@@ -14,7 +14,9 @@ e = q_d - q is taken at the stamp of the joint state it uses (the state is a few
 when it arrives; comparing it with the reference of the same instant removes the lag
 bias), the feed-forward qdd_d at the current time. The trajectory starts at its header
 stamp (zero: on arrival) from the current reference, and its last point holds at the end.
-Before any trajectory the controller holds the first measured position.
+Before any trajectory the controller holds the first measured position. Bad input is
+refused (the last good state and trajectory stay); a command that comes out non-finite is
+not sent.
 """
 from __future__ import annotations
 
@@ -60,11 +62,11 @@ class ComputedTorqueController(Node):
         self.state = None           # (t, q, qd) of the latest good joint state
         self.reference = None       # (t0, Waypoints) in force
         robot.warmup()
-        self.reject = common.Rejections(self.get_logger())
+        self.reject = common.Rejections(self, hardware_id=robot.model.name)
         self.pub = self.create_publisher(Float64MultiArray, "effort_commands", common.QOS_DEPTH)
-        self.create_subscription(JointState, "joint_states", self.on_state, common.QOS_DEPTH)
-        self.create_subscription(JointTrajectory, "desired_trajectory", self.on_trajectory,
-                                 common.QOS_DEPTH)
+        common.subscribe(self, self.reject, JointState, "joint_states", self.on_state)
+        common.subscribe(self, self.reject, JointTrajectory, "desired_trajectory",
+                         self.on_trajectory)
         self.create_timer(1.0 / p["control_rate"], self.on_timer)
 
     def now(self):
@@ -110,8 +112,12 @@ class ComputedTorqueController(Node):
             q0, qd0, qdd0 = self.desired(start)
             t, q = np.r_[0.0, t], np.vstack([q0, q])
             qd, qdd = np.vstack([qd0, qd]), np.vstack([qdd0, qdd])
-        self.reference = (start, Waypoints(t, q, qd if have_v else None,
-                                            qdd if have_a else None))
+        try:
+            waypoints = Waypoints(t, q, qd if have_v else None, qdd if have_a else None)
+        except ValueError as exc:                    # e.g. times too close to tell apart
+            return self.reject("desired_trajectory", Rejected("waypoints", str(exc)),
+                               "; the trajectory in force stays")
+        self.reference = (start, waypoints)
 
     def on_timer(self):
         if self.state is None:
@@ -121,12 +127,20 @@ class ComputedTorqueController(Node):
         qdd_ff = self.desired(self.now())[2]           # feed-forward for the torque applied now
         e = q_ref - q
         e[self.wrap] = np.angle(np.exp(1j * e[self.wrap]))     # shortest way round
-        v = qdd_ff + self.kp * e + self.kd * (qd_ref - qd)
+        with np.errstate(over="ignore", invalid="ignore"):    # checked below
+            v = qdd_ff + self.kp * e + self.kd * (qd_ref - qd)
         robot = self.robot
-        tau = robot.inverse_dynamics(q, qd, v)
-        if self.compensate:
-            tau = tau - robot.dissipation_torques(qd)
+        try:
+            tau = robot.inverse_dynamics(q, qd, v)
+            if self.compensate:
+                tau = tau - robot.dissipation_torques(qd)
+            if not np.all(np.isfinite(tau)):
+                raise ValueError("the torque came out non-finite")
+        except (ValueError, ArithmeticError) as exc:   # e.g. gains times error overflow
+            return self.reject("effort_commands", Rejected("not finite", f"{exc} (q = {q}, "
+                               f"q_ref = {q_ref}, v = {v})"), "; no command sent")
         self.pub.publish(Float64MultiArray(data=tau.tolist()))
+        self.reject.put("effort_commands")
 
     def close(self):
         pass

@@ -9,6 +9,7 @@ order; one point or many; missing velocities/accelerations are zeros) is answere
 for every point, positions, velocities, accelerations and the torques ``effort`` that
 produce them: tau = M(q) qdd + b(q, qd) - J^T w (+ the dissipation, when compensated),
 computed in one batched call for all the points (the single-state path for one).
+Requests and answers are counted on /diagnostics.
 """
 from __future__ import annotations
 
@@ -44,13 +45,13 @@ class InverseDynamics(Node):
         self.wrench = None            # latest tip wrench: (6,) in base_link, or (6,) in tip_link
         self.wrench_in_tip = False
         self.robot.warmup()
-        self.reject = common.Rejections(self.get_logger())
+        self.reject = common.Rejections(self, hardware_id=self.robot.model.name)
         self.pub = self.create_publisher(JointTrajectory, "inverse_dynamics/response",
-                                         common.QOS_DEPTH)
-        self.create_subscription(WrenchStamped, "inverse_dynamics/tip_wrench", self.on_wrench,
-                                 common.QOS_DEPTH)
-        self.create_subscription(JointTrajectory, "inverse_dynamics/request", self.on_request,
-                                 common.QOS_DEPTH)
+                                         common.REQUEST_DEPTH)
+        common.subscribe(self, self.reject, WrenchStamped, "inverse_dynamics/tip_wrench",
+                         self.on_wrench)
+        common.subscribe(self, self.reject, JointTrajectory, "inverse_dynamics/request",
+                         self.on_request, common.REQUEST_DEPTH)
 
     def on_wrench(self, msg):
         f, m = msg.wrench.force, msg.wrench.torque
@@ -85,7 +86,7 @@ class InverseDynamics(Node):
                 raise Rejected("result NaN/Inf", "the torques came out non-finite")
         except Rejected as exc:
             return self.reject("inverse_dynamics/request", exc, "; no response sent")
-        except ValueError as exc:     # anything else the library refuses
+        except (ValueError, ArithmeticError) as exc:     # anything else the library refuses
             return self.reject("inverse_dynamics/request", Rejected("library", str(exc)),
                                "; no response sent")
         out = JointTrajectory(header=msg.header, joint_names=robot.joint_names)
@@ -94,6 +95,7 @@ class InverseDynamics(Node):
                                            time_from_start=pt.time_from_start)
                       for i, pt in enumerate(msg.points)]
         self.pub.publish(out)
+        self.reject.put("inverse_dynamics/response")
 
     def close(self):
         pass

@@ -7,7 +7,8 @@ sensor_msgs/JointState.
 A thread steps ``FixedStepIntegrator`` at ``sim_dt``, paced against the wall clock at
 ``real_time_factor`` (it catches up when late, and re-anchors when more than 0.1 s late:
 it then runs slower than asked rather than bursting). Commands are held (zero-order) until
-replaced or until ``command_timeout`` s of simulated time pass without one.
+replaced or until ``command_timeout`` s of simulated time pass without one. A step above
+COARSE_DT is allowed, with a warning (most likely 1 typed for 0.001).
 """
 from __future__ import annotations
 
@@ -53,6 +54,7 @@ PARAMETERS = {
     **common.PAYLOAD_PARAMETERS,
 }
 MAX_LAG = 0.1   # s of wall time behind schedule before the pacing re-anchors
+COARSE_DT = 0.01   # s; a larger sim_dt is warned about (an arm needs steps of about 1 ms)
 
 
 class Simulator(Node):
@@ -68,9 +70,15 @@ class Simulator(Node):
         self.q0 = common.per_joint("initial_positions", p["initial_positions"], robot, np.zeros(n))
         outside = np.flatnonzero((self.q0 < robot.lower) | (self.q0 > robot.upper))
         if outside.size:
-            j = outside[0]
-            raise StartupError(f"initial_positions: {robot.joint_names[j]} = {self.q0[j]} is "
-                               f"outside its limits [{robot.lower[j]}, {robot.upper[j]}]")
+            j, lo, hi = outside[0], robot.lower, robot.upper
+            middle, bounded = np.clip(0.0, lo, hi), np.isfinite(lo) & np.isfinite(hi)
+            middle[bounded] = (lo[bounded] + hi[bounded]) / 2
+            given = "" if p["initial_positions"] else " (not set: zeros)"
+            example = ", ".join(f"{x:.4f}" for x in middle)
+            raise StartupError(
+                f"initial_positions{given}: {robot.joint_names[j]} = {self.q0[j]} is outside "
+                f"its limits [{lo[j]}, {hi[j]}]; give positions within the limits, e.g. the "
+                f"middle of each range: -p initial_positions:=[{example}]")
         self.limit = common.per_joint("effort_limits", p["effort_limits"], robot,
                                       robot.effort_limit, positive=True)
         if not p["clamp_effort"]:
@@ -78,8 +86,14 @@ class Simulator(Node):
         for name in ("sim_dt", "publish_rate", "clock_rate"):
             if not 0 < p[name] < np.inf:
                 raise StartupError(f"parameter {name!r} must be > 0, got {p[name]}")
-        if not 0 <= p["real_time_factor"] < np.inf or not p["command_timeout"] >= 0:
-            raise StartupError("parameters 'real_time_factor' and 'command_timeout' must be >= 0")
+        for name in ("real_time_factor", "command_timeout"):
+            if not 0 <= p[name] < np.inf:
+                raise StartupError(f"parameter {name!r} must be >= 0 (and finite), got {p[name]}")
+        if p["sim_dt"] > COARSE_DT:
+            self.get_logger().warning(
+                f"sim_dt = {p['sim_dt']} s is a coarse step (above {COARSE_DT} s): an arm "
+                "needs about 0.001 s (the default) to be simulated faithfully; was "
+                "sim_dt:=0.001 meant?")
         self.dt_ns = round(p["sim_dt"] * 1e9)
         self._integrator_for = lambda robot: FixedStepIntegrator(
             robot, p["integrator"], self.dt_ns * 1e-9, p["dissipation.enabled"],
@@ -100,14 +114,12 @@ class Simulator(Node):
         self.paused = p["start_paused"]
         self.k = 0                                   # steps since start (simulated time)
         self._reset_state()
-        self.reject = common.Rejections(self.get_logger())
+        self.reject = common.Rejections(self, hardware_id=robot.model.name)
         self.state_pub = self.create_publisher(JointState, "joint_states", common.QOS_DEPTH)
         self.clock_pub = (self.create_publisher(Clock, "/clock", common.QOS_DEPTH)
                           if self.publish_clock else None)
-        self.create_subscription(Float64MultiArray, "effort_commands", self.on_effort,
-                                 common.QOS_DEPTH)
-        self.create_subscription(JointState, "joint_commands", self.on_joint_command,
-                                 common.QOS_DEPTH)
+        common.subscribe(self, self.reject, Float64MultiArray, "effort_commands", self.on_effort)
+        common.subscribe(self, self.reject, JointState, "joint_commands", self.on_joint_command)
         self.create_service(Trigger, "~/reset", self.on_reset)
         self.create_service(SetBool, "~/pause", self.on_pause)
         self._stop = threading.Event()
@@ -135,7 +147,7 @@ class Simulator(Node):
     def on_effort(self, msg):
         try:
             effort = common.finite_vector(msg.data, self.robot.dof, "effort_commands data",
-                                          "effort_commands")
+                                          "effort_commands", bound=None)   # clamped below
         except Rejected as exc:
             return self.reject("effort_commands", exc, "; the last good command stays in force")
         self._command(np.arange(self.robot.dof), effort)
@@ -145,7 +157,7 @@ class Simulator(Node):
             msg_idx, idx = common.name_index(msg.name, self.robot, "joint_commands",
                                              require_all=False)
             effort = common.finite_vector(msg.effort, len(msg.name), "joint_commands effort",
-                                          "joint_commands effort")[msg_idx]
+                                          "joint_commands effort", bound=None)[msg_idx]
         except Rejected as exc:
             return self.reject("joint_commands", exc, "; the last good command stays in force")
         self._command(idx, effort)
@@ -244,6 +256,7 @@ class Simulator(Node):
         stamp = Time(nanoseconds=k * self.dt_ns) if self.publish_clock else self.get_clock().now()
         msg.header.stamp = stamp.to_msg()
         self.state_pub.publish(msg)
+        self.reject.put("joint_states")
 
     def close(self):
         self._stop.set()

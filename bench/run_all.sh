@@ -1,11 +1,14 @@
 #!/usr/bin/env bash
 # Regenerate bench/BENCHMARKS.md and the plots, one benchmark after the other (about
-# 10 minutes on 2 cores). Run on a quiet machine: other load moves the absolute times.
+# 20 minutes on 2 cores). Run on a quiet machine: other load moves the absolute times.
 #   bash bench/run_all.sh            (uses .venv/bin/python, or $PYTHON)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PY=${PYTHON:-.venv/bin/python}
-"$PY" -m serial_dynamics.kernels             # fill the numba cache first
+"$PY" -m serial_dynamics.precompile          # fill the numba cache first
 "$PY" bench/bench_speed.py
+"$PY" bench/bench_load.py
+"$PY" bench/bench_modelling.py
+"$PY" bench/bench_planar.py
 "$PY" bench/bench_simulate.py
 "$PY" bench/bench_ros_latency.py

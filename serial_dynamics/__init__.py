@@ -8,15 +8,15 @@ The core library never imports rclpy; the ROS 2 nodes live in ``serial_dynamics.
 """
 from .base_motion import BaseMotion
 from .dissipation import Dissipation
-from .model import Model, ModelError
+from .model import Model, ModelError, RobotDescriptionError
 from .robot import Robot
 from . import mimic, planar_robot  # noqa: F401  (register MimicRobot and PlanarRobot with Robot)
 from .robots import builtin_path, builtin_robot, default_robot
 from .sim.driver import SimulationError, simulate   # sd.simulate is the function
 from .urdf import HeldJointsWarning, URDFError, load_model
 
-__all__ = ["load_urdf", "Robot", "Model", "Dissipation", "URDFError", "ModelError",
-           "HeldJointsWarning", "default_robot", "builtin_robot", "builtin_path", "simulate",
+__all__ = ["load_urdf", "Robot", "Model", "Dissipation", "RobotDescriptionError", "URDFError",
+           "ModelError", "HeldJointsWarning", "default_robot", "builtin_robot", "builtin_path", "simulate",
            "SimulationError", "BaseMotion"]
 __version__ = "0.1.0"
 
@@ -29,7 +29,8 @@ def load_urdf(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
     movable joints form a single path. ``gravity`` (m/s^2) is given in the URDF root's
     frame and carried into the base frame. ``armature``: {joint name: reflected rotor
     inertia, kg m^2 (kg for a prismatic joint)}, which sets or overrides what the URDF's
-    ``<transmission>`` elements give. Raises ``URDFError`` / ``ModelError``.
+    ``<transmission>`` elements give. Raises ``URDFError`` (the file cannot be read) or
+    ``ModelError`` (the chain is not physical), both ``RobotDescriptionError``s.
     """
     return Robot(load_model(source, base_link, tip_link, gravity, armature=armature))
 

@@ -50,12 +50,21 @@ from types import MappingProxyType
 
 import numpy as np
 
+from .algorithms._batch import motion_subspaces, motion_transform, rigid_body_inertia
 from .algorithms.crba import mass_matrix as _mass_matrix
+from .algorithms.kinematics import joint_transforms
 from .joints import PRISMATIC, REVOLUTE  # noqa: F401  (re-exported)
 
 
-class ModelError(ValueError):
-    """The chain is not a valid dynamic model (bad inertia, singular mass matrix, ...)."""
+class RobotDescriptionError(ValueError):
+    """The robot description cannot be used: the URDF cannot be read (``URDFError``) or the
+    chain it describes is not a valid dynamic model (``ModelError``). Catch this one for
+    both; the message names the link, joint or element at fault and what is expected."""
+
+
+class ModelError(RobotDescriptionError):
+    """The chain is not a valid dynamic model (negative mass, an inertia no rigid body has,
+    an absurd magnitude, a singular mass matrix, ...)."""
 
 
 def _frozen(a, shape=None, dtype=float):
@@ -144,10 +153,15 @@ class Model:
         if n == 0:
             raise ModelError(f"chain {base_link!r} -> {tip_link!r} has no movable joint")
         full = lambda v, fill: _frozen(np.full(n, fill) if v is None else v, (n,))  # noqa: E731
-        axis = np.array(axis, dtype=float).reshape(n, 3)
+        given = np.array(axis, dtype=float).reshape(n, 3)
+        axis = given.copy()
+        big = np.max(np.abs(axis), axis=1)
+        odd = (big > 0) & ((big < 1e-100) | (big > 1e100))   # |axis| would under/overflow
+        axis[odd] /= big[odd, None]
         norms = np.linalg.norm(axis, axis=1)
-        for i in np.flatnonzero(~(norms > 1e-12)):
-            raise ModelError(f"joint {joint_names[i]!r}: axis is zero; give a unit axis")
+        for i in np.flatnonzero(~(norms > 1e-12) | ~np.isfinite(norms)):
+            raise ModelError(f"joint {joint_names[i]!r}: axis is {given[i].tolist()}; give a "
+                             "finite, non-zero direction (a unit vector)")
         kind = [PRISMATIC if t == "prismatic" else REVOLUTE for t in joint_types]
         model = Model(
             name=name, joint_names=tuple(joint_names), joint_types=tuple(joint_types),
@@ -186,8 +200,10 @@ class Model:
                        if arr.ndim >= 1 and arr.shape[0] == self.dof and arr_name not in
                        ("gravity", "tip_p") else "the model")
                 raise ModelError(f"{who}: {arr_name} has a NaN or Inf entry; fix the number")
-        for i in range(self.dof):
-            check_inertia(self.link_names[i], self.mass[i], self.inertia[i])
+        for i in range(self.dof):      # body i's size: to its center of mass, the next joint
+            reach = self.p_parent[i + 1] if i + 1 < self.dof else self.tip_p
+            length = max(np.linalg.norm(self.com[i]), np.linalg.norm(reach))
+            check_inertia(self.link_names[i], self.mass[i], self.inertia[i], length=length)
             R = self.R_parent[i]
             if not np.allclose(R @ R.T, np.eye(3), atol=1e-9):
                 raise ModelError(f"joint {self.joint_names[i]!r}: origin rotation is not a rotation")
@@ -216,49 +232,143 @@ class Model:
     def _check_mass_matrix(self) -> None:
         """A joint that moves no mass makes M(q) singular: name it.
 
-        Checked at q = 0 and at two seeded random configurations within the limits; with
-        mimic joints, the reduced mass matrix G^T M G of the independent joints.
+        Checked at q = 0 and at two seeded random configurations within the limits. Without
+        mimic joints in O(n): the diagonal M_ii = S_i^T IC_i S_i (composite inertias, as the
+        CRBA computes it) and the pivots D_i = S_i^T IA_i S_i of the articulated-body
+        inertias (Featherstone 2008, Sec. 7.3): M = L^T D L with L unit triangular
+        (Sec. 6.5), so M is positive definite exactly when every D_i > 0, and D_i is the
+        inertia joint i feels with the joints beyond it free, 0 <= D_i <= M_ii. With mimic
+        joints, the reduced mass matrix G^T M G of the independent joints, dense.
         """
         rng = np.random.default_rng(0)
-        G, o = self.mimic_matrix
         ind = self.independent
-        names = [self.joint_names[i] for i in ind]
         lo = np.where(np.isfinite(self.lower[ind]), self.lower[ind], -np.pi)
         hi = np.where(np.isfinite(self.upper[ind]), self.upper[ind], np.pi)
+        lo, hi = np.clip(lo, -1e6, 1e6), np.clip(hi, -1e6, 1e6)   # hi - lo must not overflow
         qs = np.vstack([np.clip(np.zeros(ind.size), lo, hi), rng.uniform(lo, hi, (2, ind.size))])
+        if ind.size < self.dof:
+            return self._check_reduced_mass_matrix(qs)
+        diag, pivot = _diagonal_and_pivots(self, qs)
+        for q, M_ii, D in zip(qs, diag, pivot):
+            scale = max(np.max(np.abs(M_ii)), 1e-300)
+            for i in np.flatnonzero(M_ii <= 1e-16 * scale):      # zero to working precision
+                raise ModelError(
+                    f"joint {self.joint_names[i]!r} moves no mass (its diagonal of the mass "
+                    f"matrix is {M_ii[i]:.3g} {_at(q)}): the mass matrix is singular. Give the "
+                    "links it moves an <inertial>, or make it fixed.")
+            for i in np.flatnonzero(D <= PIVOT_RTOL * M_ii):
+                raise ModelError(
+                    f"the mass matrix of chain {self.base_link!r} -> {self.tip_link!r} is "
+                    f"singular {_at(q)}: joint {self.joint_names[i]!r} moves its bodies only in "
+                    "ways the joints after it can as well (the inertia it feels with them free "
+                    f"is {D[i]:.3g}, against {M_ii[i]:.3g} with them locked), so two joints "
+                    "move the same mass the same way. Check joint axes and link inertias.")
+
+    def _check_reduced_mass_matrix(self, qs) -> None:
+        """``_check_mass_matrix`` for a chain with mimic joints: G^T M G, dense."""
+        G, o = self.mimic_matrix
+        names = [self.joint_names[i] for i in self.independent]
         for q in qs:
             M = G.T @ _mass_matrix(self, G @ q + o) @ G
             scale = max(np.max(np.abs(np.diag(M))), 1e-300)
             for i in np.flatnonzero(np.diag(M) <= 1e-16 * scale):   # zero to working precision
                 raise ModelError(
                     f"joint {names[i]!r} moves no mass (its diagonal of the mass "
-                    f"matrix is {M[i, i]:.3g} at q = {np.round(q, 3).tolist()}): the mass matrix "
+                    f"matrix is {M[i, i]:.3g} {_at(q)}): the mass matrix "
                     "is singular. Give the links it moves an <inertial>, or make it fixed.")
             eig = np.linalg.eigvalsh(M)
             if eig[0] <= 1e-15 * eig[-1]:
                 raise ModelError(
                     f"the mass matrix of chain {self.base_link!r} -> {self.tip_link!r} is "
-                    f"singular at q = {np.round(q, 3).tolist()} (eigenvalues {eig[0]:.3g} .. "
+                    f"singular {_at(q)} (eigenvalues {eig[0]:.3g} .. "
                     f"{eig[-1]:.3g}): two joints move the same mass the same way. "
                     "Check joint axes and link inertias.")
 
 
-def check_inertia(link: str, mass: float, inertia: np.ndarray, rtol: float = 1e-9) -> None:
+def _at(q) -> str:
+    """Where a mass-matrix check failed, for a message (a long q is summarized)."""
+    if q.size <= 12:
+        return f"at q = {[float(f'{x:.4g}') for x in q]}"
+    return ("at q = 0" if not np.any(q) else
+            f"at a seeded random q in the limits ({q.size} joints, |q| <= {np.max(np.abs(q)):.3g})")
+
+
+# A pivot D_i of the mass matrix at or below PIVOT_RTOL M_ii is zero to working precision:
+# D_i = M_ii - (what the joints beyond i take over), a difference of terms of size M_ii that
+# round-off leaves at ~1e-16 M_ii (exactly 0, or 1e-16, in chains of 6 to 1,000 joints with
+# two coaxial joints). Valid chains are far above it (over every chain of example-robot-data
+# the smallest D_i / M_ii is 5e-4; a synthetic chain of 1,000 joints 1.3e-8), and
+# D_i / M_ii <= PIVOT_RTOL implies cond(M) >= 1 / PIVOT_RTOL, since D_i >= lambda_min(M) and
+# M_ii <= lambda_max(M).
+PIVOT_RTOL = 1e-12
+
+
+def _diagonal_and_pivots(model, qs):
+    """(M_ii, D_i), each (N, n), at the configurations ``qs`` (N, n) in one inward pass:
+    composite inertias IC_{i-1} += X_i^T IC_i X_i (the CRBA's) and articulated inertias
+    IA_{i-1} += X_i^T (IA_i - U_i U_i^T / D_i) X_i (the ABA's), U_i = IA_i S_i."""
+    N, n = qs.shape
+    X = motion_transform(*joint_transforms(model, qs))              # (N, n, 6, 6)
+    Xt = np.swapaxes(X, -1, -2)
+    k = np.where(model.kind == PRISMATIC, 5, 2)                      # S_i = e_k
+    I = rigid_body_inertia(model.mass, model.h, model.I_O)          # (n, 6, 6)
+    diag, pivot = np.empty((N, n)), np.empty((N, n))
+    IC = np.zeros((N, 6, 6))
+    IA = np.zeros((N, 6, 6))
+    for i in range(n - 1, -1, -1):
+        IC = IC + I[i]
+        IA = IA + I[i]
+        diag[:, i] = IC[:, k[i], k[i]] + model.armature[i]
+        U = IA[:, :, k[i]]
+        D = U[:, k[i]] + model.armature[i]
+        pivot[:, i] = D
+        if i > 0:
+            safe = np.where(D > 0, D, np.inf)[:, None, None]         # a zero pivot is refused
+            IC = Xt[:, i] @ IC @ X[:, i]
+            IA = Xt[:, i] @ (IA - U[:, :, None] * U[:, None, :] / safe) @ X[:, i]
+    return diag, pivot
+
+
+def check_inertia(link: str, mass: float, inertia: np.ndarray, rtol: float = 1e-9,
+                  length: float = 0.0) -> None:
     """Mass >= 0; inertia symmetric, positive semi-definite and obeying the triangle
-    inequality of principal moments (I1 + I2 >= I3), as every physical body does."""
+    inequality of principal moments (I1 + I2 >= I3), as every physical body does.
+
+    Tolerances: relative, for numbers written with few digits, a principal moment down to
+    -``rtol`` times the largest entry and the triangle inequality failing by 1e-6 of it; and
+    absolute, for round-off-sized entries (iCub's links carry inertias of 1e-20 .. 1e-35
+    kg m^2: point masses whose zeros went through a rotation), a shortfall up to
+    ``INERTIA_FLOOR`` m L^2, L = ``length``, the link's size (the largest distance from its
+    origin to its center of mass or to a joint it carries). A principal moment
+    I1 = int (y^2 + z^2) dm, or a second moment (I1 + I2 - I3) / 2 = int z^2 dm, of
+    -1e-12 m L^2 is that of mass spread over an imaginary 1e-6 L: a micrometre on a
+    metre-long link, far below any part's tolerance (so physically zero), and far above the
+    round-off (1e-16 m L^2) of the parallel-axis terms m |c|^2 every algorithm adds to it.
+    """
     if not mass >= 0:
         raise ModelError(f"link {link!r}: mass {mass} is negative; a mass must be >= 0")
     I = np.asarray(inertia, dtype=float)
     scale = max(np.max(np.abs(I)), 1e-300)
-    if not np.allclose(I, I.T, atol=rtol * scale):
+    floor = INERTIA_FLOOR * mass * float(length) ** 2
+    if not np.allclose(I, I.T, atol=max(rtol * scale, floor)):
         raise ModelError(f"link {link!r}: inertia matrix is not symmetric")
     ev = np.linalg.eigvalsh(I)
-    if ev[0] < -rtol * scale:
+    if ev[0] < -max(rtol * scale, floor):
         raise ModelError(f"link {link!r}: inertia is not positive semi-definite (principal "
-                         f"moments {np.round(ev, 9).tolist()}); fix ixx..izz")
-    if ev[0] + ev[1] < ev[2] - 1e-6 * scale:
-        raise ModelError(f"link {link!r}: principal moments {np.round(ev, 9).tolist()} violate "
+                         f"moments {_moments(ev)} kg m^2); fix ixx..izz: every principal "
+                         "moment of a rigid body is >= 0")
+    if ev[0] + ev[1] < ev[2] - max(1e-6 * scale, floor):
+        raise ModelError(f"link {link!r}: principal moments {_moments(ev)} kg m^2 violate "
                          "the triangle inequality I1 + I2 >= I3; no rigid body has them")
+
+
+# Inertia shortfalls below INERTIA_FLOOR m L^2 are round-off (check_inertia).
+INERTIA_FLOOR = 1e-12
+
+
+def _moments(ev):
+    """Principal moments for a message: 9 decimals, or 3 significant digits if smaller."""
+    return [round(float(v), 9) if abs(v) >= 1e-6 or v == 0 else float(f"{v:.3g}") for v in ev]
 
 
 def combine_inertias(parts):

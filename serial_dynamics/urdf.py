@@ -14,14 +14,15 @@ import warnings
 
 import numpy as np
 
-from .model import (MAX_INERTIA, MAX_LENGTH, MAX_MASS, Model, ModelError, check_inertia,
-                    check_magnitude, combine_inertias)
+from .model import (MAX_INERTIA, MAX_LENGTH, MAX_MASS, Model, RobotDescriptionError,
+                    check_inertia, check_magnitude, combine_inertias)
 from .transmissions import reflected_inertias
 
 MOVABLE = ("revolute", "continuous", "prismatic")
+JOINT_TYPES = MOVABLE + ("fixed", "floating", "planar")
 
 
-class URDFError(ValueError):
+class URDFError(RobotDescriptionError):
     """The URDF cannot be read or does not describe a usable serial chain."""
 
 
@@ -31,6 +32,7 @@ class HeldJointsWarning(UserWarning):
 
 def _parse(source):
     import yourdfpy
+    from lxml import etree
 
     text = source.decode() if isinstance(source, bytes) else source
     is_xml = isinstance(text, str) and text.lstrip().startswith("<")
@@ -39,22 +41,130 @@ def _parse(source):
         if not os.path.isfile(path):
             raise URDFError(f"URDF file {path!r} not found; give a path to a .urdf file or "
                             "the URDF XML itself as a string")
-    handle = io.BytesIO(text.encode()) if is_xml else os.fspath(source)
     where = "the URDF string" if is_xml else repr(os.fspath(source))
-    xml = _check_well_formed(io.BytesIO(text.encode()) if is_xml else handle, where)
+    xml = _check_well_formed(io.BytesIO(text.encode()) if is_xml else os.fspath(source), where)
+    _check_elements(xml, where)        # every value yourdfpy reads, named, before it reads it
+    for parent, tags in (("link", ("visual", "collision")),      # what the model never uses
+                         ("joint", ("calibration", "safety_controller"))):
+        for element in xml.findall(parent):
+            for unused in [e for tag in tags for e in element.findall(tag)]:
+                element.remove(unused)
+    for unused in xml.findall("material"):
+        xml.remove(unused)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            urdf = yourdfpy.URDF.load(handle, build_scene_graph=False, load_meshes=False,
-                                      build_collision_scene_graph=False,
+            urdf = yourdfpy.URDF.load(io.BytesIO(etree.tostring(xml)), build_scene_graph=False,
+                                      load_meshes=False, build_collision_scene_graph=False,
                                       load_collision_meshes=False)
-    except Exception as exc:  # missing attributes, ...
+    except Exception as exc:  # pragma: no cover - _check_elements lets nothing through
         detail = f"missing attribute {exc}" if isinstance(exc, KeyError) else exc
         raise URDFError(f"cannot parse {where}: {detail}. Check that it is well-formed URDF XML "
                         "(a <robot> with <link> and <joint> elements).") from exc
     if urdf.robot is None or not urdf.robot.links:
-        raise URDFError("the URDF has no <link>; nothing to model")
+        raise URDFError(f"{where} has no <link>; nothing to model")
     return urdf.robot, xml
+
+
+# What each attribute yourdfpy reads as numbers must hold: (count, what it means).
+_XYZ, _RPY = (3, 'three numbers "x y z" (m)'), (3, 'three numbers "roll pitch yaw" (rad)')
+_NUMBERS = {
+    "origin": {"xyz": _XYZ, "rpy": _RPY},
+    "axis": {"xyz": (3, 'three numbers "x y z" (the direction of the joint axis)')},
+    "mass": {"value": (1, "a number (kg)")},
+    "inertia": {k: (1, "a number (kg m^2)") for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")},
+    "limit": {"lower": (1, "a number (rad, or m for a prismatic joint)"),
+              "upper": (1, "a number (rad, or m for a prismatic joint)"),
+              "effort": (1, "a number (N m, or N)"), "velocity": (1, "a number (rad/s, or m/s)")},
+    "dynamics": {"damping": (1, "a number (N m s/rad, or N s/m)"),
+                 "friction": (1, "a number (N m, or N)")},
+    "mimic": {"multiplier": (1, "a number"), "offset": (1, "a number (rad, or m)")},
+}
+
+
+def _is_number(text) -> bool:
+    try:
+        float(text)
+    except (TypeError, ValueError):
+        return False
+    return True
+
+
+def _check_elements(root, where):
+    """Check every element and attribute yourdfpy reads (so that it never fails with a bare
+    "could not convert string to float") and raise a URDFError that names the link or joint,
+    the element and attribute, and what is expected. Values are only checked to be numbers
+    here; NaN, Inf and physics are checked where they are used, naming the same culprit."""
+    from .transmissions import _local
+
+    def fail(who, message):
+        raise URDFError(f"cannot parse {where}: {who}: {message}")
+
+    def numbers(element, who):
+        for attr, (count, expected) in _NUMBERS.get(element.tag, {}).items():
+            value = element.get(attr)
+            if value is None:
+                continue
+            parts = value.split()
+            if len(parts) != count or not all(_is_number(p) for p in parts):
+                fail(who, f'<{element.tag} {attr}="{value}"> is not {expected}; fix it')
+
+    def required(element, who, attrs, hint):
+        for attr in attrs:
+            if not (element.get(attr) or "").strip():
+                fail(who, f"<{element.tag}> has no {attr} attribute; {hint}")
+
+    if _local(root.tag) != "robot":
+        raise URDFError(f"cannot parse {where}: its root element is <{root.tag}>, not <robot>; "
+                        "a URDF is one <robot name=...> holding <link> and <joint> elements")
+    if not (root.get("name") or "").strip():
+        raise URDFError(f'cannot parse {where}: <robot> has no name attribute; name the '
+                        'robot: <robot name="...">')
+    for kind in ("link", "joint"):
+        for k, element in enumerate(root.findall(kind)):
+            if not (element.get("name") or "").strip():
+                fail(f"the <{kind}> on line {element.sourceline} (the {_ordinal(k + 1)} <{kind}>)",
+                     f"it has no name attribute; every <{kind}> needs a unique name")
+    for link in root.findall("link"):
+        who = f"link {link.get('name')!r}"
+        inertial = link.find("inertial")
+        if inertial is None:
+            continue                                    # massless: legal
+        for tag, attrs, what in (
+                ("mass", ("value",), 'its mass, <mass value="..."/> (kg)'),
+                ("inertia", ("ixx", "ixy", "ixz", "iyy", "iyz", "izz"),
+                 'its rotational inertia about the center of mass, all six of <inertia ixx="..." '
+                 'ixy="..." ixz="..." iyy="..." iyz="..." izz="..."/> (kg m^2)')):
+            element = inertial.find(tag)
+            if element is None:
+                fail(who, f"<inertial> has no <{tag}>; give {what}, or remove the <inertial> "
+                          "of a massless link")
+            required(element, who, attrs, f"give {what}")
+            numbers(element, who)
+        if inertial.find("origin") is not None:
+            numbers(inertial.find("origin"), who + " <inertial>")
+    for joint in root.findall("joint"):
+        who = f"joint {joint.get('name')!r}"
+        kind = joint.get("type")
+        if kind not in JOINT_TYPES:
+            fail(who, ("it has no type attribute" if kind is None else f"type {kind!r} is not a "
+                       "URDF joint type") + f"; give one of {list(JOINT_TYPES)}")
+        for end in ("parent", "child"):
+            element = joint.find(end)
+            if element is None:
+                fail(who, f'it has no <{end}>; give <{end} link="..."/> naming its {end} link')
+            required(element, who, ("link",), f'name its {end} link: <{end} link="..."/>')
+        for tag in ("origin", "axis", "limit", "dynamics", "mimic"):
+            element = joint.find(tag)
+            if element is not None:
+                numbers(element, who)
+        if joint.find("mimic") is not None:
+            required(joint.find("mimic"), who, ("joint",),
+                     'name the joint it follows: <mimic joint="..." multiplier="1" offset="0"/>')
+
+
+def _ordinal(k) -> str:
+    return f"{k}{'th' if 10 <= k % 100 <= 20 else {1: 'st', 2: 'nd', 3: 'rd'}.get(k % 10, 'th')}"
 
 
 def _check_well_formed(handle, where):
@@ -92,9 +202,11 @@ def _float(value, default):
     return default if value is None else float(value)
 
 
-def _link_inertia(link):
+def _link_inertia(link, carried=()):
     """(mass, com (3,), inertia about com (3, 3)) in the link frame; a link with no
-    <inertial> is massless."""
+    <inertial> is massless. ``carried``: the origins (3,) of the joints the link carries,
+    which give its size. A NaN or Inf is a URDFError (a bad number in the file); a negative
+    mass, an absurd magnitude or an inertia no rigid body has a ModelError."""
     inertial = link.inertial
     if inertial is None:
         return 0.0, np.zeros(3), np.zeros((3, 3))
@@ -103,16 +215,21 @@ def _link_inertia(link):
     X = _finite_or_fail(_transform(inertial.origin), what + " origin")
     I = _finite_or_fail(np.zeros((3, 3)) if inertial.inertia is None else inertial.inertia,
                         what + " inertia")
-    try:
-        who = f"link {link.name!r}"
-        check_magnitude(who, "mass", m, MAX_MASS, "kg")          # before any product of them
-        check_magnitude(who, "center of mass", X[:3, 3], MAX_LENGTH, "m")
-        check_magnitude(who, "inertia", I, MAX_INERTIA, "kg m^2")
-        check_inertia(link.name, m, I)
-    except ModelError as exc:
-        raise URDFError(str(exc)) from None
+    who = f"link {link.name!r}"
+    check_magnitude(who, "mass", m, MAX_MASS, "kg")          # before any product of them
+    check_magnitude(who, "center of mass", X[:3, 3], MAX_LENGTH, "m")
+    check_magnitude(who, "inertia", I, MAX_INERTIA, "kg m^2")
+    length = max([np.linalg.norm(X[:3, 3])] + [np.linalg.norm(p) for p in carried])
+    check_inertia(link.name, m, I, length=length)
     R = X[:3, :3]
     return m, X[:3, 3].copy(), R @ I @ R.T
+
+
+def _origin(joint):
+    """The joint's <origin> (4, 4), its numbers checked: finite, and within any robot."""
+    X = _finite_or_fail(_transform(joint.origin), f"joint {joint.name!r} origin")
+    check_magnitude(f"joint {joint.name!r}", "origin xyz", X[:3, 3], MAX_LENGTH, "m")
+    return X
 
 
 def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
@@ -142,8 +259,11 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
         parent_joint[joint.child] = joint
         children[joint.parent].append(joint)
     roots = [name for name in links if name not in parent_joint]
+    if not roots:                        # every link has a parent: the joints form a cycle
+        _check_tree(None, links, children, parent_joint)
     if len(roots) != 1:
-        raise URDFError(f"the URDF must have exactly one root link, found {roots}")
+        raise URDFError(f"the URDF must have exactly one root link (a link that is no "
+                        f"joint's child), found {len(roots)}: {roots}; join them by joints")
     root = roots[0]
     _check_tree(root, links, children, parent_joint)
 
@@ -179,7 +299,7 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
     parts = {}                                   # inertia parts per body
     for joint in chain:
         what = f"joint {joint.name!r}"
-        X = X_acc @ _finite_or_fail(_transform(joint.origin), what + " origin")
+        X = X_acc @ _origin(joint)
         if joint.type == "fixed":
             X_acc = X
         elif joint.type in MOVABLE:
@@ -197,13 +317,13 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
     while stack:
         name, body, X_link = stack.pop()
         if body >= 0:   # links fixed to the base are not in the model: neither used nor checked
-            m, c, I = _link_inertia(links[name])
+            m, c, I = _link_inertia(links[name], [_origin(j)[:3, 3] for j in children[name]])
             R = X_link[:3, :3]
             parts[body].append((m, R @ c + X_link[:3, 3], R @ I @ R.T))
         for joint in children[name]:
             if joint.name in chain_joints:
                 continue
-            X = X_link @ _finite_or_fail(_transform(joint.origin), f"joint {joint.name!r} origin")
+            X = X_link @ _origin(joint)
             if joint.type != "fixed":
                 held.append(joint.name)
             frames[joint.child] = (body, X[:3, :3].copy(), X[:3, 3].copy())
@@ -295,7 +415,7 @@ def _armature(xml, bodies, override, base_link, tip_link):
 def _check_tree(root, links, children, parent_joint):
     """Every link hangs below the root. Each link has at most one parent joint, so a link
     the root does not reach lies on, or below, a cycle of joints: name the cycle."""
-    reached, stack = {root}, [root]
+    reached, stack = ({root}, [root]) if root is not None else (set(), [])
     while stack:
         for joint in children[stack.pop()]:
             if joint.child not in reached:
@@ -309,8 +429,9 @@ def _check_tree(root, links, children, parent_joint):
             link = parent_joint[link].parent
         cycle = seen[seen.index(link):]
         joints = [parent_joint[name].name for name in cycle]
-        raise URDFError(f"the joints {joints} form a cycle through the links {cycle}, which "
-                        f"the root {root!r} does not reach; a URDF must be a tree")
+        reach = "no link is a root" if root is None else f"the root {root!r} does not reach"
+        raise URDFError(f"the joints {joints} form a cycle through the links {cycle} ({reach}); "
+                        "a URDF must be a tree")
 
 
 def _pose(frame):
@@ -323,7 +444,7 @@ def _pose_in_root(link, root, parent_joint):
     X = np.eye(4)
     while link != root:
         joint = parent_joint[link]
-        X = _transform(joint.origin) @ X   # joints above the base held at zero
+        X = _origin(joint) @ X   # joints above the base held at zero
         link = joint.parent
     return X
 
@@ -332,8 +453,11 @@ def _body(joint, X):
     what = f"joint {joint.name!r}"
     axis = _finite_or_fail(np.array([1.0, 0, 0]) if joint.axis is None else joint.axis,
                            what + " axis")
-    if np.linalg.norm(axis) < 1e-12:
-        raise URDFError(f"{what} has a zero axis; give a unit <axis xyz>")
+    big = np.max(np.abs(axis))
+    if big == 0:
+        raise URDFError(f'{what} has a zero axis (<axis xyz="0 0 0">); give the direction of '
+                        'the joint axis, e.g. <axis xyz="0 0 1"/>')
+    axis = axis / big                    # |axis| of 1e200 or 1e-200 would over/underflow
     lim, dyn = joint.limit, joint.dynamics
     lower = _float(getattr(lim, "lower", None), -np.inf)
     upper = _float(getattr(lim, "upper", None), np.inf)
@@ -379,11 +503,80 @@ def _default_tip(base, children):
     movable.sort(key=lambda t: (t[0], t[1].name))
     for (_, j1, _), (_, j2, above2) in zip(movable, movable[1:]):
         if above2 != j1.name:        # a single path: each one's nearest movable is the last
-            inner = {above for _, _, above in movable}
-            tips = sorted(j.child for _, j, _ in movable if j.name not in inner)
-            raise URDFError(f"the movable joints below {base!r} branch (at {j1.name!r} and "
-                            f"{j2.name!r}); choose a tip_link, e.g. one of {tips}")
-    tip = movable[-1][1].child
-    while len(children[tip]) == 1 and children[tip][0].type == "fixed":   # unique fixed tail
-        tip = children[tip][0].child
-    return tip
+            raise URDFError(_branch_message(base, children, movable, j1, j2))
+    return _fixed_tail(movable[-1][1].child, children)
+
+
+def _fixed_tail(link, children):
+    """``link`` followed down a unique tail of fixed joints."""
+    while len(children[link]) == 1 and children[link][0].type == "fixed":
+        link = children[link][0].child
+    return link
+
+
+def _branch_message(base, children, movable, j1, j2):
+    """Why no tip_link is chosen, and which to choose: first the end of the longest chain
+    of movable joints (the arm, not a finger of its gripper), then every branch's end.
+
+    The longest chains are the paths of movable joints from ``base`` to the deepest branch
+    ends. Their common part is the suggestion: where they part (a gripper's fingers), it
+    ends after the last common joint, followed down the fixed links to just above the link
+    that carries the parting joints (the flange, not the hand). Chains that part at the base
+    (two arms) give one suggestion each."""
+    joint = {j.name: j for _, j, _ in movable}
+    above = {j.name: a for _, j, a in movable}
+    below = {}
+    for _, j, a in movable:                                  # parents come first (by depth)
+        below.setdefault(a, []).append(j.name)
+    path = {}
+    for _, j, a in movable:
+        path[j.name] = (path[a] if a is not None else ()) + (j.name,)
+    leaves = [name for name in joint if name not in below]
+    longest = max(len(path[name]) for name in leaves)
+    deepest = sorted(path[name] for name in leaves if len(path[name]) == longest)
+    groups = {}
+    for p in deepest:                                        # chains parting at the base
+        groups.setdefault(p[0], []).append(p)
+    ends, how = [], []
+    for paths in groups.values():
+        common = 0
+        while all(len(p) > common and p[common] == paths[0][common] for p in paths):
+            common += 1
+        last = joint[paths[0][common - 1]]
+        span = f"{paths[0][0]!r} .. {last.name!r}, {common} joints"
+        if len(paths) == 1:
+            ends.append(_fixed_tail(last.child, children))
+            how.append(span + ("" if ends[-1] == last.child else ", and down its fixed links"))
+            continue
+        parting = sorted({p[common] for p in paths})
+        carrier = joint[parting[0]].parent
+        route = _links_between(last.child, carrier, children)
+        ends.append(route[-2] if len(route) > 1 else route[-1])
+        parting = " and ".join(repr(name) for name in parting)
+        how.append(span + (f", and down its fixed links to just above {carrier!r}, where "
+                           f"{parting} branch off" if len(route) > 1 else
+                           f"; {parting} branch off there"))
+    others = sorted(joint[name].child for name in leaves)
+    tips = ends + [t for t in others if t not in ends]
+    if len(ends) == 1:
+        why = f"the end of the longest chain of movable joints is {ends[0]!r} ({how[0]})"
+    else:
+        why = ("the longest chains of movable joints end at "
+               + " and ".join(f"{e!r} ({h})" for e, h in zip(ends, how)))
+    return (f"the movable joints below {base!r} branch (at {j1.name!r} and {j2.name!r}), so "
+            f"there is no single chain to pick; choose a tip_link, e.g. one of {tips}: {why}; "
+            "the others end the other branches")
+
+
+def _links_between(top, bottom, children):
+    """The links from ``top`` down to ``bottom`` (both included); ``bottom`` is below ``top``."""
+    route, stack = {}, [top]
+    while stack:
+        link = stack.pop()
+        for joint in children[link]:
+            route[joint.child] = link
+            stack.append(joint.child)
+    links = [bottom]
+    while links[-1] != top:
+        links.append(route[links[-1]])
+    return links[::-1]

@@ -97,20 +97,22 @@ def test_duplicate_names_are_refused():
 
 
 # ---------------------------------------------------------------- inertias
+# A file that reads but describes no physical body raises ModelError, as the README says
+# (negative mass, inertia; issue 13: negative mass used to be a URDFError).
 def test_negative_mass():
-    raises(sd.URDFError, urdf(l2=link("link2", mass="-1.5")), "'link2'", "-1.5", "negative")
+    raises(sd.ModelError, urdf(l2=link("link2", mass="-1.5")), "'link2'", "-1.5", "negative")
 
 
 def test_inertia_not_positive_semidefinite():
-    raises(sd.URDFError, urdf(l2=link("link2", I=("-0.01", "0.01", "0.01"))), "'link2'",
+    raises(sd.ModelError, urdf(l2=link("link2", I=("-0.01", "0.01", "0.01"))), "'link2'",
            "positive semi-definite")
     # positive diagonal, but a product of inertia too large for it
-    raises(sd.URDFError, urdf(l1=link("link1", off=("0.02", "0", "0"))), "'link1'",
+    raises(sd.ModelError, urdf(l1=link("link1", off=("0.02", "0", "0"))), "'link1'",
            "positive semi-definite")
 
 
 def test_triangle_inequality():
-    msg = raises(sd.URDFError, urdf(l2=link("link2", I=("0.01", "0.01", "0.05"))), "'link2'",
+    msg = raises(sd.ModelError, urdf(l2=link("link2", I=("0.01", "0.01", "0.05"))), "'link2'",
                  "triangle inequality")
     assert "0.05" in msg
 
@@ -119,7 +121,35 @@ def test_invalid_inertia_off_the_chain_is_found_too():
     """A fixed child that is lumped into the chain is checked like any chain link."""
     xml = urdf(pl=link("payload", I=("0.01", "0.01", "0.05")),
                jp=joint("payload_joint", "link2", "payload", kind="fixed"))
-    raises(sd.URDFError, xml, "'payload'", "triangle")
+    raises(sd.ModelError, xml, "'payload'", "triangle")
+
+
+@pytest.mark.parametrize("I, off", [
+    (("1e-20", "-1e-20", "0"), ("0", "0", "0")),            # iCub's l_ankle_2: indefinite
+    (("2.4e-35", "0", "-2.4e-35"), ("0", "0", "0")),        # iCub's head
+    (("-5.4e-20", "-5.4e-20", "0"), ("0", "0", "0")),       # iCub's r_hip_2
+    (("0", "0", "0"), ("1e-20", "0", "0")),                 # a product of inertia alone
+])
+def test_round_off_sized_inertias_are_point_masses(I, off):
+    """Inertias of 1e-20 .. 1e-35 kg m^2 (physically zero) used to fail the purely relative
+    check (issue 13): they load, and the arm equals the one with an exact point mass."""
+    rounded = sd.load_urdf(urdf(l2=link("link2", I=I, off=off)))
+    point = sd.load_urdf(urdf(l2=link("link2", I=("0", "0", "0"))))
+    q, qd, qdd = np.array([0.3, -0.7]), np.array([1.0, 2.0]), np.array([-1.0, 0.5])
+    np.testing.assert_allclose(rounded.inverse_dynamics(q, qd, qdd),
+                               point.inverse_dynamics(q, qd, qdd), rtol=1e-15, atol=1e-15)
+
+
+def test_the_round_off_floor_scales_with_mass_and_size():
+    """The floor is 1e-12 m L^2 (L: the link's size), not a fixed number: the same negative
+    moment is round-off on a 1 kg link of 0.1 m and refused on a 1 g link of 1 mm."""
+    check = sd.model.check_inertia
+    I = np.diag([-1e-16, 1e-16, 1e-16])
+    check("big", 1.0, I, length=0.1)                       # floor 1e-14: round-off
+    with pytest.raises(sd.ModelError, match="'small'.*positive semi-definite"):
+        check("small", 1e-3, I, length=1e-3)               # floor 1e-21
+    with pytest.raises(sd.ModelError, match="'nosize'"):
+        check("nosize", 1.0, I)                            # no size given: relative only
 
 
 @pytest.mark.parametrize("part, culprit, what", [
@@ -146,6 +176,15 @@ def test_nan_or_inf_in_the_file(part, culprit, what):
 
 def test_other_bad_joint_numbers():
     raises(sd.URDFError, urdf(j2=joint("j2", "link1", "link2", axis="0 0 0")), "'j2'", "zero axis")
+    # an axis whose norm overflows (or underflows) is a direction all the same (issue 13:
+    # "1e200 1e200 0" was refused as "axis is zero")
+    for axis, unit in (("1e200 1e200 0", [1, 1, 0]), ("1e308 0 -1e308", [1, 0, -1]),
+                       ("0 1e-200 0", [0, 1, 0])):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")                 # and no overflow on the way
+            robot = sd.load_urdf(urdf(j2=joint("j2", "link1", "link2", axis=axis)))
+        np.testing.assert_allclose(robot.model.axis[1], np.array(unit) / np.linalg.norm(unit),
+                                   rtol=1e-15)
     raises(sd.URDFError, urdf(j2=joint("j2", "link1", "link2", extra='<dynamics damping="-1"/>')),
            "'j2'", "damping", "negative")
     raises(sd.URDFError, urdf(j2=joint(
@@ -193,6 +232,9 @@ def test_branches_without_tip_list_the_candidates():
                l4=link("link4"), j4=joint("j4", "link3", "link4", axis="0 0 1"))
     msg = raises(sd.URDFError, xml, "branch", "tip_link", "'j2'", "'j3'", "'link2'", "'link4'")
     assert "'link3'" not in msg.split("one of")[1]       # not a branch end
+    # the end of the longest movable chain (j1, j3, j4) comes first, and the message says so
+    assert "one of ['link4', 'link2']" in msg
+    assert "the end of the longest chain of movable joints is 'link4'" in msg
     # naming a tip resolves it, and the other branch is held (with a warning naming it)
     with pytest.warns(sd.HeldJointsWarning, match="j2"):
         robot = sd.load_urdf(xml, tip_link="link4")
@@ -446,3 +488,200 @@ def test_absurd_magnitudes_are_named(parts, culprit, what):
     with warnings.catch_warnings():
         warnings.simplefilter("error")                     # and no overflow on the way
         raises(ValueError, urdf(**parts), culprit, what, "beyond any robot")
+
+
+# ---------------------------------------------------------------- messages name the culprit
+NO_PARENT = ('<joint name="j2" type="revolute"><child link="link2"/><axis xyz="0 1 0"/>'
+             '<limit lower="-1" upper="1" effort="1" velocity="1"/></joint>')
+BAD_FILES = {   # issue 13, defect 1: what each used to say, and what names the culprit now
+    # "setting an array element with a sequence..."
+    "axis of two numbers": (dict(j2=joint("j2", "link1", "link2", axis="1 2")),
+                            ["joint 'j2'", '<axis xyz="1 2">', "three numbers"]),
+    # "could not convert string to float: 'garbage'"
+    "damping garbage": (dict(j2=joint("j2", "link1", "link2", extra='<dynamics damping="garbage"/>')),
+                        ["joint 'j2'", 'damping="garbage"', "a number"]),
+    "friction garbage": (dict(j2=joint("j2", "link1", "link2", extra='<dynamics friction="x"/>')),
+                         ["joint 'j2'", 'friction="x"', "a number"]),
+    # "'NoneType' object has no attribute 'get'"
+    "joint without parent": (dict(j2=NO_PARENT), ["joint 'j2'", "<parent", "link="]),
+    "joint without child": (dict(j2=NO_PARENT.replace("child", "parent").replace("link2", "link1")),
+                            ["joint 'j2'", "<child"]),
+    "parent without link": (dict(j2=joint("j2", "link1", "link2").replace('<parent link="link1"/>',
+                                                                         "<parent/>")),
+                            ["joint 'j2'", "<parent> has no link attribute"]),
+    # "missing attribute 'name'"
+    "link without name": (dict(extra="<link/>"), ["<link> on line", "5th", "no name"]),
+    "joint without name": (dict(j2=joint("j2", "link1", "link2").replace(' name="j2"', "")),
+                           ["<joint> on line", "2nd", "no name"]),
+    "robot without name": ({}, ["<robot> has no name", '<robot name="...">']),
+    # "could not convert string to float: 'a'"
+    "origin of letters": (dict(j2=joint("j2", "link1", "link2", xyz="a b c")),
+                          ["joint 'j2'", '<origin xyz="a b c">', "three numbers", "(m)"]),
+    "origin of two numbers": (dict(j2=joint("j2", "link1", "link2", xyz="1 2")),
+                              ["joint 'j2'", '<origin xyz="1 2">', "three numbers"]),
+    "rpy garbage": (dict(j2=joint("j2", "link1", "link2", rpy="x 0 0")),
+                    ["joint 'j2'", "rpy", "roll pitch yaw"]),
+    "inertial origin garbage": (dict(l2=link("link2", com="a b c")),
+                                ["link 'link2' <inertial>", '<origin xyz="a b c">']),
+    "limit garbage": (dict(j2=joint("j2", "link1", "link2",
+                                    limit='<limit lower="x" upper="1" effort="1" velocity="1"/>')),
+                      ["joint 'j2'", '<limit lower="x">', "a number"]),
+    "mass garbage": (dict(l2=link("link2", mass="heavy")), ["link 'link2'", 'value="heavy"', "(kg)"]),
+    "inertia garbage": (dict(l2=link("link2", I=("a", "0.01", "0.01"))),
+                        ["link 'link2'", 'ixx="a"', "kg m^2"]),
+    "mimic multiplier garbage": (dict(j2=joint("j2", "link1", "link2",
+                                               extra='<mimic joint="j1" multiplier="x"/>')),
+                                 ["joint 'j2'", 'multiplier="x"']),
+    # silently read as mass 0, or as ixx = 1 (yourdfpy's defaults), before
+    "mass without value": (dict(l2=link("link2").replace('<mass value="1.0"/>', "<mass/>")),
+                           ["link 'link2'", "<mass> has no value", '<mass value="..."/>']),
+    "inertial without mass": (dict(l2=link("link2").replace('<mass value="1.0"/>', "")),
+                              ["link 'link2'", "<inertial> has no <mass>"]),
+    "inertia missing attributes": (dict(l2=link("link2").replace(' ixx="0.01"', "")),
+                                   ["link 'link2'", "<inertia> has no ixx", "all six"]),
+    "inertial without inertia": (dict(l2=link("link2").replace('<inertia ', '<foo ')),
+                                 ["link 'link2'", "<inertial> has no <inertia>"]),
+    # "on the chain is of type None", "mimics None"
+    "joint without type": (dict(j2=joint("j2", "link1", "link2").replace(' type="revolute"', "")),
+                           ["joint 'j2'", "no type", "'revolute'"]),
+    "unknown joint type": (dict(j2=joint("j2", "link1", "link2", kind="hinge")),
+                           ["joint 'j2'", "'hinge'", "'prismatic'"]),
+    "mimic without joint": (dict(j2=joint("j2", "link1", "link2", extra='<mimic multiplier="2"/>')),
+                            ["joint 'j2'", "<mimic> has no joint", '<mimic joint="..."']),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD_FILES))
+def test_a_bad_value_is_named_with_what_is_expected(case):
+    parts, names = BAD_FILES[case]
+    xml = urdf(**parts)
+    if case == "robot without name":
+        xml = xml.replace('<robot name="t">', "<robot>")
+    msg = raises(sd.URDFError, xml, *names)
+    assert "NoneType" not in msg and "could not convert" not in msg and "sequence" not in msg
+    assert "parse the URDF string" in msg      # where: the string, or the file's path
+
+
+def test_a_bad_value_in_a_file_names_the_file(tmp_path):
+    path = tmp_path / "arm.urdf"
+    path.write_text(urdf(j2=joint("j2", "link1", "link2", axis="1 2")))
+    raises(sd.URDFError, str(path), "arm.urdf", "joint 'j2'", "<axis")
+
+
+def test_the_root_must_be_a_robot():
+    xml = urdf().replace('<robot name="t">', '<rob name="t">').replace("</robot>", "</rob>")
+    raises(sd.URDFError, xml, "<rob>", "<robot")      # used to load, from a <rob>
+
+
+def test_what_the_model_never_reads_is_not_checked():
+    """<visual>, <collision>, <calibration>, <safety_controller> and materials are never
+    used: garbage there does not refuse the arm (yourdfpy used to fail on it)."""
+    junk = ('<visual><origin xyz="a"/><geometry><box size="1 x"/></geometry>'
+            '<material name="m"><color rgba="red"/></material></visual><collision><geometry/>'
+            '</collision></link>')
+    xml = urdf(l2=link("link2").replace("</link>", junk),
+               j2=joint("j2", "link1", "link2", extra='<calibration rising="x"/>'
+                                                      '<safety_controller k_velocity="y"/>'),
+               mat='<material name="m"><color rgba="1 2"/></material>')
+    robot = sd.load_urdf(xml)
+    plain = sd.load_urdf(urdf())
+    np.testing.assert_array_equal(robot.mass_matrix([0.3, 0.4]), plain.mass_matrix([0.3, 0.4]))
+
+
+def test_one_base_class_for_both_errors():
+    """Users catch sd.RobotDescriptionError for a URDF that cannot be read and for a chain
+    that is not physical; both remain ValueErrors (issue 13)."""
+    assert issubclass(sd.URDFError, sd.RobotDescriptionError)
+    assert issubclass(sd.ModelError, sd.RobotDescriptionError)
+    assert issubclass(sd.RobotDescriptionError, ValueError)
+    assert "RobotDescriptionError" in sd.__all__
+    for xml in (urdf(j2=joint("j2", "link1", "link2", axis="1 2")),      # URDFError
+                urdf(l2=link("link2", mass="-1")),                         # ModelError
+                urdf(l2=link("link2", mass=None))):                        # singular M
+        with pytest.raises(sd.RobotDescriptionError):
+            sd.load_urdf(xml)
+
+
+def test_the_readme_lists_each_error_under_its_class():
+    """README: negative mass and bad inertias are ModelErrors; the code agrees (above)."""
+    import os
+    readme = open(os.path.join(os.path.dirname(__file__), "..", "README.md")).read()
+    paragraph = readme[readme.index("Bad input raises"):]
+    paragraph = paragraph[:paragraph.index("\n\n")]
+    model_part = paragraph[paragraph.index("`sd.ModelError`"):]
+    assert "negative mass" in model_part and "negative mass" not in paragraph.split(
+        "`sd.ModelError`")[0]
+    assert "sd.RobotDescriptionError" in paragraph
+
+
+def test_the_panda_suggests_its_flange_as_tip():
+    """`serial-dynamics info panda.urdf` suggested the fingers (issue 13): the end of the
+    longest movable chain, panda_link8, comes first, and the message says how it was chosen."""
+    from pin_reference import erd
+    msg = raises(sd.URDFError, erd("panda_description/urdf/panda.urdf"), "branch")
+    assert "one of ['panda_link8', 'panda_leftfinger', 'panda_rightfinger']" in msg
+    assert "the end of the longest chain of movable joints is 'panda_link8'" in msg
+    assert "'panda_joint1' .. 'panda_joint7', 7 joints" in msg
+    assert "'panda_finger_joint1' and 'panda_finger_joint2' branch off" in msg
+
+
+def test_the_cli_suggests_the_flange(capsys):
+    from pin_reference import erd
+    from serial_dynamics import cli
+    assert cli.main(["info", erd("panda_description/urdf/panda.urdf")]) == 2
+    err = capsys.readouterr().err
+    assert "one of ['panda_link8'" in err
+
+
+def test_two_arms_suggest_both():
+    """Branches that part at the base (two arms with two fingers each) suggest each arm."""
+    parts = dict(base=link("base_link", mass=None))
+    for side in ("l", "r"):
+        parts.update({
+            f"{side}1": link(f"{side}_upper"), f"{side}2": link(f"{side}_fore"),
+            f"{side}f": link(f"{side}_flange"), f"{side}h": link(f"{side}_hand"),
+            f"{side}a": link(f"{side}_finger_a"), f"{side}b": link(f"{side}_finger_b"),
+            f"j{side}1": joint(f"{side}_shoulder", "base_link", f"{side}_upper", axis="0 0 1"),
+            f"j{side}2": joint(f"{side}_elbow", f"{side}_upper", f"{side}_fore"),
+            f"j{side}f": joint(f"{side}_flange_joint", f"{side}_fore", f"{side}_flange", kind="fixed"),
+            f"j{side}h": joint(f"{side}_hand_joint", f"{side}_flange", f"{side}_hand", kind="fixed"),
+            f"j{side}a": joint(f"{side}_fa", f"{side}_hand", f"{side}_finger_a", kind="prismatic"),
+            f"j{side}b": joint(f"{side}_fb", f"{side}_hand", f"{side}_finger_b", kind="prismatic"),
+        })
+    xml = '<robot name="two">' + "".join(parts.values()) + "</robot>"
+    msg = raises(sd.URDFError, xml, "branch")
+    assert "one of ['l_flange', 'r_flange', 'l_finger_a'" in msg
+    assert "the longest chains of movable joints end at 'l_flange'" in msg
+
+
+def test_a_long_chain_loads_without_the_dense_check():
+    """Loading 1,000 joints took 9.7 .. 26.5 s (issue 13): the mass-matrix check ran the
+    NumPy CRBA, O(n^2), and an eigendecomposition, O(n^3), at three configurations. It is
+    O(n) now (composite and articulated inertias in one pass), and the dense CRBA is not
+    called for a chain without mimic joints. (Load times: bench/bench_load.py; no timing
+    assertion here.)"""
+    from serial_dynamics import model as model_module
+    from serial_dynamics.robots.synthetic import chain_urdf
+    calls = []
+    dense = model_module._mass_matrix
+    model_module._mass_matrix = lambda *a: calls.append(1) or dense(*a)
+    try:
+        robot = sd.load_urdf(chain_urdf(1000))
+    finally:
+        model_module._mass_matrix = dense
+    assert robot.dof == 1000 and not calls
+
+
+def test_the_singular_check_is_the_dense_one():
+    """The O(n) check refuses what the dense one (G^T M G, eigenvalues) refuses, with the
+    culprit named: here two coaxial joints (link1 massless), in a 30-joint chain."""
+    import re
+
+    from serial_dynamics.robots.synthetic import chain_urdf
+    xml = chain_urdf(30)
+    xml = re.sub(r'<link name="link7">.*?</link>', '<link name="link7"/>', xml, flags=re.S)
+    xml = re.sub(r'(<joint name="joint8".*?<origin xyz=")[^"]*(")', r"\g<1>0 0 0\2", xml, flags=re.S)
+    axis7 = re.search(r'<joint name="joint7".*?<axis xyz="([^"]*)"', xml, re.S).group(1)
+    xml = re.sub(r'(<joint name="joint8".*?<axis xyz=")[^"]*(")', rf"\g<1>{axis7}\2", xml, flags=re.S)
+    msg = raises(sd.ModelError, xml, "singular", "'joint7'", "at q = 0", "same mass the same way")
+    assert len(msg) < 600                   # a long q is summarized

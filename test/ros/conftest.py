@@ -86,6 +86,17 @@ def ros():
     r.close()
 
 
+@pytest.fixture(scope="module", autouse=True)
+def stop_the_module_nodes(ros):
+    """Stop the nodes a test module started when it ends: a simulator left stepping at
+    1 kHz would take a core from every later test (test_threads needs the threads of one
+    process to interleave)."""
+    started = len(ros.procs)
+    yield
+    for p in ros.procs[started:]:
+        p.stop()
+
+
 def wait_for_log(ros, proc, text, timeout=20.0):
     ros.spin_until(lambda: text in proc.output(), timeout, f"{text!r} in the {proc.module} log")
 

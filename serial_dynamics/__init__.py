@@ -8,7 +8,8 @@ The core library never imports rclpy; the ROS 2 nodes live in ``serial_dynamics.
 """
 from .base_motion import BaseMotion
 from .dissipation import Dissipation
-from .model import Model, ModelError, RobotDescriptionError
+from .errors import ModelError, RobotDescriptionError
+from .model import Model
 from .robot import Robot
 from . import mimic, planar_robot  # noqa: F401  (register MimicRobot and PlanarRobot with Robot)
 from .robots import builtin_path, builtin_robot, default_robot

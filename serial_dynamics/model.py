@@ -50,21 +50,12 @@ from types import MappingProxyType
 
 import numpy as np
 
-from .algorithms._batch import motion_subspaces, motion_transform, rigid_body_inertia
+from .algorithms._batch import motion_transform, rigid_body_inertia
 from .algorithms.crba import mass_matrix as _mass_matrix
 from .algorithms.kinematics import joint_transforms
+from .errors import ModelError
+from .inertia import MAX_INERTIA, MAX_LENGTH, MAX_MASS, check_inertia, check_magnitude
 from .joints import PRISMATIC, REVOLUTE  # noqa: F401  (re-exported)
-
-
-class RobotDescriptionError(ValueError):
-    """The robot description cannot be used: the URDF cannot be read (``URDFError``) or the
-    chain it describes is not a valid dynamic model (``ModelError``). Catch this one for
-    both; the message names the link, joint or element at fault and what is expected."""
-
-
-class ModelError(RobotDescriptionError):
-    """The chain is not a valid dynamic model (negative mass, an inertia no rigid body has,
-    an absurd magnitude, a singular mass matrix, ...)."""
 
 
 def _frozen(a, shape=None, dtype=float):
@@ -327,74 +318,6 @@ def _diagonal_and_pivots(model, qs):
             IC = Xt[:, i] @ IC @ X[:, i]
             IA = Xt[:, i] @ (IA - U[:, :, None] * U[:, None, :] / safe) @ X[:, i]
     return diag, pivot
-
-
-def check_inertia(link: str, mass: float, inertia: np.ndarray, rtol: float = 1e-9,
-                  length: float = 0.0) -> None:
-    """Mass >= 0; inertia symmetric, positive semi-definite and obeying the triangle
-    inequality of principal moments (I1 + I2 >= I3), as every physical body does.
-
-    Tolerances: relative, for numbers written with few digits, a principal moment down to
-    -``rtol`` times the largest entry and the triangle inequality failing by 1e-6 of it; and
-    absolute, for round-off-sized entries (iCub's links carry inertias of 1e-20 .. 1e-35
-    kg m^2: point masses whose zeros went through a rotation), a shortfall up to
-    ``INERTIA_FLOOR`` m L^2, L = ``length``, the link's size (the largest distance from its
-    origin to its center of mass or to a joint it carries). A principal moment
-    I1 = int (y^2 + z^2) dm, or a second moment (I1 + I2 - I3) / 2 = int z^2 dm, of
-    -1e-12 m L^2 is that of mass spread over an imaginary 1e-6 L: a micrometre on a
-    metre-long link, far below any part's tolerance (so physically zero), and far above the
-    round-off (1e-16 m L^2) of the parallel-axis terms m |c|^2 every algorithm adds to it.
-    """
-    if not mass >= 0:
-        raise ModelError(f"link {link!r}: mass {mass} is negative; a mass must be >= 0")
-    I = np.asarray(inertia, dtype=float)
-    scale = max(np.max(np.abs(I)), 1e-300)
-    floor = INERTIA_FLOOR * mass * float(length) ** 2
-    if not np.allclose(I, I.T, atol=max(rtol * scale, floor)):
-        raise ModelError(f"link {link!r}: inertia matrix is not symmetric")
-    ev = np.linalg.eigvalsh(I)
-    if ev[0] < -max(rtol * scale, floor):
-        raise ModelError(f"link {link!r}: inertia is not positive semi-definite (principal "
-                         f"moments {_moments(ev)} kg m^2); fix ixx..izz: every principal "
-                         "moment of a rigid body is >= 0")
-    if ev[0] + ev[1] < ev[2] - max(1e-6 * scale, floor):
-        raise ModelError(f"link {link!r}: principal moments {_moments(ev)} kg m^2 violate "
-                         "the triangle inequality I1 + I2 >= I3; no rigid body has them")
-
-
-# Inertia shortfalls below INERTIA_FLOOR m L^2 are round-off (check_inertia).
-INERTIA_FLOOR = 1e-12
-
-
-def _moments(ev):
-    """Principal moments for a message: 9 decimals, or 3 significant digits if smaller."""
-    return [round(float(v), 9) if abs(v) >= 1e-6 or v == 0 else float(f"{v:.3g}") for v in ev]
-
-
-def combine_inertias(parts):
-    """Lump rigidly attached parts [(m, c, I_c)] (one frame) into one body.
-    Parallel-axis theorem: I = sum I_i + m_i (|d_i|^2 1 - d_i d_i^T), d_i = c_i - c."""
-    m = sum(p[0] for p in parts)
-    c = sum(p[0] * p[1] for p in parts) / m if m > 0 else np.zeros(3)
-    I = np.zeros((3, 3))
-    for mi, ci, Ii in parts:
-        d = ci - c
-        I += Ii + mi * (d @ d * np.eye(3) - np.outer(d, d))
-    return m, c, I
-
-
-# Beyond these no robot link is (a 10 km lever, 10,000 t); far below where products of
-# them overflow, which would otherwise surface as NaN deep in an algorithm.
-MAX_LENGTH, MAX_MASS = 1e4, 1e7          # m, kg
-MAX_INERTIA = MAX_MASS * MAX_LENGTH**2   # kg m^2
-
-
-def check_magnitude(who, what, value, bound, unit) -> None:
-    """Refuse an absurd magnitude, naming ``who`` ("link 'x'") and the bound."""
-    big = float(np.max(np.abs(value)))
-    if big > bound:
-        raise ModelError(f"{who}: {what} of magnitude {big:.3g} {unit} is beyond any robot "
-                         f"(more than {bound:g} {unit}); fix the number")
 
 
 def _check_magnitudes(model) -> None:

@@ -13,8 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .model import (MAX_INERTIA, MAX_LENGTH, MAX_MASS, ModelError, check_inertia,
-                    check_magnitude, combine_inertias)
+from .errors import ModelError
+from .inertia import (MAX_INERTIA, MAX_LENGTH, MAX_MASS, check_inertia, check_magnitude,
+                      combine_inertias)
 
 
 @dataclass(frozen=True, eq=False)

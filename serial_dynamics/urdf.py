@@ -4,7 +4,8 @@ Parsed with yourdfpy; meshes are never loaded. The model is the chain of joints 
 ``base_link`` to ``tip_link``. Fixed joints on the chain fold into the next joint's
 placement; links hanging off the chain by fixed joints are lumped into the inertia of
 the body they are rigidly attached to; movable joints off the chain are held at zero
-and lumped too, with one warning naming them.
+and lumped too, with one warning naming them. The XML is checked first (``urdf_xml.py``);
+the tree walks that find cycles and the default tip are in ``urdf_tree.py``.
 """
 from __future__ import annotations
 
@@ -14,16 +15,14 @@ import warnings
 
 import numpy as np
 
-from .model import (MAX_INERTIA, MAX_LENGTH, MAX_MASS, Model, RobotDescriptionError,
-                    check_inertia, check_magnitude, combine_inertias)
+from .inertia import (MAX_INERTIA, MAX_LENGTH, MAX_MASS, check_inertia, check_magnitude,
+                      combine_inertias)
+from .model import Model
 from .transmissions import reflected_inertias
+from .urdf_tree import check_tree, default_tip
+from .urdf_xml import MOVABLE, URDFError, check_elements, check_well_formed
 
-MOVABLE = ("revolute", "continuous", "prismatic")
-JOINT_TYPES = MOVABLE + ("fixed", "floating", "planar")
-
-
-class URDFError(RobotDescriptionError):
-    """The URDF cannot be read or does not describe a usable serial chain."""
+__all__ = ["load_model", "URDFError", "HeldJointsWarning"]
 
 
 class HeldJointsWarning(UserWarning):
@@ -42,8 +41,8 @@ def _parse(source):
             raise URDFError(f"URDF file {path!r} not found; give a path to a .urdf file or "
                             "the URDF XML itself as a string")
     where = "the URDF string" if is_xml else repr(os.fspath(source))
-    xml = _check_well_formed(io.BytesIO(text.encode()) if is_xml else os.fspath(source), where)
-    _check_elements(xml, where)        # every value yourdfpy reads, named, before it reads it
+    xml = check_well_formed(io.BytesIO(text.encode()) if is_xml else os.fspath(source), where)
+    check_elements(xml, where)        # every value yourdfpy reads, named, before it reads it
     for parent, tags in (("link", ("visual", "collision")),      # what the model never uses
                          ("joint", ("calibration", "safety_controller"))):
         for element in xml.findall(parent):
@@ -64,127 +63,6 @@ def _parse(source):
     if urdf.robot is None or not urdf.robot.links:
         raise URDFError(f"{where} has no <link>; nothing to model")
     return urdf.robot, xml
-
-
-# What each attribute yourdfpy reads as numbers must hold: (count, what it means).
-_XYZ, _RPY = (3, 'three numbers "x y z" (m)'), (3, 'three numbers "roll pitch yaw" (rad)')
-_NUMBERS = {
-    "origin": {"xyz": _XYZ, "rpy": _RPY},
-    "axis": {"xyz": (3, 'three numbers "x y z" (the direction of the joint axis)')},
-    "mass": {"value": (1, "a number (kg)")},
-    "inertia": {k: (1, "a number (kg m^2)") for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")},
-    "limit": {"lower": (1, "a number (rad, or m for a prismatic joint)"),
-              "upper": (1, "a number (rad, or m for a prismatic joint)"),
-              "effort": (1, "a number (N m, or N)"), "velocity": (1, "a number (rad/s, or m/s)")},
-    "dynamics": {"damping": (1, "a number (N m s/rad, or N s/m)"),
-                 "friction": (1, "a number (N m, or N)")},
-    "mimic": {"multiplier": (1, "a number"), "offset": (1, "a number (rad, or m)")},
-}
-
-
-def _is_number(text) -> bool:
-    try:
-        float(text)
-    except (TypeError, ValueError):
-        return False
-    return True
-
-
-def _check_elements(root, where):
-    """Check every element and attribute yourdfpy reads (so that it never fails with a bare
-    "could not convert string to float") and raise a URDFError that names the link or joint,
-    the element and attribute, and what is expected. Values are only checked to be numbers
-    here; NaN, Inf and physics are checked where they are used, naming the same culprit."""
-    from .transmissions import _local
-
-    def fail(who, message):
-        raise URDFError(f"cannot parse {where}: {who}: {message}")
-
-    def numbers(element, who):
-        for attr, (count, expected) in _NUMBERS.get(element.tag, {}).items():
-            value = element.get(attr)
-            if value is None:
-                continue
-            parts = value.split()
-            if len(parts) != count or not all(_is_number(p) for p in parts):
-                fail(who, f'<{element.tag} {attr}="{value}"> is not {expected}; fix it')
-
-    def required(element, who, attrs, hint):
-        for attr in attrs:
-            if not (element.get(attr) or "").strip():
-                fail(who, f"<{element.tag}> has no {attr} attribute; {hint}")
-
-    if _local(root.tag) != "robot":
-        raise URDFError(f"cannot parse {where}: its root element is <{root.tag}>, not <robot>; "
-                        "a URDF is one <robot name=...> holding <link> and <joint> elements")
-    if not (root.get("name") or "").strip():
-        raise URDFError(f'cannot parse {where}: <robot> has no name attribute; name the '
-                        'robot: <robot name="...">')
-    for kind in ("link", "joint"):
-        for k, element in enumerate(root.findall(kind)):
-            if not (element.get("name") or "").strip():
-                fail(f"the <{kind}> on line {element.sourceline} (the {_ordinal(k + 1)} <{kind}>)",
-                     f"it has no name attribute; every <{kind}> needs a unique name")
-    for link in root.findall("link"):
-        who = f"link {link.get('name')!r}"
-        inertial = link.find("inertial")
-        if inertial is None:
-            continue                                    # massless: legal
-        for tag, attrs, what in (
-                ("mass", ("value",), 'its mass, <mass value="..."/> (kg)'),
-                ("inertia", ("ixx", "ixy", "ixz", "iyy", "iyz", "izz"),
-                 'its rotational inertia about the center of mass, all six of <inertia ixx="..." '
-                 'ixy="..." ixz="..." iyy="..." iyz="..." izz="..."/> (kg m^2)')):
-            element = inertial.find(tag)
-            if element is None:
-                fail(who, f"<inertial> has no <{tag}>; give {what}, or remove the <inertial> "
-                          "of a massless link")
-            required(element, who, attrs, f"give {what}")
-            numbers(element, who)
-        if inertial.find("origin") is not None:
-            numbers(inertial.find("origin"), who + " <inertial>")
-    for joint in root.findall("joint"):
-        who = f"joint {joint.get('name')!r}"
-        kind = joint.get("type")
-        if kind not in JOINT_TYPES:
-            fail(who, ("it has no type attribute" if kind is None else f"type {kind!r} is not a "
-                       "URDF joint type") + f"; give one of {list(JOINT_TYPES)}")
-        for end in ("parent", "child"):
-            element = joint.find(end)
-            if element is None:
-                fail(who, f'it has no <{end}>; give <{end} link="..."/> naming its {end} link')
-            required(element, who, ("link",), f'name its {end} link: <{end} link="..."/>')
-        for tag in ("origin", "axis", "limit", "dynamics", "mimic"):
-            element = joint.find(tag)
-            if element is not None:
-                numbers(element, who)
-        if joint.find("mimic") is not None:
-            required(joint.find("mimic"), who, ("joint",),
-                     'name the joint it follows: <mimic joint="..." multiplier="1" offset="0"/>')
-
-
-def _ordinal(k) -> str:
-    return f"{k}{'th' if 10 <= k % 100 <= 20 else {1: 'st', 2: 'nd', 3: 'rd'}.get(k % 10, 'th')}"
-
-
-def _check_well_formed(handle, where):
-    """yourdfpy silently recovers from broken XML (and would build a wrong robot): refuse
-    fatal syntax errors here; undeclared namespace prefixes (xacro leftovers) are tolerated."""
-    from lxml import etree
-
-    parser = etree.XMLParser(recover=True)
-    tree = None
-    try:
-        tree = etree.parse(handle, parser)
-        errors = [e for e in parser.error_log if e.level_name == "FATAL"]
-    except etree.XMLSyntaxError as exc:      # nothing recoverable, e.g. an empty document
-        errors = [exc]
-    if errors:
-        e = errors[0]
-        line = getattr(e, "line", None) or getattr(e, "lineno", "?")
-        raise URDFError(f"cannot parse {where}: not well-formed XML (line {line}: "
-                        f"{getattr(e, 'message', None) or e}); fix the markup")
-    return tree.getroot()
 
 
 def _transform(X):
@@ -260,12 +138,12 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
         children[joint.parent].append(joint)
     roots = [name for name in links if name not in parent_joint]
     if not roots:                        # every link has a parent: the joints form a cycle
-        _check_tree(None, links, children, parent_joint)
+        check_tree(None, links, children, parent_joint)
     if len(roots) != 1:
         raise URDFError(f"the URDF must have exactly one root link (a link that is no "
                         f"joint's child), found {len(roots)}: {roots}; join them by joints")
     root = roots[0]
-    _check_tree(root, links, children, parent_joint)
+    check_tree(root, links, children, parent_joint)
 
     base_link = root if base_link is None else base_link
     for role, name in (("base_link", base_link), ("tip_link", tip_link)):
@@ -284,7 +162,7 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
         return path[::-1]
 
     if tip_link is None:
-        tip_link = _default_tip(base_link, children)
+        tip_link = default_tip(base_link, children)
     chain = path_up(tip_link, base_link)
     if chain is None:
         raise URDFError(f"tip_link {tip_link!r} is not below base_link {base_link!r}; "
@@ -412,28 +290,6 @@ def _armature(xml, bodies, override, base_link, tip_link):
     return [merged.get(name, 0.0) for name in names]
 
 
-def _check_tree(root, links, children, parent_joint):
-    """Every link hangs below the root. Each link has at most one parent joint, so a link
-    the root does not reach lies on, or below, a cycle of joints: name the cycle."""
-    reached, stack = ({root}, [root]) if root is not None else (set(), [])
-    while stack:
-        for joint in children[stack.pop()]:
-            if joint.child not in reached:
-                reached.add(joint.child)
-                stack.append(joint.child)
-    lost = [name for name in links if name not in reached]
-    if lost:
-        link, seen = lost[0], []
-        while link not in seen:          # up the parents until one repeats: the cycle
-            seen.append(link)
-            link = parent_joint[link].parent
-        cycle = seen[seen.index(link):]
-        joints = [parent_joint[name].name for name in cycle]
-        reach = "no link is a root" if root is None else f"the root {root!r} does not reach"
-        raise URDFError(f"the joints {joints} form a cycle through the links {cycle} ({reach}); "
-                        "a URDF must be a tree")
-
-
 def _pose(frame):
     X = np.eye(4)
     X[:3, :3], X[:3, 3] = frame[1], frame[2]
@@ -482,101 +338,3 @@ def _body(joint, X):
             values[key] = np.inf
     return dict(name=joint.name, type=joint.type, link=joint.child, X=X,
                 axis=axis / np.linalg.norm(axis), mimic=joint.mimic, **values)
-
-
-def _default_tip(base, children):
-    """The end of the chain when the movable joints below ``base`` form a single path: the
-    child of the last movable joint, followed down a unique tail of fixed joints. (A walk
-    with an explicit stack: a chain of any length, in time linear in it.)"""
-    movable = []      # (depth, joint, the nearest movable joint above it, or None)
-    stack = [(base, 0, None)]
-    while stack:
-        link, depth, above = stack.pop()
-        for joint in children[link]:
-            nearest = above
-            if joint.type != "fixed":
-                movable.append((depth, joint, above))
-                nearest = joint.name
-            stack.append((joint.child, depth + 1, nearest))
-    if not movable:
-        raise URDFError(f"no movable joint below base_link {base!r}")
-    movable.sort(key=lambda t: (t[0], t[1].name))
-    for (_, j1, _), (_, j2, above2) in zip(movable, movable[1:]):
-        if above2 != j1.name:        # a single path: each one's nearest movable is the last
-            raise URDFError(_branch_message(base, children, movable, j1, j2))
-    return _fixed_tail(movable[-1][1].child, children)
-
-
-def _fixed_tail(link, children):
-    """``link`` followed down a unique tail of fixed joints."""
-    while len(children[link]) == 1 and children[link][0].type == "fixed":
-        link = children[link][0].child
-    return link
-
-
-def _branch_message(base, children, movable, j1, j2):
-    """Why no tip_link is chosen, and which to choose: first the end of the longest chain
-    of movable joints (the arm, not a finger of its gripper), then every branch's end.
-
-    The longest chains are the paths of movable joints from ``base`` to the deepest branch
-    ends. Their common part is the suggestion: where they part (a gripper's fingers), it
-    ends after the last common joint, followed down the fixed links to just above the link
-    that carries the parting joints (the flange, not the hand). Chains that part at the base
-    (two arms) give one suggestion each."""
-    joint = {j.name: j for _, j, _ in movable}
-    above = {j.name: a for _, j, a in movable}
-    below = {}
-    for _, j, a in movable:                                  # parents come first (by depth)
-        below.setdefault(a, []).append(j.name)
-    path = {}
-    for _, j, a in movable:
-        path[j.name] = (path[a] if a is not None else ()) + (j.name,)
-    leaves = [name for name in joint if name not in below]
-    longest = max(len(path[name]) for name in leaves)
-    deepest = sorted(path[name] for name in leaves if len(path[name]) == longest)
-    groups = {}
-    for p in deepest:                                        # chains parting at the base
-        groups.setdefault(p[0], []).append(p)
-    ends, how = [], []
-    for paths in groups.values():
-        common = 0
-        while all(len(p) > common and p[common] == paths[0][common] for p in paths):
-            common += 1
-        last = joint[paths[0][common - 1]]
-        span = f"{paths[0][0]!r} .. {last.name!r}, {common} joints"
-        if len(paths) == 1:
-            ends.append(_fixed_tail(last.child, children))
-            how.append(span + ("" if ends[-1] == last.child else ", and down its fixed links"))
-            continue
-        parting = sorted({p[common] for p in paths})
-        carrier = joint[parting[0]].parent
-        route = _links_between(last.child, carrier, children)
-        ends.append(route[-2] if len(route) > 1 else route[-1])
-        parting = " and ".join(repr(name) for name in parting)
-        how.append(span + (f", and down its fixed links to just above {carrier!r}, where "
-                           f"{parting} branch off" if len(route) > 1 else
-                           f"; {parting} branch off there"))
-    others = sorted(joint[name].child for name in leaves)
-    tips = ends + [t for t in others if t not in ends]
-    if len(ends) == 1:
-        why = f"the end of the longest chain of movable joints is {ends[0]!r} ({how[0]})"
-    else:
-        why = ("the longest chains of movable joints end at "
-               + " and ".join(f"{e!r} ({h})" for e, h in zip(ends, how)))
-    return (f"the movable joints below {base!r} branch (at {j1.name!r} and {j2.name!r}), so "
-            f"there is no single chain to pick; choose a tip_link, e.g. one of {tips}: {why}; "
-            "the others end the other branches")
-
-
-def _links_between(top, bottom, children):
-    """The links from ``top`` down to ``bottom`` (both included); ``bottom`` is below ``top``."""
-    route, stack = {}, [top]
-    while stack:
-        link = stack.pop()
-        for joint in children[link]:
-            route[joint.child] = link
-            stack.append(joint.child)
-    links = [bottom]
-    while links[-1] != top:
-        links.append(route[links[-1]])
-    return links[::-1]

@@ -143,7 +143,7 @@ def test_round_off_sized_inertias_are_point_masses(I, off):
 def test_the_round_off_floor_scales_with_mass_and_size():
     """The floor is 1e-12 m L^2 (L: the link's size), not a fixed number: the same negative
     moment is round-off on a 1 kg link of 0.1 m and refused on a 1 g link of 1 mm."""
-    check = sd.model.check_inertia
+    check = sd.inertia.check_inertia
     I = np.diag([-1e-16, 1e-16, 1e-16])
     check("big", 1.0, I, length=0.1)                       # floor 1e-14: round-off
     with pytest.raises(sd.ModelError, match="'small'.*positive semi-definite"):

@@ -1,0 +1,134 @@
+"""The URDF as XML, before yourdfpy reads it: well-formed, and every element and attribute
+that yourdfpy reads present and of the right kind, or a ``URDFError`` naming the link or
+joint, the element and attribute, and what is expected."""
+from __future__ import annotations
+
+from .errors import RobotDescriptionError
+
+MOVABLE = ("revolute", "continuous", "prismatic")
+JOINT_TYPES = MOVABLE + ("fixed", "floating", "planar")
+
+
+class URDFError(RobotDescriptionError):
+    """The URDF cannot be read or does not describe a usable serial chain."""
+
+
+# What each attribute yourdfpy reads as numbers must hold: (count, what it means).
+_XYZ, _RPY = (3, 'three numbers "x y z" (m)'), (3, 'three numbers "roll pitch yaw" (rad)')
+_NUMBERS = {
+    "origin": {"xyz": _XYZ, "rpy": _RPY},
+    "axis": {"xyz": (3, 'three numbers "x y z" (the direction of the joint axis)')},
+    "mass": {"value": (1, "a number (kg)")},
+    "inertia": {k: (1, "a number (kg m^2)") for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")},
+    "limit": {"lower": (1, "a number (rad, or m for a prismatic joint)"),
+              "upper": (1, "a number (rad, or m for a prismatic joint)"),
+              "effort": (1, "a number (N m, or N)"), "velocity": (1, "a number (rad/s, or m/s)")},
+    "dynamics": {"damping": (1, "a number (N m s/rad, or N s/m)"),
+                 "friction": (1, "a number (N m, or N)")},
+    "mimic": {"multiplier": (1, "a number"), "offset": (1, "a number (rad, or m)")},
+}
+
+
+def _is_number(text) -> bool:
+    try:
+        float(text)
+    except (TypeError, ValueError):
+        return False
+    return True
+
+
+def check_elements(root, where):
+    """Check every element and attribute yourdfpy reads (so that it never fails with a bare
+    "could not convert string to float") and raise a URDFError that names the link or joint,
+    the element and attribute, and what is expected. Values are only checked to be numbers
+    here; NaN, Inf and physics are checked where they are used, naming the same culprit."""
+    from .transmissions import _local
+
+    def fail(who, message):
+        raise URDFError(f"cannot parse {where}: {who}: {message}")
+
+    def numbers(element, who):
+        for attr, (count, expected) in _NUMBERS.get(element.tag, {}).items():
+            value = element.get(attr)
+            if value is None:
+                continue
+            parts = value.split()
+            if len(parts) != count or not all(_is_number(p) for p in parts):
+                fail(who, f'<{element.tag} {attr}="{value}"> is not {expected}; fix it')
+
+    def required(element, who, attrs, hint):
+        for attr in attrs:
+            if not (element.get(attr) or "").strip():
+                fail(who, f"<{element.tag}> has no {attr} attribute; {hint}")
+
+    if _local(root.tag) != "robot":
+        raise URDFError(f"cannot parse {where}: its root element is <{root.tag}>, not <robot>; "
+                        "a URDF is one <robot name=...> holding <link> and <joint> elements")
+    if not (root.get("name") or "").strip():
+        raise URDFError(f'cannot parse {where}: <robot> has no name attribute; name the '
+                        'robot: <robot name="...">')
+    for kind in ("link", "joint"):
+        for k, element in enumerate(root.findall(kind)):
+            if not (element.get("name") or "").strip():
+                fail(f"the <{kind}> on line {element.sourceline} (the {_ordinal(k + 1)} <{kind}>)",
+                     f"it has no name attribute; every <{kind}> needs a unique name")
+    for link in root.findall("link"):
+        who = f"link {link.get('name')!r}"
+        inertial = link.find("inertial")
+        if inertial is None:
+            continue                                    # massless: legal
+        for tag, attrs, what in (
+                ("mass", ("value",), 'its mass, <mass value="..."/> (kg)'),
+                ("inertia", ("ixx", "ixy", "ixz", "iyy", "iyz", "izz"),
+                 'its rotational inertia about the center of mass, all six of <inertia ixx="..." '
+                 'ixy="..." ixz="..." iyy="..." iyz="..." izz="..."/> (kg m^2)')):
+            element = inertial.find(tag)
+            if element is None:
+                fail(who, f"<inertial> has no <{tag}>; give {what}, or remove the <inertial> "
+                          "of a massless link")
+            required(element, who, attrs, f"give {what}")
+            numbers(element, who)
+        if inertial.find("origin") is not None:
+            numbers(inertial.find("origin"), who + " <inertial>")
+    for joint in root.findall("joint"):
+        who = f"joint {joint.get('name')!r}"
+        kind = joint.get("type")
+        if kind not in JOINT_TYPES:
+            fail(who, ("it has no type attribute" if kind is None else f"type {kind!r} is not a "
+                       "URDF joint type") + f"; give one of {list(JOINT_TYPES)}")
+        for end in ("parent", "child"):
+            element = joint.find(end)
+            if element is None:
+                fail(who, f'it has no <{end}>; give <{end} link="..."/> naming its {end} link')
+            required(element, who, ("link",), f'name its {end} link: <{end} link="..."/>')
+        for tag in ("origin", "axis", "limit", "dynamics", "mimic"):
+            element = joint.find(tag)
+            if element is not None:
+                numbers(element, who)
+        if joint.find("mimic") is not None:
+            required(joint.find("mimic"), who, ("joint",),
+                     'name the joint it follows: <mimic joint="..." multiplier="1" offset="0"/>')
+
+
+def _ordinal(k) -> str:
+    return f"{k}{'th' if 10 <= k % 100 <= 20 else {1: 'st', 2: 'nd', 3: 'rd'}.get(k % 10, 'th')}"
+
+
+def check_well_formed(handle, where):
+    """yourdfpy silently recovers from broken XML (and would build a wrong robot): refuse
+    fatal syntax errors here; undeclared namespace prefixes (xacro leftovers) are tolerated."""
+    from lxml import etree
+
+    parser = etree.XMLParser(recover=True)
+    tree = None
+    try:
+        tree = etree.parse(handle, parser)
+        errors = [e for e in parser.error_log if e.level_name == "FATAL"]
+    except etree.XMLSyntaxError as exc:      # nothing recoverable, e.g. an empty document
+        errors = [exc]
+    if errors:
+        e = errors[0]
+        line = getattr(e, "line", None) or getattr(e, "lineno", "?")
+        raise URDFError(f"cannot parse {where}: not well-formed XML (line {line}: "
+                        f"{getattr(e, 'message', None) or e}); fix the markup")
+    return tree.getroot()

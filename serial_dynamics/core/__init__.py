@@ -9,6 +9,7 @@
     cholesky.py   M x = b                             aba.py         articulated bodies
     forward.py    forward dynamics (Cholesky or ABA)  flags.py       the entry points' flags
     planar.py     Newton-Euler and composite bodies of a planar chain in planar 3-vectors
+    planar_lanes.py  the same, B samples in SIMD lanes
 
 Each algorithm is the same as its NumPy reference in ``algorithms/`` (same frames and
 symbols; docs/conventions.md). Entry points take the packed model ``P`` and float64
@@ -27,7 +28,7 @@ inlined where (bitwise the same in every process, whatever the cache holds).
 """
 from numba import njit
 
-from . import crba, forward, planar, rnea, rnea_lanes
+from . import crba, forward, planar, planar_lanes, rnea, rnea_lanes
 from .signatures import In2, Mat, Out2, Out3, Pm, Vec, compile_internal, i8
 
 FD_CALLS = ("aba_core", "rnea_core", "crba_core", "cholesky_solve")   # the Cholesky route inlined
@@ -40,7 +41,8 @@ ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core fu
     "rnea_batch": (rnea_lanes.rnea_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True, ("rnea_block",)),
     "crba_batch": (crba.crba_batch, i8(Pm, In2, Out3), True, ("crba_core",)),
     "fd_batch": (forward.fd_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True, FD_CALLS),
-    **planar.ENTRY_POINTS,   # the planar fast path (planar 3-vectors; Robot.is_planar)
+    **planar.ENTRY_POINTS,   # the planar fast path (planar 3-vectors; Robot.is_planar),
+    **planar_lanes.ENTRY_POINTS,   # and its batches
 }
 SINGLE_STATE = ("rnea", "rnea_wrench", "crba", "fd", "planar_rnea", "planar_rnea_wrench",
                 "planar_crba")

@@ -1,27 +1,23 @@
-"""What every node shares: parameters, the robot loading rule, message validation (with
-bounds on what one message may carry), once-per-cause logging of rejected input, the
-message counts on /diagnostics, and ``run`` (start-up errors, spin, shutdown).
+"""What every node shares about messages: validation (with bounds on what one message may
+carry), once-per-cause logging of rejected input, the message counts on /diagnostics, and
+``run`` (start-up errors, spin, shutdown). Parameters and the robot loading rule:
+``parameters.py``.
 
 The nodes only convert messages and parameters and call the library; the library never
 imports rclpy.
 """
 from __future__ import annotations
 
-import math
 import sys
 import time
-import warnings
 
 import numpy as np
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from std_msgs.msg import String
 
-import serial_dynamics as sd
+from .parameters import StartupError
 
 # Queue depth of every command, request and state topic (reliable, volatile: compatible
 # with the ROS defaults of rclcpp/rclpy publishers, ros2_control and robot_state_publisher).
@@ -36,13 +32,7 @@ MAX_NAMES = 1000        # joint names in a JointState or JointTrajectory
 MAX_POINTS = 10_000     # points in a JointTrajectory (10 s at 1 kHz)
 MAX_VALUE = 1e6         # |position| (rad, m), |velocity|, |acceleration|, |wrench| (N, N m)
 DIAGNOSTICS_PERIOD = 1.0   # s of wall time between two /diagnostics reports
-# robot_state_publisher (Jazzy) publishes robot_description reliable + transient local.
-DESCRIPTION_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
-
-class StartupError(Exception):
-    """A bad parameter or robot at start-up: the node prints one paragraph and exits."""
 
 
 class Rejected(ValueError):
@@ -51,282 +41,6 @@ class Rejected(ValueError):
     def __init__(self, cause: str, text: str):
         super().__init__(text)
         self.cause = cause
-
-
-# ------------------------------------------------------------------ parameters
-# A spec maps a parameter name to (kind, default, description). Kinds: "bool", "int",
-# "double", "string", "double[]", "string[]". A "double[]" default of None means "not set"
-# (the node then uses what the robot says). Numbers are accepted as integers or doubles
-# (-p kp:=[400, 400] and -p kp:=[400.0, 400.0] both work).
-
-ROBOT_PARAMETERS = {
-    "urdf_path": ("string", "", "URDF file of the robot. First in the loading order: "
-                  "urdf_path, then the robot_description parameter, then the "
-                  "robot_description topic, then the embedded UR5e"),
-    "robot_description": ("string", "", "URDF XML of the robot (used when urdf_path is empty)"),
-    "robot_description_timeout": ("double", 2.0, "s to wait for a robot_description message "
-                                  "(std_msgs/String, transient local) when neither parameter "
-                                  "is set; 0 skips the topic"),
-    "base_link": ("string", "", "first link of the modelled chain ('' = the URDF root)"),
-    "tip_link": ("string", "", "last link of the chain ('' = the end of the single chain)"),
-    "gravity": ("double[]", [0.0, 0.0, -9.81], "gravity in the URDF root frame (m/s^2)"),
-    "dissipation.joints": ("string[]", [], "joints the dissipation.* arrays refer to, in "
-                           "their order ([] = every joint, base to tip)"),
-    "dissipation.viscous": ("double[]", None, "viscous coefficient beta (N m s/rad; N s/m) "
-                            "per listed joint, or one for all ([] = URDF damping)"),
-    "dissipation.coulomb": ("double[]", None, "Coulomb torque tau_c (N m; N) per listed joint, "
-                            "or one for all ([] = URDF friction)"),
-    "dissipation.stribeck": ("double[]", None, "extra static torque eps at rest (N m; N) "
-                             "([] = 0)"),
-    "dissipation.stribeck_rate": ("double[]", None, "decay rate gamma of the low-speed rise "
-                                  "(s/rad) ([] = 0)"),
-}
-
-
-def _number(name, v):
-    if isinstance(v, bool) or not isinstance(v, (int, float)):
-        raise StartupError(f"parameter {name!r} must be a number, got {v!r}")
-    return float(v)
-
-
-def _coerce(name, kind, value):
-    if kind == "bool":
-        if not isinstance(value, bool):
-            raise StartupError(f"parameter {name!r} must be true or false, got {value!r}")
-        return value
-    if kind == "int":
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise StartupError(f"parameter {name!r} must be an integer, got {value!r}")
-        return value
-    if kind == "double":
-        v = _number(name, value)
-        if math.isnan(v):
-            raise StartupError(f"parameter {name!r} is NaN")
-        return v
-    if kind == "string":
-        if not isinstance(value, str):
-            raise StartupError(f"parameter {name!r} must be a string, got {value!r}")
-        return value
-    if kind == "double[]":
-        if value is None:
-            return None
-        values = [value] if isinstance(value, (int, float)) else value
-        if isinstance(values, str) or not hasattr(values, "__iter__"):
-            raise StartupError(f"parameter {name!r} must be a list of numbers, got {value!r}")
-        out = [_number(name, v) for v in values]
-        if any(math.isnan(v) for v in out):
-            raise StartupError(f"parameter {name!r} contains NaN: {out}")
-        return out or None
-    if kind == "string[]":
-        values = [] if value is None else ([value] if isinstance(value, str) else list(value))
-        if not all(isinstance(v, str) for v in values):
-            raise StartupError(f"parameter {name!r} must be a list of strings, got {value!r}")
-        return values
-    raise AssertionError(kind)
-
-
-# Parameters that may be set while the node runs (ros2 param set, SetParameters[Atomically]):
-# a payload picked up or put down. All the others are read-only.
-PAYLOAD_PARAMETERS = {
-    "payload.mass": ("double", 0.0, "mass (kg) of a payload rigidly attached to payload.link; "
-                     "0 with zero inertia = no payload. Settable while running"),
-    "payload.com": ("double[]", [0.0, 0.0, 0.0], "center of mass (x, y, z) of the payload in "
-                    "payload.link's frame (m). Settable while running"),
-    "payload.inertia": ("double[]", [0.0] * 6, "inertia of the payload about its center of "
-                        "mass, in payload.link's axes: ixx iyy izz ixy ixz iyz (kg m^2). "
-                        "Settable while running"),
-    "payload.link": ("string", "", "link that carries the payload ('' = the tip link). "
-                     "Settable while running"),
-}
-WRITABLE = frozenset(PAYLOAD_PARAMETERS)
-
-
-def declare(node, spec: dict) -> dict:
-    """Declare every parameter of ``spec`` (with its description; read-only unless in
-    ``WRITABLE``) and return their values, checked and converted. Raises StartupError
-    naming the parameter."""
-    values = {}
-    for name, (kind, default, text) in spec.items():
-        descriptor = ParameterDescriptor(description=text, dynamic_typing=True,
-                                         read_only=name not in WRITABLE)
-        node.declare_parameter(name, default, descriptor)
-        values[name] = _coerce(name, kind, node.get_parameter(name).value)
-    # given (-p, --params-file) but not a parameter of this node: a typo or the wrong node.
-    # rclpy keeps the overrides of the command line and parameter files in this attribute.
-    unknown = sorted(x for x in getattr(node, "_parameter_overrides", {})
-                     if not node.has_parameter(x))
-    if unknown:
-        node.get_logger().warning(
-            f"ignoring unknown parameter(s) {unknown}: {node.get_name()} takes "
-            f"{', '.join(spec)} (and use_sim_time)")
-    return values
-
-
-def defaults(spec: dict) -> dict:
-    """Default values of a spec (the config/*.yaml files list these)."""
-    return {name: default for name, (_, default, _) in spec.items()}
-
-
-def per_joint(name, values, robot, default, positive=False):
-    """A per-joint parameter: None -> default; one value -> every joint; n values."""
-    if values is None:
-        return np.array(default, dtype=float)
-    a = np.asarray(values, dtype=float)
-    if a.size == 1:
-        a = np.full(robot.dof, a[0])
-    if a.size != robot.dof:
-        raise StartupError(f"parameter {name!r} has {a.size} values; give one, or one per "
-                           f"joint ({robot.dof}: {robot.joint_names})")
-    if positive and np.any(a < 0):
-        raise StartupError(f"parameter {name!r} must be >= 0, got {a.tolist()}")
-    return a
-
-
-# ------------------------------------------------------------------ robot loading rule
-def load_robot(node, p: dict, gravity=None):
-    """The robot every node uses, from (in this order) the ``urdf_path`` parameter, the
-    ``robot_description`` parameter, the ``robot_description`` topic (waiting at most
-    ``robot_description_timeout`` s), else the embedded default robot (UR5e). Applies
-    base_link, tip_link, gravity and the dissipation overrides; raises StartupError."""
-    base, tip = p["base_link"] or None, p["tip_link"] or None
-    g = p["gravity"] if gravity is None else gravity
-    if g is None or len(g) != 3:
-        raise StartupError(f"parameter 'gravity' must have 3 values (x, y, z in m/s^2), got {g}")
-    if p["urdf_path"]:
-        source, where = p["urdf_path"], f"urdf_path {p['urdf_path']!r}"
-    elif p["robot_description"].strip():
-        source, where = p["robot_description"], "the robot_description parameter"
-    else:
-        source = _wait_for_description(node, p["robot_description_timeout"])
-        where = "the robot_description topic"
-        if source is None:
-            source, where = sd.builtin_path(), "the embedded default robot (UR5e)"
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        try:
-            robot = sd.load_urdf(source, base, tip, tuple(g))
-        except (ValueError, OSError) as exc:   # URDFError and ModelError are ValueErrors
-            raise StartupError(f"cannot load the robot from {where}: {exc}") from None
-    for w in caught:
-        node.get_logger().warning(str(w.message))
-    robot.dissipation = _dissipation(robot, p)
-    node.get_logger().info(f"robot {robot.model.name!r} from {where}: {robot.dof} joints "
-                           f"{robot.joint_names}, {robot.base_link} -> {robot.tip_link}")
-    return robot
-
-
-def _wait_for_description(node, timeout):
-    if not timeout > 0:
-        return None
-    node.get_logger().info(f"waiting up to {timeout} s for a robot_description message "
-                           "(neither urdf_path nor robot_description is set; "
-                           "robot_description_timeout:=0 skips the wait)")
-    got = []
-    sub = node.create_subscription(String, "robot_description", lambda m: got.append(m.data),
-                                   DESCRIPTION_QOS)
-    executor = SingleThreadedExecutor(context=node.context)
-    executor.add_node(node)
-    deadline = time.monotonic() + timeout
-    try:
-        while not got and time.monotonic() < deadline:
-            executor.spin_once(timeout_sec=min(0.05, max(0.0, deadline - time.monotonic())))
-    finally:
-        executor.remove_node(node)
-        node.destroy_subscription(sub)
-    if not got:
-        node.get_logger().info(f"no robot_description message within {timeout} s")
-    return got[-1] if got else None
-
-
-def _dissipation(robot, p):
-    joints = p["dissipation.joints"] or robot.joint_names
-    unknown = [j for j in joints if j not in robot.joint_names]
-    if unknown or len(set(joints)) != len(joints):
-        raise StartupError(f"parameter 'dissipation.joints' = {joints} must name distinct "
-                           f"joints of the chain {robot.joint_names}")
-    changes = {}
-    for field in robot.dissipation.FIELDS:
-        values = p[f"dissipation.{field}"]
-        if values is None:
-            continue
-        if len(values) == 1:
-            values = values * len(joints)
-        if len(values) != len(joints):
-            raise StartupError(f"parameter 'dissipation.{field}' has {len(values)} values for "
-                               f"{len(joints)} joints {joints}; give one, or one per joint")
-        changes[field] = dict(zip(joints, values))
-    try:
-        return robot.dissipation.override(**changes) if changes else robot.dissipation
-    except ValueError as exc:
-        raise StartupError(f"dissipation parameters: {exc}") from None
-
-
-# ------------------------------------------------------------------ payload at run time
-def _payload_robot(loaded, values: dict):
-    """(``loaded`` with the payload of the payload.* ``values``, a description of it).
-    Raises ValueError naming the parameter or the physical reason."""
-    try:
-        v = {name: _coerce(name, kind, values[name])
-             for name, (kind, _, _) in PAYLOAD_PARAMETERS.items()}
-    except StartupError as exc:
-        raise ValueError(str(exc)) from None
-    mass, com, inertia, link = (v[f"payload.{k}"] for k in ("mass", "com", "inertia", "link"))
-    for name, x, size, what in (("payload.com", com, 3, "x, y, z in m"),
-                                ("payload.inertia", inertia, 6, "ixx iyy izz ixy ixz iyz in kg m^2")):
-        if x is None or len(x) != size:
-            raise ValueError(f"parameter {name!r} must have {size} values ({what}), got {x or []}")
-    robot = loaded.with_payload(mass, com, inertia, link or None)   # validates (ValueError)
-    if mass == 0.0 and not any(inertia):
-        return loaded, "no payload"
-    return robot, (f"payload {mass:g} kg on {robot.payload.link}, center of mass {com} m, "
-                   f"inertia {inertia} kg m^2")
-
-
-def with_payload_parameters(node, loaded, p: dict, apply):
-    """The payload.* parameters (``PAYLOAD_PARAMETERS``) of ``node``.
-
-    Returns ``loaded`` (the robot as loaded) with the payload of the start-up values ``p``
-    (StartupError if they are bad). From then on every set of payload.* parameters is
-    validated before it takes effect (a bad one is refused, with the reason, and the payload
-    in force stays) and, once set, ``apply(robot)`` gets the new model -- a Robot built
-    here, off the node's hot path; ``apply`` only swaps a reference. The parameters of one
-    SetParametersAtomically call apply together (one ``apply``); a parameter not named
-    keeps its value. Mass 0 with zero inertia is ``loaded`` itself (no payload).
-    """
-    log = node.get_logger()
-    current = lambda: {name: node.get_parameter(name).value for name in PAYLOAD_PARAMETERS}  # noqa: E731
-    try:
-        robot, text = _payload_robot(loaded, {name: p[name] for name in PAYLOAD_PARAMETERS})
-    except ValueError as exc:
-        raise StartupError(f"payload parameters: {exc}") from None
-    if robot is not loaded:
-        log.info(text)
-
-    def validate(parameters):
-        new = {x.name: x.value.tolist() if hasattr(x.value, "tolist") else x.value
-               for x in parameters if x.name in PAYLOAD_PARAMETERS}     # array('d') -> list
-        if not new:
-            return SetParametersResult(successful=True)
-        try:
-            _payload_robot(loaded, {**current(), **new})
-        except ValueError as exc:
-            log.warning(f"rejected payload parameters {new}: {exc}; the payload in force stays")
-            return SetParametersResult(successful=False, reason=str(exc))
-        return SetParametersResult(successful=True)
-
-    def applied(parameters):   # after rclpy has stored the (validated) values
-        if any(x.name in PAYLOAD_PARAMETERS for x in parameters):
-            try:
-                robot, text = _payload_robot(loaded, current())
-                apply(robot)
-            except Exception as exc:  # noqa: BLE001 -- validated above; never kill the node
-                log.error(f"payload parameters set but not applied: {exc}")
-                return
-            log.info(f"{text} (applied)")
-
-    node.add_on_set_parameters_callback(validate)
-    node.add_post_set_parameters_callback(applied)
-    return robot
 
 
 # ------------------------------------------------------------------ rejected input

@@ -28,18 +28,19 @@ from trajectory_msgs.msg import JointTrajectory
 
 from serial_dynamics.trajectory import Waypoints
 
-from . import common
-from .common import Rejected, StartupError
+from . import common, parameters
+from .common import Rejected
+from .parameters import StartupError
 
 PARAMETERS = {
-    **common.ROBOT_PARAMETERS,
+    **parameters.ROBOT_PARAMETERS,
     "control_rate": ("double", 500.0, "effort_commands rate (Hz, of the node's clock: "
                      "simulated time with use_sim_time)"),
     "kp": ("double[]", [400.0], "position gains (1/s^2), one or one per joint"),
     "kd": ("double[]", [40.0], "velocity gains (1/s), one or one per joint"),
     "compensate_dissipation": ("bool", False, "add the torque that overcomes the joint "
                                "dissipation (friction) at the measured velocity"),
-    **common.PAYLOAD_PARAMETERS,
+    **parameters.PAYLOAD_PARAMETERS,
 }
 MAX_STATE_AGE = 0.5   # s; an older (or future) state stamp is taken as "now" (clock mismatch)
 
@@ -49,12 +50,12 @@ class ComputedTorqueController(Node):
 
     def __init__(self, **kwargs):
         super().__init__(self.NAME, **kwargs)
-        p = common.declare(self, PARAMETERS)
+        p = parameters.declare(self, PARAMETERS)
         # payload.* may be set while running: the model is swapped between two commands
-        self.robot = robot = common.with_payload_parameters(
-            self, common.load_robot(self, p), p, lambda robot: setattr(self, "robot", robot))
-        self.kp = common.per_joint("kp", p["kp"], robot, None, positive=True)
-        self.kd = common.per_joint("kd", p["kd"], robot, None, positive=True)
+        self.robot = robot = parameters.with_payload_parameters(
+            self, parameters.load_robot(self, p), p, lambda robot: setattr(self, "robot", robot))
+        self.kp = parameters.per_joint("kp", p["kp"], robot, None, positive=True)
+        self.kd = parameters.per_joint("kd", p["kd"], robot, None, positive=True)
         if not 0 < p["control_rate"] < np.inf:
             raise StartupError(f"parameter 'control_rate' must be > 0, got {p['control_rate']}")
         self.compensate = p["compensate_dissipation"]

@@ -18,15 +18,15 @@ from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-from . import common
+from . import common, parameters
 from .common import Rejected
 
 PARAMETERS = {
-    **common.ROBOT_PARAMETERS,
+    **parameters.ROBOT_PARAMETERS,
     "include_gravity": ("bool", True, "include the gravity torques"),
     "compensate_dissipation": ("bool", False, "add the torque that overcomes the joint "
                                "dissipation (friction) at the requested velocities"),
-    **common.PAYLOAD_PARAMETERS,
+    **parameters.PAYLOAD_PARAMETERS,
 }
 
 
@@ -35,11 +35,11 @@ class InverseDynamics(Node):
 
     def __init__(self, **kwargs):
         super().__init__(self.NAME, **kwargs)
-        p = common.declare(self, PARAMETERS)
+        p = parameters.declare(self, PARAMETERS)
         gravity = None if p["include_gravity"] else [0.0, 0.0, 0.0]
         # payload.* may be set while running: the model is swapped between two requests
-        self.robot = common.with_payload_parameters(
-            self, common.load_robot(self, p, gravity=gravity), p,
+        self.robot = parameters.with_payload_parameters(
+            self, parameters.load_robot(self, p, gravity=gravity), p,
             lambda robot: setattr(self, "robot", robot))
         self.compensate = p["compensate_dissipation"]
         self.wrench = None            # latest tip wrench: (6,) in base_link, or (6,) in tip_link

@@ -27,11 +27,12 @@ from std_srvs.srv import SetBool, Trigger
 from serial_dynamics.sim.fixed_step import FixedStepIntegrator
 from serial_dynamics.sim.methods import SimulationError
 
-from . import common
-from .common import Rejected, StartupError
+from . import common, parameters
+from .common import Rejected
+from .parameters import StartupError
 
 PARAMETERS = {
-    **common.ROBOT_PARAMETERS,
+    **parameters.ROBOT_PARAMETERS,
     "initial_positions": ("double[]", None, "joint positions at start and after ~/reset "
                           "(rad; m), base to tip ([] = zeros)"),
     "dissipation.enabled": ("bool", True, "add the joint dissipation (friction) torques"),
@@ -51,7 +52,7 @@ PARAMETERS = {
     "effort_limits": ("double[]", None, "effort limits (N m; N), one or one per joint "
                       "([] = the URDF's <limit effort>; .inf = none)"),
     "start_paused": ("bool", False, "start paused (resume with ~/pause false)"),
-    **common.PAYLOAD_PARAMETERS,
+    **parameters.PAYLOAD_PARAMETERS,
 }
 MAX_LAG = 0.1   # s of wall time behind schedule before the pacing re-anchors
 COARSE_DT = 0.01   # s; a larger sim_dt is warned about (an arm needs steps of about 1 ms)
@@ -62,12 +63,12 @@ class Simulator(Node):
 
     def __init__(self, **kwargs):
         super().__init__(self.NAME, **kwargs)
-        p = common.declare(self, PARAMETERS)
+        p = parameters.declare(self, PARAMETERS)
         # payload.* may be set while running: a new plant, swapped in between two steps
-        self.robot = robot = common.with_payload_parameters(self, common.load_robot(self, p), p,
+        self.robot = robot = parameters.with_payload_parameters(self, parameters.load_robot(self, p), p,
                                                             self._set_plant)
         n = robot.dof
-        self.q0 = common.per_joint("initial_positions", p["initial_positions"], robot, np.zeros(n))
+        self.q0 = parameters.per_joint("initial_positions", p["initial_positions"], robot, np.zeros(n))
         outside = np.flatnonzero((self.q0 < robot.lower) | (self.q0 > robot.upper))
         if outside.size:
             j, lo, hi = outside[0], robot.lower, robot.upper
@@ -79,7 +80,7 @@ class Simulator(Node):
                 f"initial_positions{given}: {robot.joint_names[j]} = {self.q0[j]} is outside "
                 f"its limits [{lo[j]}, {hi[j]}]; give positions within the limits, e.g. the "
                 f"middle of each range: -p initial_positions:=[{example}]")
-        self.limit = common.per_joint("effort_limits", p["effort_limits"], robot,
+        self.limit = parameters.per_joint("effort_limits", p["effort_limits"], robot,
                                       robot.effort_limit, positive=True)
         if not p["clamp_effort"]:
             self.limit = np.full(n, np.inf)

@@ -6,7 +6,7 @@ import sys
 import pytest
 import yaml
 
-from serial_dynamics.ros import common, computed_torque_controller, inverse_dynamics, simulator
+from serial_dynamics.ros import computed_torque_controller, inverse_dynamics, parameters, simulator
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
@@ -35,5 +35,5 @@ def test_config_files_list_every_parameter_with_its_default(module):
     name = module.__name__.rsplit(".", 1)[1]
     with open(os.path.join(ROOT, "config", f"{name}.yaml")) as fh:
         listed = _flatten(yaml.safe_load(fh)[name]["ros__parameters"])
-    expected = {k: ([] if v is None else v) for k, v in common.defaults(module.PARAMETERS).items()}
+    expected = {k: ([] if v is None else v) for k, v in parameters.defaults(module.PARAMETERS).items()}
     assert listed == expected

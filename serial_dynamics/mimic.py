@@ -43,7 +43,6 @@ class MimicRobot(Robot):
         self._m = self._G[np.arange(model.dof), self._src]  # with multiplier m[i] (1: itself)
         fi = np.flatnonzero(model.mimic_leader >= 0)         # the followers, in chain order:
         self._fi, self._fk, self._fm = fi, self._src[fi], self._m[fi]   # joint, coordinate, m
-        self._followers = list(zip(fi, self._src[fi], self._m[fi]))
         self._view = _Independent([model.joint_names[i] for i in self._ind])
         self._zero = np.zeros(model.dof)
         if dissipation is None:
@@ -85,7 +84,7 @@ class MimicRobot(Robot):
             _scatter_add(self._ind, self._fi, self._fk, self._fm, y, out)
             return out
         out = y[..., self._ind].copy()
-        for i, k, m in self._followers:
+        for i, k, m in zip(self._fi, self._fk, self._fm):
             out[..., k] += m * y[..., i]
         return out
 

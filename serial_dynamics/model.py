@@ -350,19 +350,28 @@ def _joint_frames(model) -> dict:
     A = np.array([axis_frame(a) for a in model.axis])
     A_prev = np.concatenate([np.eye(3)[None], A[:-1]])          # frame -1 is the base
     At_prev = np.swapaxes(A_prev, 1, 2)
-    c = np.einsum("nji,nj->ni", A, model.com)                   # A^T c
-    Ic = np.swapaxes(A, 1, 2) @ model.inertia @ A               # A^T I_c A
-    cc = np.einsum("ni,nj->nij", c, c)
-    eye = np.eye(3)[None]
-    I_O = Ic + model.mass[:, None, None] * (np.einsum("ni,ni->n", c, c)[:, None, None] * eye - cc)
+    c, I_c, h, I_O = inertia_in_joint_frames(A, model.mass, model.com, model.inertia)
     jframes = {link: (b, R if b < 0 else A[b].T @ R, p if b < 0 else A[b].T @ p)
                for link, (b, R, p) in model.frames.items()}
     return dict(
         A=_frozen(A, (n, 3, 3)), Xtree_R=_frozen(At_prev @ model.R_parent @ A, (n, 3, 3)),
         Xtree_p=_frozen(np.einsum("nji,nj->ni", A_prev, model.p_parent), (n, 3)),
-        c=_frozen(c, (n, 3)), I_c=_frozen(0.5 * (Ic + np.swapaxes(Ic, 1, 2)), (n, 3, 3)),
-        h=_frozen(model.mass[:, None] * c, (n, 3)), I_O=_frozen(0.5 * (I_O + np.swapaxes(I_O, 1, 2))),
+        c=_frozen(c, (n, 3)), I_c=_frozen(I_c, (n, 3, 3)), h=_frozen(h, (n, 3)),
+        I_O=_frozen(I_O, (n, 3, 3)),
         Xtip_R=_frozen(A[-1].T @ model.tip_R, (3, 3)), Xtip_p=_frozen(A[-1].T @ model.tip_p, (3,)),
         jframes=MappingProxyType({k: (int(b), _frozen(R, (3, 3)), _frozen(p, (3,)))
                                   for k, (b, R, p) in jframes.items()}))
 
+
+def inertia_in_joint_frames(A, mass, com, inertia):
+    """(c, I_c, h, I_O) in joint frames of bodies (stacks, or one) given in their link
+    frames: c = A^T com, I_c = A^T inertia A, h = m c, and about the origin
+    I_O = I_c + m (|c|^2 1 - c c^T) (parallel axes); the inertias symmetrized."""
+    mass = np.asarray(mass, dtype=float)
+    c = np.einsum("...ji,...j->...i", A, com)                   # A^T c
+    Ic = np.swapaxes(A, -1, -2) @ inertia @ A                   # A^T I_c A
+    cc = np.einsum("...i,...j->...ij", c, c)
+    I_O = Ic + mass[..., None, None] * (np.einsum("...i,...i->...", c, c)[..., None, None]
+                                        * np.eye(3) - cc)
+    sym = lambda X: 0.5 * (X + np.swapaxes(X, -1, -2))          # noqa: E731
+    return c, sym(Ic), mass[..., None] * c, sym(I_O)

@@ -16,6 +16,7 @@ import numpy as np
 from .errors import ModelError
 from .inertia import (MAX_INERTIA, MAX_LENGTH, MAX_MASS, check_inertia, check_magnitude,
                       combine_inertias)
+from .model import inertia_in_joint_frames
 
 
 @dataclass(frozen=True, eq=False)
@@ -75,13 +76,8 @@ def attach(model, payload: Payload):
     I = R @ payload.inertia_matrix @ R.T
     m, com, inertia = combine_inertias([(model.mass[b], model.com[b], model.inertia[b]),
                                         (payload.mass, c, I)])
-    # body b's fields in joint frames (model._joint_frames, for one body)
-    A = model.A[b]
-    cj, Icj = A.T @ com, A.T @ inertia @ A
-    Icj = 0.5 * (Icj + Icj.T)
-    I_O = Icj + m * (cj @ cj * np.eye(3) - np.outer(cj, cj))
-    new = {"mass": m, "com": com, "inertia": inertia, "c": cj, "h": m * cj, "I_c": Icj,
-           "I_O": 0.5 * (I_O + I_O.T)}
+    c_j, I_c, h, I_O = inertia_in_joint_frames(model.A[b], m, com, inertia)   # as the loader
+    new = {"mass": m, "com": com, "inertia": inertia, "c": c_j, "h": h, "I_c": I_c, "I_O": I_O}
     changes = {}
     for key, value in new.items():
         a = np.array(getattr(model, key))

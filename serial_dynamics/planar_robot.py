@@ -25,7 +25,8 @@ class PlanarRobot(Robot):
     def __init__(self, model, dissipation=None, backend=None, **kwargs):
         super().__init__(model, dissipation, backend, **kwargs)
         if self._compiled:          # the batch kernels of Robot's general path, planar
-            self._Q = planar_pack(model)
+            if self._Q is None:     # (Robot(model) found it; with_payload's new model: here)
+                self._Q = planar_pack(model)
             self._rnea_batch = ("planar_rnea_batch", self._Q)
             self._crba_batch = ("planar_crba_batch", self._Q)
 

@@ -67,11 +67,14 @@ class Robot:
     is_planar = False        # a planar chain on the planar fast path (PlanarRobot)
 
     def __new__(cls, model, *args, **kwargs):
+        Q = None
         if cls is Robot and np.any(model.mimic_leader >= 0):
             cls = Robot._kinds["mimic"]
-        elif cls is Robot and planar_pack(model) is not None:
+        elif cls is Robot and (Q := planar_pack(model)) is not None:
             cls = Robot._kinds["planar"]
-        return super().__new__(cls)
+        robot = super().__new__(cls)
+        robot._Q = Q             # the planar layout, found on the way (PlanarRobot uses it)
+        return robot
 
     def __init__(self, model: Model, dissipation: Dissipation | None = None, backend=None,
                  _loaded=None, _payload=None, _P=None):

@@ -55,13 +55,10 @@ def plain_rows(rounds):
 
 def before_rows(rounds):
     """plain_rows of the package at BEFORE_REV (git archive, subprocess), or None."""
-    repo = os.path.dirname(HERE)
+    from bench_speed import earlier_code
     with tempfile.TemporaryDirectory() as tmp:
-        arch = subprocess.run(["git", "-C", repo, "archive", BEFORE_REV, "serial_dynamics"],
-                              capture_output=True)
-        if arch.returncode != 0:
+        if earlier_code(tmp, BEFORE_REV) is None:
             return None
-        subprocess.run(["tar", "-x", "-C", tmp], input=arch.stdout, check=True)
         env = dict(os.environ, PYTHONPATH=os.pathsep.join([tmp, HERE]),
                    NUMBA_CACHE_DIR=os.path.join(tmp, "numba"))
         subprocess.run([sys.executable, "-c", "import serial_dynamics as sd; sd.default_robot().warmup()"],

@@ -338,12 +338,12 @@ def precompile_wall():
         return time.perf_counter() - t0
 
 
-def earlier_code(tmp):
-    """The 2026-11-21 package (git archive of EARLIER_REV) under ``tmp``, or None (no git
-    history here)."""
+def earlier_code(tmp, rev=EARLIER_REV):
+    """The package of commit ``rev`` (default: the 2026-11-21 code, EARLIER_REV; git
+    archive) under ``tmp``, or None (no git history here)."""
     repo = os.path.dirname(HERE)
     try:
-        arch = subprocess.run(["git", "-C", repo, "archive", EARLIER_REV, "serial_dynamics"],
+        arch = subprocess.run(["git", "-C", repo, "archive", rev, "serial_dynamics"],
                               capture_output=True, check=True).stdout
     except (OSError, subprocess.CalledProcessError):
         return None

@@ -141,19 +141,11 @@ class Equations:
     def fd(self, q, qd, tau, w=None):
         self.calls += 1
         self.states += 1 if np.ndim(q) == 1 else len(q)
-        wrench, base = split(w)
-        if isinstance(base, list):       # states at different times: one call per state
-            return np.array([self.robot.forward_dynamics(*x, base_motion=bm) for *x, bm in
-                             zip(q, qd, tau, _rows(wrench, len(q)), base)])
-        return self.robot.forward_dynamics(q, qd, tau, wrench, base_motion=base)
+        return _with_external(self.robot.forward_dynamics, (q, qd, tau), w)
 
     def bias(self, q, qd, w=None):
         """b(q, qd) - J^T w, with the base motion's torques; batches of states."""
-        wrench, base = split(w)
-        if isinstance(base, list):
-            return np.array([self.robot.bias_torques(*x, base_motion=bm) for *x, bm in
-                             zip(q, qd, _rows(wrench, len(q)), base)])
-        return self.robot.bias_torques(q, qd, wrench, base_motion=base)
+        return _with_external(self.robot.bias_torques, (q, qd), w)
 
     def accel(self, q, qd, tau, w=None, stuck=None, sign=None, smooth=False, coulomb=None):
         """qdd and delta for (batches of) states. ``stuck``: joints held by static friction
@@ -246,9 +238,16 @@ class Equations:
                               f"{what}. {advice(method, dt)}", t, self.names[j], reason)
 
 
-def _rows(wrench, N):
-    """The per-state rows of a batch's wrench (None: none)."""
-    return [None] * N if wrench is None else np.broadcast_to(wrench, (N, 6))
+def _with_external(method, states, w):
+    """``method(*states, wrench, base_motion=...)`` of a Robot for ``w`` None, a wrench or an
+    ``External``; a batch of states at different times (a list of base motions, one per
+    state): one call per state."""
+    wrench, base = split(w)
+    if not isinstance(base, list):
+        return method(*states, wrench, base_motion=base)
+    N = len(states[0])
+    rows = [None] * N if wrench is None else np.broadcast_to(wrench, (N, 6))
+    return np.array([method(*x, base_motion=bm) for *x, bm in zip(*states, rows, base)])
 
 
 def held(M, r, stuck, delta):

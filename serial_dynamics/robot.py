@@ -30,6 +30,8 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+from . import derivatives as _derivatives
+from . import regressor as _regressor
 from .algorithms import aba, crba, energy, forward, kinematics, noc, rnea
 from .algorithms._batch import as_batch
 from .algorithms.planar import planar_pack
@@ -52,7 +54,7 @@ _FD_FLAGS = {"cholesky": F.QD, "aba": F.QD | F.ABA}
 # states; splitting a batch over 2 cores paid from about 2048 states for inverse dynamics,
 # 1500 for the mass matrix and 800 for forward dynamics (UR5e, measured 2026-11-23)
 PARALLEL_MIN = 2048
-ROBOT_KERNELS = tuple(k for k in ENTRY_POINTS if not k.startswith("planar"))   # warmup() loads
+ROBOT_KERNELS = ("rnea", "rnea_wrench", "crba", "fd", "rnea_batch", "crba_batch", "fd_batch")  # warmup()
 PLANAR_KERNELS = tuple(k for k in ENTRY_POINTS if k.startswith("planar"))    # and, if planar
 _pool = None
 
@@ -291,6 +293,25 @@ class Robot:
         ext = np.repeat(base_motion.external()[None], w.shape[0], axis=0)
         ext[:, :layout.W_WRENCH] = w
         return ext, flags | F.BASE
+
+    # ------------------------------------------------------------- identification, derivatives
+    # (the batching, mimic reduction and kernel calls live in regressor.py and derivatives.py)
+    def regressor(self, q, qd, qdd, friction=False):
+        """Y (n, p) or (N, n, p) with inverse_dynamics(q, qd, qdd) == Y @ inertial_parameters()
+        (plus the friction torques with ``friction=True``); see ``regressor.py``."""
+        return _regressor.regressor(self, q, qd, qdd, friction)
+
+    def inertial_parameters(self, friction=False):
+        """The standard parameters that ``regressor`` multiplies; see ``regressor.py``."""
+        return _regressor.inertial_parameters(self, friction)
+
+    def inverse_dynamics_derivatives(self, q, qd, qdd, wrench=None, base_motion=None):
+        """(d tau/d q, d tau/d qd), each (n, n) or (N, n, n); d tau/d qdd is M(q)."""
+        return _derivatives.inverse_dynamics_derivatives(self, q, qd, qdd, wrench, base_motion)
+
+    def forward_dynamics_derivatives(self, q, qd, tau, wrench=None, base_motion=None):
+        """(d qdd/d q, d qdd/d qd, d qdd/d tau) = (-M^-1 d tau/d q, -M^-1 d tau/d qd, M^-1)."""
+        return _derivatives.forward_dynamics_derivatives(self, q, qd, tau, wrench, base_motion)
 
     def dissipation_torques(self, qd):
         """delta(qd) of the current dissipation model (oppose the motion)."""

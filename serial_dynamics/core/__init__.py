@@ -28,7 +28,7 @@ inlined where (bitwise the same in every process, whatever the cache holds).
 """
 from numba import njit
 
-from . import crba, forward, planar, planar_lanes, rnea, rnea_lanes
+from . import crba, derivatives, forward, planar, planar_lanes, regressor, rnea, rnea_lanes
 from .signatures import In2, Mat, Out2, Out3, Pm, Vec, compile_internal, i8
 
 FD_CALLS = ("aba_core", "rnea_core", "crba_core", "cholesky_solve")   # the Cholesky route inlined
@@ -43,6 +43,8 @@ ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core fu
     "fd_batch": (forward.fd_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True, FD_CALLS),
     **planar.ENTRY_POINTS,   # the planar fast path (planar 3-vectors; Robot.is_planar),
     **planar_lanes.ENTRY_POINTS,   # and its batches
+    **derivatives.ENTRY_POINTS,    # derivatives of inverse and forward dynamics
+    **regressor.ENTRY_POINTS,      # the torque regressor
 }
 SINGLE_STATE = ("rnea", "rnea_wrench", "crba", "fd", "planar_rnea", "planar_rnea_wrench",
                 "planar_crba")

@@ -1,0 +1,2 @@
+"""(Being written.)"""
+ENTRY_POINTS = {}

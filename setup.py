@@ -5,7 +5,8 @@ from glob import glob
 from setuptools import find_packages, setup
 
 PACKAGE = "serial_dynamics"
-NODES = ["simulator", "inverse_dynamics", "computed_torque_controller"]
+NODES = ["simulator", "inverse_dynamics", "computed_torque_controller",
+         "external_torque_observer"]
 
 setup(
     name=PACKAGE,
@@ -19,7 +20,8 @@ setup(
         (os.path.join("share", PACKAGE, "launch"), glob("launch/*.py")),
     ],
     python_requires=">=3.10",
-    install_requires=["numpy>=1.24", "scipy>=1.10", "yourdfpy>=0.0.56", "numba>=0.59"],
+    install_requires=["numpy>=1.24", "scipy>=1.10", "yourdfpy>=0.0.56", "numba>=0.59",
+                      "rosbags>=0.11"],   # identification: ROS 2 bags without a ROS install
     extras_require={
         # Off a ROS install only: rclpy and messages as PyPI wheels (CPython 3.11).
         "ros": [

@@ -1,6 +1,7 @@
 """Speed against error of the simulator's methods, and model fidelity.
 
-    python bench/bench_simulate.py            # about 2-4 minutes on 2 cores
+    python bench/bench_simulate.py                # about 4-6 minutes on 2 cores
+    python bench/bench_simulate.py --energy-only  # only the section "simulate_energy"
 
 Scenarios: the default robot (UR5e) swinging freely from rest, the stiff chain
 (robots/synthetic.py: stiff_chain_urdf) and the UR5e with joint friction (viscous,
@@ -9,7 +10,10 @@ Coulomb, Stribeck) under shaking torques. Each method runs over a range of toler
 final time from a tight-tolerance reference, the energy error the largest violation of
 E(t) - E(0) = W_act + W_diss relative to the run's energy scale.
 
-Writes the "simulate" section of bench/BENCHMARKS.md and bench/work_precision.png.
+Writes the "simulate" section of bench/BENCHMARKS.md and bench/work_precision.png, and
+(``_energy_long.py``) the "simulate_energy" section: the fixed-step methods' energy over
+10^4 periods, their cost per step, and the implicit methods' Jacobians before (finite
+differences) and after (analytical); plot bench/energy_long_horizon.png.
 Also a model-fidelity table: on a fast pick-and-place move of the UR5e, the torque error
 and the time saved by dropping terms of the inverse dynamics.
 """
@@ -35,7 +39,7 @@ from _report import stamp, write_section                        # noqa: E402
 Q0 = np.array([0.3, -1.0, 0.8, -0.5, 0.4, 0.2])
 ADAPTIVE = ("RK45", "DOP853", "Radau", "BDF", "LSODA")
 NAMES = {"friction_smoothing": "v_eps"}
-FIXED = ("semi_implicit_euler", "rk4", "implicit_midpoint")
+FIXED = ("semi_implicit_euler", "symplectic_euler", "rk4", "implicit_midpoint")
 T0 = time.perf_counter()
 
 
@@ -269,7 +273,8 @@ def plot(panels, path):
     import matplotlib.pyplot as plt
     fig, axes = plt.subplots(1, len(panels), figsize=(6 * len(panels), 5))
     styles = {"RK45": "C0o-", "DOP853": "C1s-", "Radau": "C2^-", "BDF": "C3v-", "LSODA": "C4D-",
-              "semi_implicit_euler": "C5o--", "rk4": "C6s--", "implicit_midpoint": "C7^--"}
+              "semi_implicit_euler": "C5o--", "rk4": "C6s--", "implicit_midpoint": "C7^--",
+              "symplectic_euler": "C8D--"}
     for ax, (title, rows, what) in zip(axes, panels):
         labels = []
         for r in rows:
@@ -305,6 +310,11 @@ def best_under(rows, tol):
 
 
 def main():
+    import _energy_long
+    if "--energy-only" in sys.argv[1:]:
+        _energy_long.main(HERE, stamp, write_section, log, T0)
+        return
+    _energy_long.main(HERE, stamp, write_section, log)
     swing, T_swing = scenario_swing()
     stiff, T_stiff = scenario_stiff()
     fric, T_fric, sticking = scenario_friction()
@@ -341,7 +351,11 @@ def main():
           "2 .. 0.2 N m s/rad, damped modes up to ~1.6e4 /s)", "",
           "Reference: Radau, rtol 1e-11. Explicit methods are held to tiny steps by stability "
           "(semi-implicit Euler and RK4 diverge at 1 ms and are reported so); the implicit "
-          "ones follow the slow motion.", "",
+          "ones follow the slow motion, and so does symplectic Euler (first order), whose "
+          "viscous damping, the source of the stiffness here, is implicit. The implicit "
+          "methods use the analytical Jacobian (default); the same runs with finite "
+          "differences are in the section \"Simulation: long-horizon energy, cost per step, "
+          "Jacobians\".", "",
           f"Fastest run of each method with final error <= 1e-6: {summary(stiff, 1e-6)}.", "",
           table(stiff), "",
           f"### UR5e with friction, stick-slip ({T_fric:g} s)", "",

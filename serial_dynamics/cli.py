@@ -1,4 +1,4 @@
-"""Command line: serial-dynamics {info,demo,simulate} [URDF] [options]."""
+"""Command line: serial-dynamics {info,demo,simulate,excite,identify} [URDF] [options]."""
 from __future__ import annotations
 
 import argparse
@@ -139,12 +139,100 @@ def _simulate_options(p):
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
+def cmd_excite(args):
+    """Optimize a Fourier excitation trajectory; write it as CSV (t, q_*, qd_*, qdd_*)."""
+    from .identification import excitation
+    robot = _load(args)
+    print(f"{robot}\noptimizing a {args.duration:g} s excitation ({args.harmonics} harmonics "
+          f"per joint, {args.periods} period(s)) for the condition number of the base "
+          "regressor", flush=True)
+
+    def progress(iteration, cond):
+        if not args.quiet:
+            print(f"  iteration {iteration:3d}: condition number {cond:.4g}", flush=True)
+
+    ex = excitation(robot, args.duration, harmonics=args.harmonics, periods=args.periods,
+                    friction=not args.no_friction, margin=args.margin, seed=args.seed,
+                    maxiter=args.maxiter, progress=progress)
+    print(f"condition number {ex.condition_number:.4g} (start {ex.initial_condition_number:.4g})")
+    for kind, use in ex.peak.items():
+        print(f"peak {kind:<12} use of its limit: " + ", ".join(
+            f"{j} {100 * u:.0f}%" for j, u in zip(robot.joint_names, use)))
+    ex.to_csv(args.out, dt=args.dt)
+    print(f"wrote {args.out} ({int(round(ex.duration / args.dt)) + 1} samples every {args.dt:g} s)")
+    return 0
+
+
+def cmd_identify(args):
+    """Identify the base parameters from a recording; summary table; --out URDF, --plot."""
+    from .identification import identify, load_recording
+    robot = _load(args)
+    source = args.urdf if args.urdf is not None else _builtin_source()
+    data = load_recording(args.data, robot.joint_names, args.topic)
+    validation = (None if args.validate is None else
+                  load_recording(args.validate, robot.joint_names, args.topic))
+    print(f"{robot}\nidentifying from {args.data} ({args.method})", flush=True)
+    say = (lambda message: None) if args.quiet else (lambda message: print(message, flush=True))
+    res = identify(robot, data.t, data.q, data.tau, data.qd, friction=not args.no_friction,
+                   method=args.method, cutoff=args.cutoff, decimate=args.decimate,
+                   validation=validation, source=source, progress=say)
+    print(res.summary())
+    if args.out:
+        res.write_urdf(args.out)
+        print(f"wrote {args.out}")
+    if args.plot:
+        res.plot(args.plot)
+        print(f"wrote {args.plot}")
+    return 0
+
+
+def _builtin_source():
+    from .robots import DEFAULT, builtin_path
+    return builtin_path(DEFAULT)
+
+
+def _identification_options(p, name):
+    p.add_argument("--quiet", action="store_true", help="no progress lines")
+    p.add_argument("--no-friction", action="store_true",
+                   help="leave out the friction columns (viscous, Coulomb, offset)")
+    if name == "excite":
+        p.add_argument("--duration", type=float, default=10.0, help="seconds (10)")
+        p.add_argument("--harmonics", type=int, default=5, help="per joint (5)")
+        p.add_argument("--periods", type=int, default=1, help="repetitions of one period (1)")
+        p.add_argument("--margin", type=float, default=0.8,
+                       help="fraction of each limit the trajectory may use (0.8)")
+        p.add_argument("--maxiter", type=int, default=10, help="optimizer iterations (10)")
+        p.add_argument("--seed", type=int, default=0, help="of the starting coefficients (0)")
+        p.add_argument("--dt", type=float, default=0.01, help="CSV sample spacing, s (0.01)")
+        p.add_argument("--out", required=True, metavar="TRAJ.csv",
+                       help="write t, q_*, qd_*, qdd_* here")
+        return
+    p.add_argument("data", metavar="DATA",
+                   help="recording: CSV (t, q_*, qd_*, tau_*) or a ROS 2 bag of JointState")
+    p.add_argument("--method", default="wls", choices=("ols", "wls", "physical"),
+                   help="least squares, weighted per joint, or physically consistent (wls)")
+    p.add_argument("--validate", default=None, metavar="DATA2",
+                   help="a second recording to validate the identified model on")
+    p.add_argument("--topic", default="/joint_states", help="JointState topic of a bag")
+    p.add_argument("--cutoff", type=float, default=None,
+                   help="low-pass filter, Hz (a fifth of the sampling rate, at most 10)")
+    p.add_argument("--decimate", type=int, default=None,
+                   help="keep every k-th filtered sample (down to twice the cutoff)")
+    p.add_argument("--out", default=None, metavar="IDENTIFIED.urdf",
+                   help="write the URDF with the identified inertials and friction")
+    p.add_argument("--plot", default=None, metavar="FIT.png",
+                   help="plot measured and identified torques")
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(prog="serial-dynamics", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
     for name, fn, help_ in (("info", cmd_info, "print a robot's gravity torques and mass matrix"),
                             ("demo", cmd_demo, "run the main demo on the default robot"),
-                            ("simulate", cmd_simulate, "simulate the forward dynamics; plot, CSV")):
+                            ("simulate", cmd_simulate, "simulate the forward dynamics; plot, CSV"),
+                            ("excite", cmd_excite, "optimize an excitation trajectory (CSV)"),
+                            ("identify", cmd_identify,
+                             "identify inertial and friction parameters from a recording")):
         p = sub.add_parser(name, help=help_)
         p.add_argument("urdf", nargs="?", default=None, help="URDF path (default: built-in UR5e)")
         p.add_argument("--base-link", default=None, metavar="LINK",
@@ -158,8 +246,14 @@ def main(argv=None):
             p.add_argument("--json", metavar="PATH", default=None, help="write the numbers as JSON")
             p.add_argument("--real-time-factor", type=float, default=1.0,
                            help="simulated s per wall s (> 0; default 1)")
+            p.add_argument("--scenario", choices=("pick_and_place", "collision"),
+                           default="pick_and_place",
+                           help="pick_and_place: track the task (default); collision: push "
+                                "the arm during the task, detect it, float")
         if name == "simulate":
             _simulate_options(p)
+        if name in ("excite", "identify"):
+            _identification_options(p, name)
     args = parser.parse_args(argv)
     warnings.showwarning = _warning_line
     try:

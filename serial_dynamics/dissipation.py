@@ -102,6 +102,28 @@ class Dissipation:
         qd = np.asarray(qd, dtype=float)
         return -self.viscous * qd - self.sliding_friction(qd) * np.tanh(qd / v_eps)
 
+    def torque_derivative(self, qd, smooth=False, v_eps=1e-3, sign=None):
+        """d delta / d qd of ``torque`` (or of ``smooth_torque(qd, v_eps)`` with
+        ``smooth=True``): delta_i depends on qd_i only, so the Jacobian is diagonal and this
+        returns its diagonal, shape of ``qd`` ((n,) or (N, n)); ``np.diag`` of it is the matrix.
+
+            viscous                  -beta
+            Coulomb, low-speed rise  + eps gamma e^{-gamma|qd|} sgn(qd) s   (s = sgn(qd);
+                                     with ``sign``: the fixed sliding direction s of a step)
+            smooth (tanh)            - (tau_c + eps e^{-gamma|qd|}) (1 - tanh^2(qd/v_eps)) / v_eps
+
+        Exact mode: sgn has no derivative at qd = 0 (the Coulomb jump); there the value
+        is the one of either side, -beta (the low-speed rise term vanishes with sgn(0) = 0).
+        ``sign`` (exact mode only): the derivative of -beta qd - (tau_c + eps e^{-gamma|qd|}) sign
+        with the sliding signs held fixed (the simulator's stick-slip steps)."""
+        qd = np.asarray(qd, dtype=float)
+        e = self.stribeck * np.exp(-self.stribeck_rate * np.abs(qd))
+        ds = -self.stribeck_rate * e * np.sign(qd)    # d/dqd of tau_c + eps e^{-gamma|qd|}
+        if smooth:
+            t = np.tanh(qd / v_eps)
+            return -self.viscous - ds * t - (self.coulomb + e) * (1.0 - t * t) / v_eps
+        return -self.viscous - ds * (np.sign(qd) if sign is None else np.asarray(sign, float))
+
     def function(self, qd):
         """Delta(qd) summed over the joints (W); delta = -dDelta/dqd. (N, n) gives (N,)."""
         qd = np.asarray(qd, dtype=float)

@@ -26,7 +26,6 @@ memory (``core/data.py``), so one ``Robot`` may be called from several threads a
 from __future__ import annotations
 
 import os
-from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -35,7 +34,10 @@ from . import regressor as _regressor
 from .algorithms import aba, crba, energy, forward, kinematics, noc, rnea
 from .algorithms._batch import as_batch
 from .algorithms.planar import planar_pack
-from .base_motion import BaseMotion, check_base_motion
+from .base_motion import check_base_motion
+from .batches import kernel_rows as _rows
+from .batches import run_split
+from .batches import single_external as _external
 from .core import ENTRY_POINTS, K, layout
 from .core import flags as F
 from .dissipation import Dissipation
@@ -45,7 +47,6 @@ from .payload import Payload, attach
 _empty = np.empty                          # one global lookup on the fast paths
 _NO_WRENCH = np.zeros((1, 6))              # stands in for w in batch calls without one
 _W0 = np.zeros(6)                          # and in single forward-dynamics calls (not read)
-_W_BAD = np.zeros(0)                       # w that no entry point accepts (status 2)
 _QD_QDD, _QD = F.QD | F.QDD, F.QD         # flags, as module constants (no attribute lookup)
 _QD_QDD_W, _QD_W = _QD_QDD | F.WRENCH, _QD | F.WRENCH
 BACKENDS = ("numba", "numpy")
@@ -56,7 +57,6 @@ _FD_FLAGS = {"cholesky": F.QD, "aba": F.QD | F.ABA}
 PARALLEL_MIN = 2048
 ROBOT_KERNELS = ("rnea", "rnea_wrench", "crba", "fd", "rnea_batch", "crba_batch", "fd_batch")  # warmup()
 PLANAR_KERNELS = tuple(k for k in ENTRY_POINTS if k.startswith("planar"))    # and, if planar
-_pool = None
 
 
 class Robot:
@@ -296,14 +296,19 @@ class Robot:
 
     # ------------------------------------------------------------- identification, derivatives
     # (the batching, mimic reduction and kernel calls live in regressor.py and derivatives.py)
-    def regressor(self, q, qd, qdd, friction=False):
+    def regressor(self, q, qd, qdd, friction=False, armature=None):
         """Y (n, p) or (N, n, p) with inverse_dynamics(q, qd, qdd) == Y @ inertial_parameters()
-        (plus the friction torques with ``friction=True``); see ``regressor.py``."""
-        return _regressor.regressor(self, q, qd, qdd, friction)
+        (plus the friction torques fv qd + fc sign(qd) + fo with ``friction=True``). Columns:
+        10 per body [m, mx, my, mz, Ixx, Ixy, Iyy, Ixz, Iyz, Izz] (link frame, inertia about
+        its origin: Pinocchio's toDynamicParameters), then the armature [Ia..] (``armature``
+        None: when some joint has one; True/False force it), then [fv..], [fc..], [fo..].
+        Names: ``regressor.parameter_names``; see ``regressor.py``."""
+        return _regressor.regressor(self, q, qd, qdd, friction, armature)
 
-    def inertial_parameters(self, friction=False):
-        """The standard parameters that ``regressor`` multiplies; see ``regressor.py``."""
-        return _regressor.inertial_parameters(self, friction)
+    def inertial_parameters(self, friction=False, armature=None):
+        """The standard parameters phi (p,) that ``regressor`` multiplies (same arguments, same
+        order; friction from ``dissipation``: viscous, Coulomb, offset 0); see ``regressor.py``."""
+        return _regressor.inertial_parameters(self, friction, armature)
 
     def inverse_dynamics_derivatives(self, q, qd, qdd, wrench=None, base_motion=None):
         """(d tau/d q, d tau/d qd), each (n, n) or (N, n, n); d tau/d qdd is M(q)."""
@@ -370,41 +375,9 @@ class Robot:
 
 
 def _parallel(kernel, P, N, arrays, extra, out):
-    """Run a batch kernel over ``N`` states, split into one chunk per core when the batch
-    is large: chunks are whole numbers of SIMD blocks (``layout.B``), so every state is
-    computed exactly as in one serial call. ``arrays``: the (N, ...) or broadcast (1, ...)
-    inputs; ``extra``: the arguments after them (flags). Returns the kernels' status
-    (0 ok, 1 NaN/Inf)."""
-    global _pool
-    workers = min(os.cpu_count() or 1, 8)
-    if N < PARALLEL_MIN or workers < 2:
-        return kernel(P, *arrays, *extra, out)
-    if _pool is None:
-        _pool = ThreadPoolExecutor(workers, thread_name_prefix="serial_dynamics")
-    step = -(-N // workers // layout.B) * layout.B
-    rows = lambda a, k: a if a.shape[0] == 1 else a[k:k + step]   # noqa: E731
-    futures = [_pool.submit(kernel, P, *[rows(a, k) for a in arrays], *extra, out[k:k + step])
-               for k in range(0, N, step)]
-    return max(f.result() for f in futures)
-
-
-def _external(base_motion, wrench, flags):
-    """(w, flags) for a single-state entry point with a base motion (layout.W_*); a wrench
-    that is not 6 numbers, or a base motion that is not a BaseMotion, is left to the
-    general path (which names the culprit): w is then empty, and the entry point answers 2."""
-    if not isinstance(base_motion, BaseMotion) or (wrench is not None and np.shape(wrench) != (6,)):
-        return _W_BAD, flags
-    if wrench is None:                     # the motion's own vector (no kernel writes w)
-        return base_motion._ext, flags | F.BASE
-    return base_motion.external(wrench), flags | F.BASE | F.WRENCH
-
-
-def _rows(a):
-    """An (N, n) state or wrench as a C-contiguous array for the kernels; a row broadcast
-    over the batch (stride 0) is passed as one row, which the kernels broadcast."""
-    if a.strides[0] == 0:
-        a = a[:1]
-    return np.ascontiguousarray(a, dtype=float)
+    """A batch kernel over ``N`` states, split over the cores from PARALLEL_MIN states in
+    whole SIMD blocks (``layout.B``): every state as in one serial call."""
+    return run_split(kernel, P, N, arrays, extra, (out,), PARALLEL_MIN, layout.B)
 
 
 def _into(out, result):

@@ -269,7 +269,12 @@ def test_backends_and_the_environment_switch(monkeypatch):
 
 def test_warmup_loads_every_kernel_of_the_robot_methods():
     robot = sd.default_robot().warmup()
-    assert set(ROBOT_KERNELS) | set(PLANAR_KERNELS) == set(core.ENTRY_POINTS)
+    # the kernels of the dynamics methods warmup() calls; the regressor, derivatives and
+    # energy kernels are loaded on their first use (a node does not need them to start)
+    dynamics = {name for name, (func, *_) in core.ENTRY_POINTS.items()
+                if func.__module__.rsplit(".", 1)[1] in ("rnea", "rnea_lanes", "crba", "forward")}
+    assert set(ROBOT_KERNELS) == dynamics
+    assert set(PLANAR_KERNELS) == {k for k in core.ENTRY_POINTS if k.startswith("planar")}
     for name in ROBOT_KERNELS:
         assert name in vars(core.K), name             # compiled (or loaded) entry point
     assert robot.backend == "numba" and not robot.is_planar

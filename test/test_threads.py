@@ -137,17 +137,30 @@ def _run(robot_for_threads, serial_robot, n_threads):
     switches = int(np.count_nonzero(np.diff(trace)))
     print(f"{n_threads} threads x {CALLS_PER_THREAD} calls in {elapsed:.2f} s, "
           f"{switches} switches between threads")
-    assert switches >= 100, f"the threads hardly interleaved ({switches} switches): not a test"
+    return switches
+
+
+def _interleaved(robot_for_threads, serial_robot, n_threads, rounds=10):
+    """_run until the threads have interleaved at least 100 times in all: on a loaded
+    machine the OS may run them one after the other for a time slice (a few ms), and each
+    round then checks fewer concurrent calls."""
+    switches = 0
+    for _ in range(rounds):
+        switches += _run(robot_for_threads, serial_robot, n_threads)
+        if switches >= 100:
+            return
+    pytest.fail(f"the threads hardly interleaved ({switches} switches in {rounds} rounds): "
+                "not a test")
 
 
 @pytest.mark.parametrize("robot_name", ["ur5e", "xarm7"])
 @pytest.mark.parametrize("n_threads", [2, 4])
 def test_threads_share_a_robot(robot_name, n_threads):
     robot = _robot(robot_name)
-    _run(robot, robot, n_threads)
+    _interleaved(robot, robot, n_threads)
 
 
 def test_first_calls_concurrently():
     serial_robot = _robot("xarm7")
     fresh = _robot("xarm7")           # never called before the threads start
-    _run(fresh, serial_robot, 4)
+    _interleaved(fresh, serial_robot, 4)

@@ -2,9 +2,11 @@
 docs/conventions.md)."""
 import numpy as np
 
-from ._batch import as_batch, mv, unbatch
+from ..joints import PRISMATIC
+from ._batch import as_batch, mtv, mv, unbatch
 from .crba import mass_matrix
-from .kinematics import body_poses
+from .kinematics import body_poses, joint_transforms
+from .rnea import E_Z
 
 
 def kinetic_energy(model, q, qd):
@@ -19,3 +21,46 @@ def potential_energy(model, q):
     R0, o = body_poses(model, q)
     c = o + mv(R0, model.c)                                  # c_i = o_i + R0_i c[i]
     return unbatch(single, -np.einsum("i,nik,k->n", model.mass, c, model.gravity))
+
+
+def kinetic_energy_gradient(model, q, qd):
+    """dT/dq at fixed qd (N m), T = 1/2 qd^T M(q) qd; equal to C(q, qd)^T qd.
+
+    O(n), from the spatial velocities V_i = (omega_i; v_i) of the bodies (v_i: velocity of
+    body i's origin) and their momenta h_i = I_i V_i about their origins. In a common
+    (base) frame the joint axes beyond joint k and the bodies' inertias turn with it:
+    dV_i/dq_k = S_k x (V_i - V_k) and dI_i/dq_k = S_k x* I_i - I_i S_k x for k <= i, so
+    dT/dq_k = sum_{i >= k} h_i . (V_k x S_k) = -S_k . (V_k x* H_k), with H_k = sum_{i >= k}
+    h_i the momentum of bodies k.., carried inward like the joint forces of Newton-Euler
+    (x, x*: the spatial cross products of motions and forces; Featherstone 2008, Sec. 2.9;
+    f . (S x u) = S . (u x* f))."""
+    single, (q, qd) = as_batch(model, ("q", q), ("qd", qd))
+    N, n = q.shape
+    R, p = joint_transforms(model, q)
+    omega, v = np.zeros((N, 3)), np.zeros((N, 3))
+    W, U = np.empty((N, n, 3)), np.empty((N, n, 3))          # omega_i, v_i (frame i)
+    hn, hf = np.empty((N, n, 3)), np.empty((N, n, 3))        # h_i: angular, linear momentum
+    for i in range(n):
+        # body i-1's velocity at body i's origin, in frame i; then the joint's rate
+        v = mtv(R[:, i], v + np.cross(omega, p[:, i]))
+        omega = mtv(R[:, i], omega)
+        if model.kind[i] == PRISMATIC:
+            v = v + qd[:, i, None] * E_Z
+        else:
+            omega = omega + qd[:, i, None] * E_Z
+        m, h, I_O = model.mass[i], model.h[i], model.I_O[i]
+        hf[:, i] = m * v + np.cross(omega, h)                # momentum, linear
+        hn[:, i] = omega @ I_O.T + np.cross(h, v)            # angular, about the origin
+        W[:, i], U[:, i] = omega, v
+    Hn, Hf = np.zeros((N, 3)), np.zeros((N, 3))
+    grad = np.empty((N, n))
+    for k in range(n - 1, -1, -1):
+        if k < n - 1:      # H of bodies k+1.. into frame k: f' = R f, n' = R n + p x f'
+            Hf = mv(R[:, k + 1], Hf)
+            Hn = mv(R[:, k + 1], Hn) + np.cross(p[:, k + 1], Hf)
+        Hn, Hf = Hn + hn[:, k], Hf + hf[:, k]
+        # -V_k x* H_k = -(omega x Hn + v x Hf; omega x Hf), projected on the joint axis S_k
+        yn = -np.cross(W[:, k], Hn) - np.cross(U[:, k], Hf)
+        yf = -np.cross(W[:, k], Hf)
+        grad[:, k] = yf[:, 2] if model.kind[k] == PRISMATIC else yn[:, 2]
+    return unbatch(single, grad)

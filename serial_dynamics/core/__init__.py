@@ -29,6 +29,7 @@ inlined where (bitwise the same in every process, whatever the cache holds).
 from numba import njit
 
 from . import crba, derivatives, forward, planar, planar_lanes, regressor, rnea, rnea_lanes
+from . import energy
 from .signatures import In2, Mat, Out2, Out3, Pm, Vec, compile_internal, i8
 
 FD_CALLS = ("aba_core", "rnea_core", "crba_core", "cholesky_solve")   # the Cholesky route inlined
@@ -45,9 +46,10 @@ ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core fu
     **planar_lanes.ENTRY_POINTS,   # and its batches
     **derivatives.ENTRY_POINTS,    # derivatives of inverse and forward dynamics
     **regressor.ENTRY_POINTS,      # the torque regressor
+    **energy.ENTRY_POINTS,         # dT/dq and the symplectic Euler step
 }
 SINGLE_STATE = ("rnea", "rnea_wrench", "crba", "fd", "planar_rnea", "planar_rnea_wrench",
-                "planar_crba")
+                "planar_crba", "regressor", "rnea_derivatives", "fd_derivatives")
 OTHER_TYPES = 3      # what a single-state entry point returns for arguments of other types
 
 

@@ -1,5 +1,11 @@
-"""Cholesky factor and solve, compiled: M x = b for a symmetric positive-definite M
-(Featherstone 2008, Sec. 6.3: the factor of the mass matrix, then two triangular solves)."""
+"""Cholesky factor and solves, compiled: M x = b for a symmetric positive-definite M
+(Featherstone 2008, Sec. 6.3: the factor of the mass matrix, then two triangular solves).
+
+    cholesky_factor(L)             M = L L^T in place (lower triangle)
+    cholesky_solve_factored(L, x)  x <- M^-1 x, one right-hand side
+    cholesky_solve_matrix(L, X)    X <- M^-1 X, many (rows of X contiguous: SIMD lanes)
+    cholesky_solve(L, b, x)        factor, then x = M^-1 b
+"""
 import math
 
 from numba import types
@@ -7,11 +13,11 @@ from numba import types
 from .signatures import D1, D2, Out1, internal
 
 
-@internal(types.void(D2, D1, Out1))
-def cholesky_solve(L, b, x):
-    """Solve M x = b: L (n, n) holds M on entry and its factor M = L L^T after."""
-    n = b.shape[0]
-    for j in range(n):                   # M = L L^T, column by column
+@internal(types.void(D2))
+def cholesky_factor(L):
+    """M = L L^T in place: L (n, n) holds M on entry, its lower factor after."""
+    n = L.shape[0]
+    for j in range(n):                   # column by column
         s = L[j, j]
         for k in range(j):
             s -= L[j, k] * L[j, k]
@@ -22,8 +28,14 @@ def cholesky_solve(L, b, x):
             for k in range(j):
                 s -= L[i, k] * L[j, k]
             L[i, j] = s / d
-    for i in range(n):                   # L y = b
-        s = b[i]
+
+
+@internal(types.void(D2, Out1))
+def cholesky_solve_factored(L, x):
+    """x <- (L L^T)^-1 x: L y = x, then L^T x = y."""
+    n = x.shape[0]
+    for i in range(n):                   # L y = x
+        s = x[i]
         for k in range(i):
             s -= L[i, k] * x[k]
         x[i] = s / L[i, i]
@@ -32,3 +44,36 @@ def cholesky_solve(L, b, x):
         for k in range(i + 1, n):
             s -= L[k, i] * x[k]
         x[i] = s / L[i, i]
+
+
+@internal(types.void(D2, D2))
+def cholesky_solve_matrix(L, X):
+    """X <- (L L^T)^-1 X: L Y = X, then L^T X = Y, row by row, so that the innermost loop
+    runs along the columns of X (contiguous: SIMD lanes)."""
+    n = X.shape[0]
+    m = X.shape[1]
+    for i in range(n):                   # L Y = X
+        for k in range(i):
+            lik = L[i, k]
+            for c in range(m):
+                X[i, c] -= lik * X[k, c]
+        d = 1.0 / L[i, i]
+        for c in range(m):
+            X[i, c] *= d
+    for i in range(n - 1, -1, -1):       # L^T X = Y
+        for k in range(i + 1, n):
+            lki = L[k, i]
+            for c in range(m):
+                X[i, c] -= lki * X[k, c]
+        d = 1.0 / L[i, i]
+        for c in range(m):
+            X[i, c] *= d
+
+
+@internal(types.void(D2, D1, Out1), calls=("cholesky_factor", "cholesky_solve_factored"))
+def cholesky_solve(L, b, x):
+    """Solve M x = b: L (n, n) holds M on entry and its factor M = L L^T after."""
+    cholesky_factor(L)
+    for i in range(b.shape[0]):
+        x[i] = b[i]
+    cholesky_solve_factored(L, x)

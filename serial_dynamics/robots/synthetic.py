@@ -68,3 +68,18 @@ def ill_conditioned_chain_urdf(n=6) -> str:
     condition number is 1.6e10 .. 2.3e10 at generic configurations."""
     masses = np.geomspace(10.0, 1e-5, n)
     return chain_urdf(n, masses=masses, lengths=0.3, radius=0.002, name="ill_conditioned_chain")
+
+
+def double_pendulum_urdf() -> str:
+    """The double pendulum of the energy benchmarks (issue 12): two 1 m, 1 kg links with
+    centres of mass at mid-length and 0.02 kg m^2 about them, both axes horizontal (y),
+    hanging under gravity at q = 0."""
+    def link(name):
+        return (f'<link name="{name}"><inertial><origin xyz="0 0 -0.5"/><mass value="1"/>'
+                '<inertia ixx="0.02" iyy="0.02" izz="0.02" ixy="0" ixz="0" iyz="0"/>'
+                '</inertial></link>')
+    return ('<robot name="double_pendulum"><link name="base"/>' + link("l1") + link("l2")
+            + '<joint name="j1" type="continuous"><parent link="base"/><child link="l1"/>'
+              '<axis xyz="0 1 0"/></joint>'
+              '<joint name="j2" type="continuous"><parent link="l1"/><child link="l2"/>'
+              '<origin xyz="0 0 -1"/><axis xyz="0 1 0"/></joint></robot>')

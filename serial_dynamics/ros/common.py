@@ -58,6 +58,7 @@ class Rejections:
         self.logger, self.period = node.get_logger(), period
         self.counts, self._logged_at, self._logged_count = {}, {}, {}
         self.received, self.sent, self.refused = {}, {}, {}
+        self._watched = []          # node-specific values of every report (watch)
         self._name, self._hardware_id, self._refused_reported = (
             node.get_fully_qualified_name(), hardware_id, 0)
         self._clock = node.get_clock()
@@ -89,6 +90,13 @@ class Rejections:
     def put(self, topic: str):
         self.sent[topic] = self.sent.get(topic, 0) + 1
 
+    def watch(self, values):
+        """Add node-specific values to every report: ``values()`` returns a list of
+        ``(key, value)`` or ``(key, value, warn)``; a true ``warn`` raises the report's level
+        to WARN (e.g. a real-time factor below target, a saturated joint). Called from the
+        report timer: it must be quick and must not raise."""
+        self._watched.append(values)
+
     def report(self):
         # copies: the simulator counts from its stepping thread (a dict copy is atomic)
         received, sent, refused = dict(self.received), dict(self.sent), dict(self.refused)
@@ -96,8 +104,14 @@ class Rejections:
         values = ([KeyValue(key=f"received {t}", value=str(n)) for t, n in received.items()]
                   + [KeyValue(key=f"sent {t}", value=str(n)) for t, n in sent.items()]
                   + [KeyValue(key=f"refused {t}", value=str(n)) for t, n in refused.items()])
+        warn = False
+        for watched in self._watched:
+            for key, value, *flag in watched():
+                values.append(KeyValue(key=key, value=str(value)))
+                warn = warn or bool(flag and flag[0])
         text = "; ".join(f"{k.key}: {k.value}" for k in values) or "no messages yet"
-        level = DiagnosticStatus.WARN if total > self._refused_reported else DiagnosticStatus.OK
+        level = (DiagnosticStatus.WARN if total > self._refused_reported or warn
+                 else DiagnosticStatus.OK)
         self._refused_reported = total
         msg = DiagnosticArray(status=[DiagnosticStatus(
             level=level, name=self._name, message=text, hardware_id=self._hardware_id,

@@ -1,26 +1,34 @@
-"""Computed-torque controller node.
+"""Model-based joint controller node (computed torque, PD + gravity, gravity compensation).
 
     python -m serial_dynamics.ros.computed_torque_controller --ros-args -p kp:=[400.0]
     ros2 run serial_dynamics computed_torque_controller
+    ros2 param set /computed_torque_controller mode gravity_compensation
 
 Subscribes ``joint_states`` and a time-parameterized trajectory_msgs/JointTrajectory on
 ``desired_trajectory``; publishes ``effort_commands`` (std_msgs/Float64MultiArray, model
-joint order) at ``control_rate`` with
+joint order) at ``control_rate`` with the law of the parameter ``mode`` (settable while
+running; the laws keep no state, so the first command after a switch is the new law at
+the state used):
 
-    tau = M(q) (qdd_d + Kp e + Kd edot) + b(q, qd)  [- delta(qd) when compensating friction]
+    computed_torque       tau = M(q) (qdd_d + Kp e + Kd edot) + b(q, qd)
+    pd_gravity            tau = Kp' e + Kd' edot + g(q)
+    gravity_compensation  tau = g(q)
+                          [- delta(qd) in each mode when compensating friction]
 
-computed as one recursive Newton-Euler call, robot.inverse_dynamics(q, qd, v). The error
+(computed_torque is one recursive Newton-Euler call, robot.inverse_dynamics). The error
 e = q_d - q is taken at the stamp of the joint state it uses (the state is a few ms old
 when it arrives; comparing it with the reference of the same instant removes the lag
 bias), the feed-forward qdd_d at the current time. The trajectory starts at its header
 stamp (zero: on arrival) from the current reference, and its last point holds at the end.
-Before any trajectory the controller holds the first measured position. Bad input is
-refused (the last good state and trajectory stay); a command that comes out non-finite is
-not sent.
+Before any trajectory the controller holds the first measured position; in
+gravity_compensation the reference follows the measured position (trajectories are
+refused), so leaving that mode holds where the arm was left. Bad input is refused (the
+last good state and trajectory stay); a command that comes out non-finite is not sent.
 """
 from __future__ import annotations
 
 import numpy as np
+from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
@@ -32,12 +40,19 @@ from . import common, parameters
 from .common import Rejected
 from .parameters import StartupError
 
+MODES = ("computed_torque", "pd_gravity", "gravity_compensation")
 PARAMETERS = {
+    "mode": ("string", "computed_torque", "control law: computed_torque, pd_gravity or "
+             "gravity_compensation. Settable while running"),
     **parameters.ROBOT_PARAMETERS,
     "control_rate": ("double", 500.0, "effort_commands rate (Hz, of the node's clock: "
                      "simulated time with use_sim_time)"),
     "kp": ("double[]", [400.0], "position gains (1/s^2), one or one per joint"),
     "kd": ("double[]", [40.0], "velocity gains (1/s), one or one per joint"),
+    "pd.kp": ("double[]", None, "pd_gravity position gains (N m/rad), one or one per joint "
+              "([] = kp times the diagonal of M(0))"),
+    "pd.kd": ("double[]", None, "pd_gravity velocity gains (N m s/rad), one or one per joint "
+              "([] = kd times the diagonal of M(0))"),
     "compensate_dissipation": ("bool", False, "add the torque that overcomes the joint "
                                "dissipation (friction) at the measured velocity"),
     **parameters.PAYLOAD_PARAMETERS,
@@ -45,25 +60,45 @@ PARAMETERS = {
 MAX_STATE_AGE = 0.5   # s; an older (or future) state stamp is taken as "now" (clock mismatch)
 
 
+def check_mode(mode):
+    """None if ``mode`` is a mode of the controller, else the reason."""
+    if mode not in MODES:
+        return f"parameter 'mode' must be one of {', '.join(MODES)}; got {mode!r}"
+    return None
+
+
 class ComputedTorqueController(Node):
     NAME = "computed_torque_controller"
 
     def __init__(self, **kwargs):
         super().__init__(self.NAME, **kwargs)
-        p = parameters.declare(self, PARAMETERS)
+        # mode is settable while running: declared here (parameters.declare makes read-only)
+        self.declare_parameter("mode", PARAMETERS["mode"][1], ParameterDescriptor(
+            description=PARAMETERS["mode"][2], dynamic_typing=True))
+        self.mode = self.get_parameter("mode").value
+        if check_mode(self.mode):
+            raise StartupError(check_mode(self.mode))
+        p = parameters.declare(self, {k: v for k, v in PARAMETERS.items() if k != "mode"})
         # payload.* may be set while running: the model is swapped between two commands
         self.robot = robot = parameters.with_payload_parameters(
             self, parameters.load_robot(self, p), p, lambda robot: setattr(self, "robot", robot))
         self.kp = parameters.per_joint("kp", p["kp"], robot, None, positive=True)
         self.kd = parameters.per_joint("kd", p["kd"], robot, None, positive=True)
+        m0 = np.diag(robot.mass_matrix(np.zeros(robot.dof)))    # default pd gains: same
+        self.pd_kp = parameters.per_joint("pd.kp", p["pd.kp"], robot, self.kp * m0, True)
+        self.pd_kd = parameters.per_joint("pd.kd", p["pd.kd"], robot, self.kd * m0, True)
         if not 0 < p["control_rate"] < np.inf:
             raise StartupError(f"parameter 'control_rate' must be > 0, got {p['control_rate']}")
         self.compensate = p["compensate_dissipation"]
         self.wrap = np.array([k == "continuous" for k in robot.joint_types])
         self.state = None           # (t, q, qd) of the latest good joint state
         self.reference = None       # (t0, Waypoints) in force
+        self.error_max, self.saturated = None, set()    # since the last /diagnostics report
         robot.warmup()
         self.reject = common.Rejections(self, hardware_id=robot.model.name)
+        self.reject.watch(self.diagnostics)
+        self.add_on_set_parameters_callback(self.validate_mode)
+        self.add_post_set_parameters_callback(self.apply_mode)
         self.pub = self.create_publisher(Float64MultiArray, "effort_commands", common.QOS_DEPTH)
         common.subscribe(self, self.reject, JointState, "joint_states", self.on_state)
         common.subscribe(self, self.reject, JointTrajectory, "desired_trajectory",
@@ -93,8 +128,13 @@ class ComputedTorqueController(Node):
         if t == 0.0 or abs(now - t) > MAX_STATE_AGE:
             t = now
         self.state = (t, q, qd)
-        if self.reference is None:                  # hold where the arm is
-            self.reference = (t, Waypoints([0.0], q[None]))
+        if self.reference is None or self.mode == "gravity_compensation":
+            self.hold()
+
+    def hold(self):
+        """The reference: at rest where the latest state is."""
+        t, q, _ = self.state
+        self.reference = (t, Waypoints([0.0], q[None]))
 
     def on_trajectory(self, msg):
         try:
@@ -106,6 +146,10 @@ class ComputedTorqueController(Node):
             if self.reference is None:
                 raise Rejected("no joint state yet", "desired_trajectory arrived before any "
                                "joint_states message")
+            if self.mode == "gravity_compensation":
+                raise Rejected("gravity_compensation", "desired_trajectory arrived in mode "
+                               "gravity_compensation, which follows no reference; set mode "
+                               "to computed_torque or pd_gravity first")
         except Rejected as exc:
             return self.reject("desired_trajectory", exc, "; the trajectory in force stays")
         start = common.stamp_seconds(msg.header.stamp) or self.now()
@@ -128,20 +172,51 @@ class ComputedTorqueController(Node):
         qdd_ff = self.desired(self.now())[2]           # feed-forward for the torque applied now
         e = q_ref - q
         e[self.wrap] = np.angle(np.exp(1j * e[self.wrap]))     # shortest way round
-        with np.errstate(over="ignore", invalid="ignore"):    # checked below
-            v = qdd_ff + self.kp * e + self.kd * (qd_ref - qd)
-        robot = self.robot
+        ed, robot, mode = qd_ref - qd, self.robot, self.mode
         try:
-            tau = robot.inverse_dynamics(q, qd, v)
+            with np.errstate(over="ignore", invalid="ignore"):    # checked below
+                if mode == "computed_torque":
+                    tau = robot.inverse_dynamics(q, qd, qdd_ff + self.kp * e + self.kd * ed)
+                elif mode == "pd_gravity":
+                    tau = self.pd_kp * e + self.pd_kd * ed + robot.gravity_torques(q)
+                else:                                              # gravity_compensation
+                    tau = robot.gravity_torques(q)
             if self.compensate:
                 tau = tau - robot.dissipation_torques(qd)
             if not np.all(np.isfinite(tau)):
                 raise ValueError("the torque came out non-finite")
         except (ValueError, ArithmeticError) as exc:   # e.g. gains times error overflow
-            return self.reject("effort_commands", Rejected("not finite", f"{exc} (q = {q}, "
-                               f"q_ref = {q_ref}, v = {v})"), "; no command sent")
+            return self.reject("effort_commands", Rejected("not finite", f"{exc} (mode "
+                               f"{mode}, q = {q}, q_ref = {q_ref}, qd = {qd})"),
+                               "; no command sent")
         self.pub.publish(Float64MultiArray(data=tau.tolist()))
         self.reject.put("effort_commands")
+        self.error_max = max(self.error_max or 0.0, float(np.max(np.abs(e))))
+        self.saturated.update(np.flatnonzero(np.abs(tau) > robot.effort_limit).tolist())
+
+    def validate_mode(self, params):
+        for x in params:
+            if x.name == "mode" and check_mode(x.value):
+                reason = f"{check_mode(x.value)}; the mode in force ({self.mode}) stays"
+                self.get_logger().warning(f"rejected {reason}")
+                return SetParametersResult(successful=False, reason=reason)
+        return SetParametersResult(successful=True)
+
+    def apply_mode(self, params):     # after validate_mode and rclpy have stored the value
+        for x in params:
+            if x.name == "mode" and x.value != self.mode:
+                self.mode = x.value
+                if self.mode == "gravity_compensation" and self.state is not None:
+                    self.hold()             # and from now on at every state
+                self.get_logger().info(f"mode {self.mode} in force")
+
+    def diagnostics(self):
+        """mode, max |e| and the joints beyond their effort limit since the last report."""
+        err, names = self.error_max, [self.robot.joint_names[j] for j in sorted(self.saturated)]
+        self.error_max, self.saturated = None, set()
+        return [("mode", self.mode),
+                ("tracking error max (rad)", "no command" if err is None else f"{err:.6g}"),
+                ("saturated joints", ", ".join(names) or "none", bool(names))]
 
     def close(self):
         pass

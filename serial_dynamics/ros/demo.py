@@ -3,6 +3,8 @@ processes, track a built-in pick-and-place trajectory; prints the tracking error
 real-time factor achieved.
 
     serial-dynamics demo [URDF] [--plot out.png] [--json out.json]
+    serial-dynamics demo --scenario collision   # a push during the task: detect, float
+                                                # (serial_dynamics.ros.demo_collision)
     python -m serial_dynamics.ros.demo [--attach]    # --attach: use nodes already running
                                                      # (launch/demo.launch.py does this)
 
@@ -16,38 +18,17 @@ import argparse
 import json
 import os
 import sys
-import time
 
 import numpy as np
-import rclpy
-from builtin_interfaces.msg import Duration
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
-from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray
-from std_srvs.srv import SetBool
-from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+from rclpy.executors import ExternalShutdownException
 
 import serial_dynamics as sd
-from serial_dynamics.precompile import precompile
-from serial_dynamics.sim.fixed_step import FixedStepIntegrator
 from serial_dynamics.trajectory import pick_and_place
 
-from . import common
-from .processes import NodeProcess
+from . import demo_collision
+from .demo_session import NOT_FOLLOWED, SETTLE, DemoError, Session, robot_parameters
 
-LEAD, SETTLE = 1.5, 0.5        # s of simulated time before the trajectory (discovery can take
-                               # a second on a loaded machine; copies are resent until then) and after
-RESEND = 0.05                  # s of wall time between sends of the trajectory before it starts
-NOT_FOLLOWED = 0.1             # rad: a larger tracking error means the controller did not follow
-STARTUP_TIMEOUT = 150.0        # s of wall time for the nodes to come up (a first run compiles)
-
-
-class DemoError(RuntimeError):
-    pass
-
-
-def _duration(t):
-    return Duration(sec=int(t), nanosec=int(round((t - int(t)) * 1e9)))
+SCENARIOS = ("pick_and_place", "collision")
 
 
 def run_demo(urdf=None, base_link=None, tip_link=None, real_time_factor=1.0, attach=False,
@@ -55,95 +36,15 @@ def run_demo(urdf=None, base_link=None, tip_link=None, real_time_factor=1.0, att
     """Run the demo; returns a dict of results (raises DemoError when a node fails)."""
     robot = sd.load_urdf(urdf or sd.builtin_path(), base_link, tip_link)
     traj = pick_and_place(robot)
-    robot_params = {"urdf_path": os.path.abspath(urdf) if urdf else "",
-                    "base_link": base_link or "", "tip_link": tip_link or "",
-                    "robot_description_timeout": 0.0}
-    procs = []
-    if not attach:
-        # compile the kernels here, once, into the cache the nodes load from (two nodes
-        # compiling the same kernels side by side on a cold cache take twice as long)
-        t = time.monotonic()
-        precompile(jobs=2)               # every kernel, on two cores; a warm cache only loads
-        FixedStepIntegrator(robot).step(traj.q[0], np.zeros(robot.dof), np.zeros(robot.dof))
-        if time.monotonic() - t > 2.0:
-            log(f"compiled the numerical kernels in {time.monotonic() - t:.0f} s (first run only)")
-        procs.append(NodeProcess("simulator", {**robot_params, "publish_clock": True,
-                                               "start_paused": True,
-                                               "initial_positions": traj.q[0].tolist(),
-                                               "real_time_factor": float(real_time_factor)}))
-        procs.append(NodeProcess("computed_torque_controller",
-                                 {**robot_params, "use_sim_time": True}))
-    rclpy.init(args=[])
-    node = rclpy.create_node("demo")
-    executor = SingleThreadedExecutor()
-    executor.add_node(node)
-    states = []        # (wall s, stamp s, q, effort)
-    node.create_subscription(
-        JointState, "joint_states",
-        lambda m: states.append((time.monotonic(), common.stamp_seconds(m.header.stamp),
-                                 np.array(m.position), np.array(m.effort))), common.QOS_DEPTH)
-    efforts = []       # wall s of each effort command seen: the controller runs and has a state
-    node.create_subscription(Float64MultiArray, "effort_commands",
-                             lambda m: efforts.append(time.monotonic()), common.QOS_DEPTH)
-    pub = node.create_publisher(JointTrajectory, "desired_trajectory", common.QOS_DEPTH)
-    pause = node.create_client(SetBool, "simulator/pause")
-
-    def spin_until(done, timeout, what):
-        deadline = time.monotonic() + timeout
-        progress = (states[-1][1] if states else 0.0, time.monotonic())   # (stamp, when)
-        while not done():
-            for p in procs:
-                if not p.running():
-                    raise DemoError(f"the {p.module} node exited ({p.proc.returncode}):\n"
-                                    + p.output().strip())
-            now = time.monotonic()
-            if now > deadline:
-                raise DemoError(f"timed out waiting for {what}")
-            if states and states[-1][1] > progress[0]:
-                progress = (states[-1][1], now)
-            elif progress[0] > 0 and now - progress[1] > 10.0:      # running, then stuck
-                log_tail = procs[0].output().strip().splitlines()[-3:] if procs else []
-                raise DemoError(f"simulated time stopped at {states[-1][1]:.3f} s while waiting "
-                                f"for {what}" + "".join("\n  " + x for x in log_tail))
-            executor.spin_once(timeout_sec=0.05)
-
+    session = Session(robot, traj, robot_parameters(urdf, base_link, tip_link),
+                      real_time_factor, attach, log)
     try:
-        t_wall = time.monotonic()
-        spin_until(lambda: states and pub.get_subscription_count() > 0
-                   and pause.service_is_ready(), STARTUP_TIMEOUT,
-                   "the simulator and the controller to start")
-        log(f"nodes up in {time.monotonic() - t_wall:.1f} s; running the pick-and-place "
-            f"trajectory ({traj.duration:.1f} s)")
-        future = pause.call_async(SetBool.Request(data=False))
-        spin_until(future.done, 10.0, "the simulator to resume")
-        spin_until(lambda: states[-1][1] > 0.0, 10.0, "simulated time to advance")
-        # the controller refuses a trajectory before its first joint state; its effort
-        # commands say it has one
-        spin_until(lambda: efforts, 10.0, "the controller's first effort command")
-        t0 = states[-1][1] + LEAD
-        msg = JointTrajectory(joint_names=robot.joint_names)
-        msg.header.stamp.sec, msg.header.stamp.nanosec = int(t0), int(round((t0 % 1) * 1e9))
-        msg.points = [JointTrajectoryPoint(positions=traj.q[i].tolist(),
-                                           velocities=traj.qd[i].tolist(),
-                                           accelerations=traj.qdd[i].tolist(),
-                                           time_from_start=_duration(traj.t[i]))
-                      for i in range(len(traj.t))]
-        # A message sent once can be lost while the controller's side of discovery is
-        # still matching our publisher; resend until the trajectory starts. The copies are
-        # identical and start at the absolute stamp t0, so each replaces the last.
-        resend = node.create_timer(RESEND, lambda: pub.publish(msg))
-        pub.publish(msg)
-        spin_until(lambda: states[-1][1] >= t0, 10.0 + 5.0 * LEAD / real_time_factor,
-                   "the trajectory to start")
-        node.destroy_timer(resend)
+        t0 = session.start()
         t_end = t0 + traj.duration + SETTLE
-        spin_until(lambda: states[-1][1] >= t_end, 60.0 + 5.0 * t_end / real_time_factor,
-                   "the end of the trajectory")
+        session.run_until(t_end, "the end of the trajectory")
     finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
-        for p in procs:
-            p.stop()
+        session.close()
+    states, procs = session.states, session.procs
 
     run = [s for s in states if s[1] > 0.0]
     wall = np.array([s[0] for s in run])
@@ -228,6 +129,8 @@ def run(args) -> int:
     if "ROS_DOMAIN_ID" not in os.environ and not getattr(args, "attach", False):
         # keep the demo's /clock off other ROS graphs on this network
         os.environ["ROS_DOMAIN_ID"] = str(1 + os.getpid() % 100)
+    if getattr(args, "scenario", "pick_and_place") == "collision":
+        return demo_collision.run(args)
     print(f"serial_dynamics demo (ROS_DOMAIN_ID={os.environ.get('ROS_DOMAIN_ID', '0')}): simulator + "
           "computed-torque controller as separate processes", flush=True)
     try:
@@ -258,6 +161,9 @@ def add_arguments(p):
     p.add_argument("--json", metavar="PATH", default=None, help="write the numbers as JSON")
     p.add_argument("--real-time-factor", type=float, default=1.0,
                    help="simulated s per wall s (> 0; default 1)")
+    p.add_argument("--scenario", choices=SCENARIOS, default=SCENARIOS[0],
+                   help="pick_and_place: track the task (default); collision: push the arm "
+                        "during the task, detect it with the observer, float")
     p.add_argument("--attach", action="store_true",
                    help="do not start nodes: use the simulator and controller already running")
 

@@ -9,9 +9,12 @@ order; one point or many; missing velocities/accelerations are zeros) is answere
 for every point, positions, velocities, accelerations and the torques ``effort`` that
 produce them: tau = M(q) qdd + b(q, qd) - J^T w (+ the dissipation, when compensated),
 computed in one batched call for all the points (the single-state path for one).
-Requests and answers are counted on /diagnostics.
+Requests and answers are counted on /diagnostics, with the request rate and the latency
+(receipt of a request to its answer published, in this node) since the previous report.
 """
 from __future__ import annotations
+
+import time
 
 import numpy as np
 from geometry_msgs.msg import WrenchStamped
@@ -46,6 +49,8 @@ class InverseDynamics(Node):
         self.wrench_in_tip = False
         self.robot.warmup()
         self.reject = common.Rejections(self, hardware_id=self.robot.model.name)
+        self._window = [time.monotonic(), 0, 0.0, 0.0]    # since: requests, sum, max latency (s)
+        self.reject.watch(self._diagnostics)
         self.pub = self.create_publisher(JointTrajectory, "inverse_dynamics/response",
                                          common.REQUEST_DEPTH)
         common.subscribe(self, self.reject, WrenchStamped, "inverse_dynamics/tip_wrench",
@@ -73,6 +78,23 @@ class InverseDynamics(Node):
         return np.concatenate([R @ self.wrench[:3], R @ self.wrench[3:]], axis=-1)
 
     def on_request(self, msg):
+        start = time.perf_counter()
+        self._answer(msg)
+        latency, w = time.perf_counter() - start, self._window
+        w[1], w[2], w[3] = w[1] + 1, w[2] + latency, max(w[3], latency)
+
+    def _diagnostics(self):
+        """Request rate (Hz of wall time), latency mean and max (ms: from the request taken
+        off the queue to its answer published, refused ones included) since the last report."""
+        now = time.monotonic()
+        since, count, total, worst = self._window
+        self._window = [now, 0, 0.0, 0.0]
+        rate = count / (now - since) if now > since else 0.0
+        mean = 1e3 * total / count if count else 0.0
+        return [("request rate (Hz)", f"{rate:.1f}"), ("latency mean (ms)", f"{mean:.3f}"),
+                ("latency max (ms)", f"{1e3 * worst:.3f}")]
+
+    def _answer(self, msg):
         robot = self.robot      # one model for the whole request
         try:
             _, q, qd, qdd, _, _ = common.trajectory_arrays(msg, robot, "inverse_dynamics/request")

@@ -9,6 +9,12 @@ A thread steps ``FixedStepIntegrator`` at ``sim_dt``, paced against the wall clo
 it then runs slower than asked rather than bursting). Commands are held (zero-order) until
 replaced or until ``command_timeout`` s of simulated time pass without one. A step above
 COARSE_DT is allowed, with a warning (most likely 1 typed for 0.001).
+
+Inputs (checked in ``simulator_inputs``): efforts and servo targets on ``joint_commands``
+(the joint PD of ``sim.servo``, integrated implicitly), a push on the tip
+(``external_wrench``), a state to jump to (``~/set_state``), steps while paused
+(``~/step``). /diagnostics adds the real-time factor achieved, late steps and divergence
+events to the message counts.
 """
 from __future__ import annotations
 
@@ -17,6 +23,7 @@ import threading
 import time
 
 import numpy as np
+from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
 from rclpy.time import Time
 from rosgraph_msgs.msg import Clock
@@ -24,10 +31,11 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool, Trigger
 
-from serial_dynamics.sim.fixed_step import FixedStepIntegrator
+from serial_dynamics.sim.fixed_step import SERVO_METHODS, FixedStepIntegrator
 from serial_dynamics.sim.methods import SimulationError
+from serial_dynamics.sim.servo import servo
 
-from . import common, parameters
+from . import common, parameters, simulator_inputs
 from .common import Rejected
 from .parameters import StartupError
 
@@ -39,7 +47,8 @@ PARAMETERS = {
     "position_limits": ("bool", True, "hard stops at the URDF joint limits (a joint that "
                         "reaches one stops there: plastic impact)"),
     "integrator": ("string", "semi_implicit_euler", "fixed-step method of "
-                   "serial_dynamics.sim.fixed_step.FixedStepIntegrator"),
+                   "serial_dynamics.sim.fixed_step.FixedStepIntegrator: semi_implicit_euler, "
+                   "symplectic_euler, rk4 or implicit_midpoint"),
     "sim_dt": ("double", 0.001, "integration step (s)"),
     "real_time_factor": ("double", 1.0, "simulated s per wall-clock s; 0 = as fast as possible"),
     "publish_rate": ("double", 100.0, "joint_states rate (Hz of simulated time)"),
@@ -52,6 +61,13 @@ PARAMETERS = {
     "effort_limits": ("double[]", None, "effort limits (N m; N), one or one per joint "
                       "([] = the URDF's <limit effort>; .inf = none)"),
     "start_paused": ("bool", False, "start paused (resume with ~/pause false)"),
+    "step_count": ("int", 1, "steps advanced by one ~/step call (while paused)"),
+    "external_wrench_timeout": ("double", 0.0, "s of simulated time after which an "
+                                "external_wrench is dropped; 0 = held until replaced"),
+    "servo.kp": ("double[]", [10000.0], "joint servo stiffness (N m/rad; N/m), one or one per "
+                 "joint, for joint_commands with position targets"),
+    "servo.kd": ("double[]", [200.0], "joint servo damping (N m s/rad; N s/m), one or one per "
+                 "joint, for joint_commands with position and/or velocity targets"),
     **parameters.PAYLOAD_PARAMETERS,
 }
 MAX_LAG = 0.1   # s of wall time behind schedule before the pacing re-anchors
@@ -87,9 +103,17 @@ class Simulator(Node):
         for name in ("sim_dt", "publish_rate", "clock_rate"):
             if not 0 < p[name] < np.inf:
                 raise StartupError(f"parameter {name!r} must be > 0, got {p[name]}")
-        for name in ("real_time_factor", "command_timeout"):
+        for name in ("real_time_factor", "command_timeout", "external_wrench_timeout"):
             if not 0 <= p[name] < np.inf:
                 raise StartupError(f"parameter {name!r} must be >= 0 (and finite), got {p[name]}")
+        if p["step_count"] < 1:
+            raise StartupError(f"parameter 'step_count' must be >= 1, got {p['step_count']}")
+        self.kp, self.kd = (parameters.per_joint(f"servo.{x}", p[f"servo.{x}"], robot, None,
+                                                 positive=True) for x in ("kp", "kd"))
+        if not (np.all(np.isfinite(self.kp)) and np.all(np.isfinite(self.kd))):
+            raise StartupError("parameters 'servo.kp' and 'servo.kd' must be finite")
+        self.servo_ok = p["integrator"] in SERVO_METHODS
+        self.step_count = p["step_count"]
         if p["sim_dt"] > COARSE_DT:
             self.get_logger().warning(
                 f"sim_dt = {p['sim_dt']} s is a coarse step (above {COARSE_DT} s): an arm "
@@ -107,6 +131,7 @@ class Simulator(Node):
         self.publish_every = max(1, round(1.0 / (p["publish_rate"] * dt)))
         self.clock_every = max(1, round(1.0 / (p["clock_rate"] * dt)))
         self.timeout_steps = round(p["command_timeout"] / dt) if p["command_timeout"] > 0 else 0
+        self.wrench_timeout_steps = round(p["external_wrench_timeout"] / dt)
         self.rtf, self.publish_clock = p["real_time_factor"], p["publish_clock"]
         robot.warmup()
         self.integrator.step(self.q0, np.zeros(n), np.zeros(n))   # compile the step too
@@ -114,15 +139,23 @@ class Simulator(Node):
         self.lock = threading.Lock()
         self.paused = p["start_paused"]
         self.k = 0                                   # steps since start (simulated time)
+        self.wrench, self.wrench_step = None, 0      # the push on the tip: (6,) or None
+        self.pending = None                          # ~/set_state: (idx, q or None, qd)
+        self.late_steps = self.divergences = 0
+        self._rtf_mark = (time.monotonic(), self.k)
         self._reset_state()
         self.reject = common.Rejections(self, hardware_id=robot.model.name)
+        self.reject.watch(self._diagnostics)
         self.state_pub = self.create_publisher(JointState, "joint_states", common.QOS_DEPTH)
         self.clock_pub = (self.create_publisher(Clock, "/clock", common.QOS_DEPTH)
                           if self.publish_clock else None)
         common.subscribe(self, self.reject, Float64MultiArray, "effort_commands", self.on_effort)
         common.subscribe(self, self.reject, JointState, "joint_commands", self.on_joint_command)
+        common.subscribe(self, self.reject, WrenchStamped, "external_wrench", self.on_wrench)
+        common.subscribe(self, self.reject, JointState, "~/set_state", self.on_set_state)
         self.create_service(Trigger, "~/reset", self.on_reset)
         self.create_service(SetBool, "~/pause", self.on_pause)
+        self.create_service(Trigger, "~/step", self.on_step)
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._loop, name="simulation", daemon=True)
         self._thread.start()
@@ -132,8 +165,13 @@ class Simulator(Node):
         n = self.robot.dof
         self.q, self.qd = self.q0.copy(), np.zeros(n)
         self.tau, self.cmd_step, self.timed_out = np.zeros(n), self.k, True   # nothing to time out
+        self.q_target, self.qd_target = np.full(n, np.nan), np.full(n, np.nan)   # NaN: none
+        self.servo, self.tau_servo = None, np.zeros(n)   # the servo, its torque of the last step
+        self.pending = None
 
-    def _command(self, idx, effort):
+    def _command(self, idx, effort, position=None, velocity=None):
+        """The command of the joints ``idx``: effort (clamped), and servo targets (None:
+        the joints named have none, NaN entries: none at that joint)."""
         clamped = np.clip(effort, -self.limit[idx], self.limit[idx])
         if np.any(clamped != effort):
             j = idx[np.flatnonzero(clamped != effort)[0]]
@@ -141,9 +179,16 @@ class Simulator(Node):
                              f"{effort[idx == j][0]:.4g}, beyond its limit {self.limit[j]:.4g}; "
                              "clamped to the limit (logged once)")
         with self.lock:
-            tau = self.tau.copy()
+            tau, qt, vt = self.tau.copy(), self.q_target.copy(), self.qd_target.copy()
             tau[idx] = clamped
+            qt[idx] = np.nan if position is None else position
+            vt[idx] = np.nan if velocity is None else velocity
             self.tau, self.cmd_step, self.timed_out = tau, self.k, False
+            self.q_target, self.qd_target = qt, vt
+            self.servo = (servo(self.kp, self.kd, qt, vt) if np.any(~np.isnan(qt) | ~np.isnan(vt))
+                          else None)
+            if self.servo is None:
+                self.tau_servo = np.zeros(self.robot.dof)
 
     def on_effort(self, msg):
         try:
@@ -155,13 +200,50 @@ class Simulator(Node):
 
     def on_joint_command(self, msg):
         try:
-            msg_idx, idx = common.name_index(msg.name, self.robot, "joint_commands",
-                                             require_all=False)
-            effort = common.finite_vector(msg.effort, len(msg.name), "joint_commands effort",
-                                          "joint_commands effort", bound=None)[msg_idx]
+            idx, effort, position, velocity = simulator_inputs.joint_command(msg, self.robot)
+            if not self.servo_ok and (position is not None or velocity is not None):
+                raise Rejected("joint_commands servo", "joint_commands position/velocity "
+                               f"targets need an integrator with the implicit servo "
+                               f"{SERVO_METHODS}; this simulator runs another (parameter "
+                               "integrator); send effort only")
         except Rejected as exc:
             return self.reject("joint_commands", exc, "; the last good command stays in force")
-        self._command(idx, effort)
+        self._command(idx, np.zeros(len(idx)) if effort is None else effort, position, velocity)
+
+    def on_wrench(self, msg):
+        try:
+            w = simulator_inputs.external_wrench(msg, self.robot)
+        except Rejected as exc:
+            return self.reject("external_wrench", exc, "; the wrench in force stays")
+        with self.lock:
+            self.wrench, self.wrench_step = w, self.k
+
+    def on_set_state(self, msg):
+        try:
+            pending = simulator_inputs.set_state(msg, self.robot)
+        except Rejected as exc:
+            return self.reject("set_state", exc, "; the state is left alone")
+        with self.lock:
+            self.pending = pending
+
+    def on_step(self, request, response):
+        """While paused: ``step_count`` steps now (in this callback), then a joint_states."""
+        if not self.paused:
+            response.success = False
+            response.message = ("not paused: ~/step advances a paused simulation "
+                                "(~/pause true first)")
+            return response
+        k0 = self.k
+        for _ in range(self.step_count):
+            if not self._step(force=True):
+                break
+        self._publish()
+        done = self.k - k0
+        response.success = done == self.step_count
+        response.message = (f"advanced {done} step(s) to t = {self.k * self.integrator.dt:.6f} s"
+                            + ("" if response.success
+                               else "; stopped: the step diverged (see the log)"))
+        return response
 
     def on_reset(self, request, response):
         with self.lock:
@@ -202,6 +284,8 @@ class Simulator(Node):
                     if due > now:
                         time.sleep(min(due - now, 0.05))
                         continue
+                    if now - due > self.integrator.dt / self.rtf:
+                        self.late_steps += 1      # started more than one step period late
                     if now - due > MAX_LAG:
                         wall0, k0 = now, self.k
                         if not lag_warned:
@@ -222,33 +306,53 @@ class Simulator(Node):
             else:   # shutting down: /rosout is gone
                 print(f"[{self.NAME}] {text}", file=sys.stderr)
 
-    def _step(self):
+    def _step(self, force=False):
+        """One step (``force``: also while paused, for ~/step); False if it diverged."""
         with self.lock:
-            if self.paused:
-                return
+            if self.paused and not force:
+                return True
             integrator = self.integrator     # the plant of this step (swapped under the lock)
+            n = self.robot.dof
             if self.timeout_steps and not self.timed_out and self.k - self.cmd_step > self.timeout_steps:
-                self.timed_out, self.tau = True, np.zeros(self.robot.dof)
+                self.timed_out, self.tau = True, np.zeros(n)
+                self.q_target, self.qd_target = np.full(n, np.nan), np.full(n, np.nan)
+                self.servo, self.tau_servo = None, np.zeros(n)
                 self.get_logger().warning(f"no command for {self.timeout_steps * integrator.dt}"
-                                          " s (command_timeout): applied effort back to zero")
+                                          " s (command_timeout): applied effort back to zero, "
+                                          "servo targets cleared")
+            if (self.wrench is not None and self.wrench_timeout_steps
+                    and self.k - self.wrench_step >= self.wrench_timeout_steps):
+                self.wrench = None
+                self.get_logger().info("external_wrench_timeout: the external wrench is dropped")
+            if self.pending is not None:      # ~/set_state, applied at this step
+                idx, q_set, qd_set = self.pending
+                self.q, self.qd, self.pending = self.q.copy(), self.qd.copy(), None
+                if q_set is not None:
+                    self.q[idx] = q_set
+                self.qd[idx] = qd_set
             try:
-                q, qd = integrator.step(self.q, self.qd, self.tau, t=self.k * integrator.dt)
+                q, qd = integrator.step(self.q, self.qd, self.tau, self.wrench,
+                                        t=self.k * integrator.dt, servo=self.servo)
                 if not (np.all(np.isfinite(q)) and np.all(np.isfinite(qd))):
                     raise SimulationError("the state is no longer finite")
             except (SimulationError, ValueError) as exc:
                 self.paused = True
+                self.divergences += 1
                 self.get_logger().error(f"{exc} -- paused at the last good state "
                                         f"(t = {self.k * integrator.dt:.3f} s); call ~/reset, then ~/pause false")
-                return
+                return False
+            if self.servo is not None:
+                self.tau_servo = integrator.servo_torque
             self.q, self.qd, self.k = q, qd, self.k + 1
         if self.clock_pub is not None and self.k % self.clock_every == 0:
             self.clock_pub.publish(Clock(clock=Time(nanoseconds=self.k * self.dt_ns).to_msg()))
         if self.k % self.publish_every == 0:
             self._publish()
+        return True
 
     def _publish(self):
         with self.lock:
-            q, qd, tau, k = self.q, self.qd, self.tau, self.k
+            q, qd, tau, k = self.q, self.qd, self.tau + self.tau_servo, self.k
         robot = self.robot               # every joint, mimic joints too (robot_state_publisher)
         effort = np.zeros(len(robot.all_joint_names))
         effort[robot.model.independent] = tau      # a mimic joint has no actuator: 0
@@ -258,6 +362,23 @@ class Simulator(Node):
         msg.header.stamp = stamp.to_msg()
         self.state_pub.publish(msg)
         self.reject.put("joint_states")
+
+    def _diagnostics(self):
+        """The real-time factor achieved since the last report (simulated s per wall s; WARN
+        below 90 % of real_time_factor while running), late steps (started more than one
+        step period behind the schedule), divergence events (pauses after a failed step)."""
+        now, k = time.monotonic(), self.k
+        wall0, k0 = self._rtf_mark
+        self._rtf_mark = (now, k)
+        rtf = (k - k0) * self.integrator.dt / (now - wall0) if now > wall0 else 0.0
+        running = not self.paused and k > k0
+        slow = running and self.rtf > 0 and rtf < 0.9 * self.rtf
+        return [("real-time factor", f"{rtf:.3f}" if running else "paused", slow),
+                ("late steps", self.late_steps), ("divergence events", self.divergences),
+                ("external wrench", "none" if self.wrench is None else
+                 " ".join(f"{x:.4g}" for x in self.wrench)),
+                ("servoed joints", 0 if self.servo is None else
+                 int(np.count_nonzero((self.servo.kp > 0) | (self.servo.kd > 0))))]
 
     def close(self):
         self._stop.set()

@@ -4,7 +4,8 @@ the output grid by dense output, and the work statistics (rejected steps include
 
 The state is y = [q, qd, W_act, W_diss, W_ext]: the works are integrated alongside.
 Coulomb friction is regularized (``Dissipation.smooth_torque``). The implicit solvers get
-a Jacobian from one batched forward-dynamics call over perturbed states. Only public
+the analytical Jacobian (``jacobians.py``), or with ``jacobian="finite_differences"``
+forward differences from one batched forward-dynamics call over perturbed states. Only public
 solver attributes are read.
 """
 from __future__ import annotations
@@ -12,12 +13,13 @@ from __future__ import annotations
 import numpy as np
 
 from .equations import EnergyGuard, Equations
+from .jacobians import H_REL, accel_jacobian, analytical
 from .methods import IMPLICIT, SimulationError, advice
 from .result import SolverStats, finish
 
 
 def run_adaptive(robot, duration, q0, qd0, inputs, method, rtol, atol, max_step, first_step,
-                 dissipation, smoothing, output_dt, check_energy, bar):
+                 dissipation, smoothing, output_dt, check_energy, bar, jacobian="analytical"):
     """``simulate`` with an adaptive method."""
     import scipy.integrate as si
     eq = Equations(robot, dissipation, smoothing)
@@ -29,29 +31,15 @@ def run_adaptive(robot, duration, q0, qd0, inputs, method, rtol, atol, max_step,
     def fun(t, y):
         counter[0] += 1
         q, qd = y[:n], y[n:2 * n]
-        if not (np.all(np.isfinite(q)) and np.all(np.isfinite(qd))):
+        if not np.isfinite(y[:2 * n]).all():
             return np.full_like(y, np.nan)      # the solver rejects the step
         tau, w = inputs(t, q, qd)
         qdd, delta = eq.accel(q, qd, tau, w, smooth=smooth)
-        p_ext = float(eq.ext_power(q, qd, w)) if has_w else 0.0
-        return np.concatenate([qd, qdd, [tau @ qd, delta @ qd, p_ext]])
-
-    def jac(t, y):
-        """Forward differences of the state equations: one batched dynamics call over the
-        state and its 2n perturbations (instead of scipy's column-by-column differences)."""
-        h = 1e-7 * np.maximum(1.0, np.abs(y[:2 * n]))
-        X = np.repeat(y[None, :2 * n], 2 * n + 1, axis=0)
-        X[1 + np.arange(2 * n), np.arange(2 * n)] += h
-        Q, V = X[:, :n], X[:, n:]
-        tau, w = inputs.batch(t, Q, V)
-        A, D = eq.accel(Q, V, tau, w, smooth=smooth)
-        P = np.column_stack([np.einsum("ij,ij->i", tau, V), np.einsum("ij,ij->i", D, V),
-                             eq.ext_power(Q, V, w) if has_w else np.zeros(len(V))])
-        J = np.zeros((2 * n + 3, 2 * n + 3))
-        J[:n, n:2 * n] = np.eye(n)
-        J[n:2 * n, :2 * n] = ((A[1:] - A[0]) / h[:, None]).T
-        J[2 * n:, :2 * n] = ((P[1:] - P[0]) / h[:, None]).T
-        return J
+        out = np.empty(2 * n + 3)
+        out[:n], out[n:2 * n] = qd, qdd
+        out[2 * n], out[2 * n + 1] = tau @ qd, delta @ qd
+        out[2 * n + 2] = float(eq.ext_power(q, qd, w)) if has_w else 0.0
+        return out
 
     y0 = np.concatenate([q0, qd0, np.zeros(3)])
     Solver = getattr(si, method)
@@ -59,7 +47,7 @@ def run_adaptive(robot, duration, q0, qd0, inputs, method, rtol, atol, max_step,
     if first_step is not None:
         kw["first_step"] = first_step
     if method in IMPLICIT:
-        kw["jac"] = jac
+        kw["jac"] = jacobians(eq, inputs, smooth)[0 if analytical(robot, jacobian) else 1]
     solver = Solver(fun, 0.0, y0, duration, **kw)
     per_attempt = getattr(solver, "n_stages", None)   # RK: evaluations per attempted step
     guard = EnergyGuard(eq, q0, qd0, method, None, check_energy)
@@ -114,6 +102,59 @@ def run_adaptive(robot, duration, q0, qd0, inputs, method, rtol, atol, max_step,
     stats = SolverStats(method, steps=steps, nfev=counter[0], njev=solver.njev, nlu=solver.nlu,
                         rejected=rejected, message="ok")
     return finish(eq, ts, Q, QD, QDD, TAU, DELTA, Y[:, 2 * n:], stats, robot.joint_names)
+
+
+def jacobians(eq, inputs, smooth):
+    """(analytical, finite differences): two functions (t, y) -> the Jacobian (2n+3, 2n+3)
+    of the state equations of ``run_adaptive`` (y = [q, qd, W_act, W_diss, W_ext])."""
+    n = eq.n
+    has_w = inputs.wrench is not None or inputs.base is not None
+
+    def jac_analytical(t, y):
+        """The analytical Jacobian (``jacobians.accel_jacobian``): one call of the
+        derivatives of forward dynamics; the row of W_ext by differences of the external
+        power (kinematics, and with a moving base its bias torques)."""
+        q, qd = y[:n], y[n:2 * n]
+        tau, w = inputs(t, q, qd)
+        delta = eq.delta(qd, smooth=smooth)
+        dd = eq.delta_derivative(qd, smooth=smooth)
+        Aq, Av, Tq, Tv = accel_jacobian(eq, inputs, t, q, qd, tau + delta, w, dd)
+        J = np.zeros((2 * n + 3, 2 * n + 3))
+        J[:n, n:2 * n] = np.eye(n)
+        J[n:2 * n, :n], J[n:2 * n, n:2 * n] = Aq, Av
+        # d(tau.qd) = qd^T dtau + tau dqd; d(delta.qd)/dqd = delta + qd ddelta
+        J[2 * n, n:2 * n] = tau
+        if Tq is not None:
+            J[2 * n, :n] += qd @ Tq
+            J[2 * n, n:2 * n] += qd @ Tv
+        J[2 * n + 1, n:2 * n] = delta + qd * dd
+        if has_w:
+            h = H_REL * np.maximum(1.0, np.abs(y[:2 * n]))
+            X = np.repeat(y[None, :2 * n], 2 * n + 1, axis=0)
+            X[1 + np.arange(2 * n), np.arange(2 * n)] += h
+            _, W = inputs.batch(t, X[:, :n], X[:, n:])
+            p = eq.ext_power(X[:, :n], X[:, n:], W)
+            J[2 * n + 2, :2 * n] = (p[1:] - p[0]) / h
+        return J
+
+    def jac(t, y):
+        """Forward differences of the state equations: one batched dynamics call over the
+        state and its 2n perturbations (instead of scipy's column-by-column differences)."""
+        h = 1e-7 * np.maximum(1.0, np.abs(y[:2 * n]))
+        X = np.repeat(y[None, :2 * n], 2 * n + 1, axis=0)
+        X[1 + np.arange(2 * n), np.arange(2 * n)] += h
+        Q, V = X[:, :n], X[:, n:]
+        tau, w = inputs.batch(t, Q, V)
+        A, D = eq.accel(Q, V, tau, w, smooth=smooth)
+        P = np.column_stack([np.einsum("ij,ij->i", tau, V), np.einsum("ij,ij->i", D, V),
+                             eq.ext_power(Q, V, w) if has_w else np.zeros(len(V))])
+        J = np.zeros((2 * n + 3, 2 * n + 3))
+        J[:n, n:2 * n] = np.eye(n)
+        J[n:2 * n, :2 * n] = ((A[1:] - A[0]) / h[:, None]).T
+        J[2 * n:, :2 * n] = ((P[1:] - P[0]) / h[:, None]).T
+        return J
+
+    return jac_analytical, jac
 
 
 def proposed_step(solver, max_step, t_bound):

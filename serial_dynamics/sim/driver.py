@@ -5,12 +5,14 @@ method: ``fixed_step.run_compiled`` or ``run_fixed``, or ``adaptive.run_adaptive
 Methods (see docs/simulation.md):
 
 - adaptive, by scipy.integrate: "RK45", "DOP853" (explicit Runge-Kutta), "Radau", "BDF"
-  (implicit, for stiff chains; Jacobian by one batched forward-dynamics call over
-  perturbed states), "LSODA" (automatic stiff / non-stiff switching). Coulomb friction
-  is regularized (``Dissipation.smooth_torque``).
-- fixed step (``dt``), for real time: "semi_implicit_euler" (symplectic Euler),
-  "rk4" (classical Runge-Kutta), "implicit_midpoint" (symplectic, A-stable, Newton with
-  a batched finite-difference Jacobian). Coulomb friction with stick-slip: a joint at
+  (implicit, for stiff chains; analytical Jacobian, ``jacobians.py``), "LSODA" (automatic
+  stiff / non-stiff switching). Coulomb friction is regularized
+  (``Dissipation.smooth_torque``).
+- fixed step (``dt``), for real time: "semi_implicit_euler" (velocity, then position;
+  symplectic only for a constant mass matrix), "symplectic_euler" (momentum form:
+  symplectic, bounded energy error, ``symplectic.py``), "rk4" (classical Runge-Kutta),
+  "implicit_midpoint" (symmetric, A-stable; Newton with the analytical Jacobian).
+  Coulomb friction with stick-slip: a joint at
   rest sticks while the torque that holds it is within its static friction.
   ``position_limits=True`` adds hard stops at the URDF joint limits (plastic impacts,
   ``stops.JointStops``).
@@ -31,6 +33,7 @@ from ..base_motion import BaseMotion
 from .adaptive import run_adaptive
 from .equations import Inputs
 from .fixed_step import run_compiled, run_fixed
+from .jacobians import check_jacobian
 from .methods import (DEFAULT_ATOL, DEFAULT_DT, DEFAULT_RTOL, FIXED_STEP, METHODS,
                       SimulationError)
 from .progress import Progress
@@ -40,7 +43,8 @@ from .result import SimulationResult
 def input_fn(value, width, name, duration, joint_names):
     """Normalize a torque/wrench spec into (f(t, q, qd) -> (width,) array, kind).
 
-    kind: "zero", "const" or "fn" (time-varying or state feedback)."""
+    kind: "zero", "const", "time" (samples over time) or "fn" (a callable: time-varying
+    or state feedback)."""
     if value is None:
         zero = np.zeros(width)
         return (lambda t, q, qd: zero), "zero"
@@ -67,7 +71,7 @@ def input_fn(value, width, name, duration, joint_names):
                 np.any(np.diff(ts) <= 0):
             raise ValueError(f"{name} given as (times, samples) needs increasing times (K,) and "
                              f"samples ({ts.size}, {width}); got {ts.shape}, {vals.shape}")
-        return interp_fn(ts, vals), "fn"
+        return interp_fn(ts, vals), "time"
     a = np.asarray(value, dtype=float)
     if a.ndim == 0 or a.shape == (width,):
         const = np.broadcast_to(a, (width,)).copy()
@@ -77,7 +81,7 @@ def input_fn(value, width, name, duration, joint_names):
             return (lambda t, q, qd: const), "zero"
         return (lambda t, q, qd: const), "const"
     if a.ndim == 2 and a.shape[1] == width and a.shape[0] >= 2:   # uniform samples over [0, T]
-        return interp_fn(np.linspace(0.0, duration, a.shape[0]), a), "fn"
+        return interp_fn(np.linspace(0.0, duration, a.shape[0]), a), "time"
     what = f"one per joint {joint_names}" if name == "torque" else "[fx, fy, fz, mx, my, mz]"
     raise ValueError(f"{name} has shape {a.shape}; give a scalar, ({width},) values ({what}), "
                      f"(K, {width}) samples over [0, duration], (times, samples), or a "
@@ -117,7 +121,8 @@ def interp_fn(ts, vals):
 def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853", rtol=None,
              atol=None, dt=None, dissipation=True, wrench=None, output_dt=None,
              max_step=np.inf, first_step=None, friction_smoothing=1e-4, check_energy=True,
-             position_limits=False, progress=False, base_motion=None) -> SimulationResult:
+             position_limits=False, progress=False, base_motion=None,
+             jacobian="analytical") -> SimulationResult:
     """Simulate ``duration`` seconds of motion from (q0, qd0) (zeros by default).
 
     torque: None (zero), a scalar or (n,) constant, (K, n) samples uniformly spaced over
@@ -126,8 +131,8 @@ def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853"
         RK methods call it at trial states, so it must be a pure function of its arguments).
     wrench: None, (6,) [fx, fy, fz, mx, my, mz] on the tip (base frame), or a callable.
     method: "RK45", "DOP853", "Radau", "BDF", "LSODA" (adaptive: rtol, atol, default 1e-6,
-        1e-9) or "semi_implicit_euler", "rk4", "implicit_midpoint" (fixed step: dt,
-        default 1e-3 s).
+        1e-9) or "semi_implicit_euler", "symplectic_euler", "rk4", "implicit_midpoint"
+        (fixed step: dt, default 1e-3 s).
     dissipation: True (the robot's), False, or a ``Dissipation``. Adaptive methods replace
         sgn(qd) in Coulomb friction by tanh(qd / friction_smoothing) (default 1e-4 rad/s:
         below breakaway a joint creeps at friction_smoothing * atanh(tau / tau_s); this
@@ -144,6 +149,10 @@ def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853"
         BaseMotion`` (a ship's deck, a vehicle): q stays relative to the base, the energies
         are relative to the base, and ``work_external`` includes the work of the base's
         motion, so that the energy balance still holds.
+    jacobian: the Jacobian of the implicit methods (Radau, BDF, LSODA, implicit_midpoint):
+        "analytical" (``Robot.forward_dynamics_derivatives``, the default) or
+        "finite_differences" (forward differences in one batched dynamics call over 2n+1
+        states; for comparison). ``jacobians.py``.
     """
     if method not in METHODS:
         raise ValueError(f"method {method!r} unknown; use one of {list(METHODS)}")
@@ -165,10 +174,11 @@ def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853"
         raise ValueError(f"q0: {robot.joint_names[j]} = {q0[j]:g} is outside its limits "
                          f"[{robot.lower[j]:g}, {robot.upper[j]:g}]; start inside them, or "
                          "simulate without position_limits")
-    torque_fn, _ = input_fn(torque, n, "torque", duration, robot.joint_names)
+    torque_fn, torque_kind = input_fn(torque, n, "torque", duration, robot.joint_names)
     wrench_fn, wrench_kind = input_fn(wrench, 6, "wrench", duration, robot.joint_names)
     inputs = Inputs(torque_fn, None if wrench_kind == "zero" else wrench_fn,
-                    base_fn(base_motion))
+                    base_fn(base_motion), "fn" in (torque_kind, wrench_kind))
+    check_jacobian(jacobian)
     if output_dt is not None and not output_dt > 0:
         raise ValueError(f"output_dt = {output_dt}; give a spacing > 0 s")
     bar = Progress(duration, progress)
@@ -186,7 +196,7 @@ def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853"
                     and not position_limits):
                 out = run_compiled(*args)           # the compiled loop has no stops
             else:
-                out = run_fixed(*args, position_limits)
+                out = run_fixed(*args, position_limits, jacobian)
         else:
             if position_limits:
                 raise ValueError(f"position_limits needs a fixed-step method "
@@ -199,7 +209,7 @@ def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853"
             atol = DEFAULT_ATOL if atol is None else atol
             out = run_adaptive(robot, duration, q0, qd0, inputs, method, rtol, atol, max_step,
                                first_step, dissipation, friction_smoothing, output_dt,
-                               check_energy, bar)
+                               check_energy, bar, jacobian)
     finally:
         bar.close()
     out.stats.wall_time = time.perf_counter() - start

@@ -11,7 +11,8 @@ so faster kernels behind it speed the simulator up unchanged.
 
 Owns: ``Equations`` (accelerations and dissipative torques in the three friction modes:
 exact sgn, smooth tanh for the adaptive solvers, stick-slip with sliding signs fixed over
-a fixed step; the stick-slip active set; the divergence check of a state), ``held`` (the
+a fixed step; their derivatives for the analytical Jacobians; the stick-slip active set;
+the divergence check of a state), ``held`` (the
 accelerations with some joints held still), ``Inputs`` (torque and wrench as functions
 of (t, q, qd)), ``StepStart`` (the state at the start of a fixed step) and
 ``EnergyGuard`` (energy from nowhere means divergence).
@@ -47,11 +48,13 @@ def split(w):
 class Inputs(NamedTuple):
     """The applied torques ``torque(t, q, qd) -> (n,)``, the tip wrench
     ``wrench(t, q, qd) -> (6,)`` (None: no wrench) and the base motion ``base(t) ->
-    BaseMotion`` (None: a base at rest)."""
+    BaseMotion`` (None: a base at rest). ``state``: the torque or the wrench may depend
+    on (q, qd) (a callable given by the user); False for constants and samples."""
 
     torque: object
     wrench: object = None
     base: object = None
+    state: bool = True
 
     def __call__(self, t, q, qd):
         """(tau, w) at one state; w is None without a wrench or base motion, the wrench
@@ -142,6 +145,22 @@ class Equations:
         self.calls += 1
         self.states += 1 if np.ndim(q) == 1 else len(q)
         return _with_external(self.robot.forward_dynamics, (q, qd, tau), w)
+
+    def fd_derivatives(self, q, qd, tau, w=None):
+        """(dqdd/dq, dqdd/dqd, M^-1) of forward dynamics at fixed tau and w, one state
+        (``Robot.forward_dynamics_derivatives``); counted as one call of one state."""
+        self.calls += 1
+        self.states += 1
+        return _with_external(self.robot.forward_dynamics_derivatives, (q, qd, tau), w)
+
+    def delta_derivative(self, qd, sign=None, smooth=False):
+        """The diagonal of d delta/d qd (``Dissipation.torque_derivative``)."""
+        if not self.diss_on:
+            return np.zeros_like(qd)
+        if not self.coulomb_on:
+            return np.broadcast_to(-self.beta, np.shape(qd)).copy()
+        return self.diss.torque_derivative(qd, smooth=smooth, v_eps=self.v_eps,
+                                           **({} if smooth else {"sign": sign}))
 
     def bias(self, q, qd, w=None):
         """b(q, qd) - J^T w, with the base motion's torques; batches of states."""

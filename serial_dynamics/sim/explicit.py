@@ -1,4 +1,4 @@
-"""Explicit fixed steps: semi-implicit (symplectic) Euler and classical Runge-Kutta.
+"""Explicit fixed steps: semi-implicit Euler and classical Runge-Kutta.
 
 Owns ``semi_implicit_euler`` and ``rk4``, two steppers with the signature of
 ``fixed_step.STEPPERS``: ``(integ, s, inputs, energy) -> (q1, qd1, dW)``, with ``integ``
@@ -23,8 +23,10 @@ def euler_update(q, qd, qdd, dt):
 
 
 def semi_implicit_euler(integ, s, inputs, energy):
-    """Symplectic Euler: velocity first, then position with the new velocity; one
-    dynamics call (at the start of the step, made by the caller)."""
+    """Semi-implicit Euler: velocity first, then position with the new velocity; one
+    dynamics call (at the start of the step, made by the caller). Symplectic only for a
+    constant mass matrix (its energy error drifts on an arm; ``symplectic.py`` is the
+    symplectic method)."""
     dt = integ.dt
     q1, qd1 = euler_update(s.q, s.qd, s.qdd, dt)
     # the discrete work: torques held over the step times the motion

@@ -13,15 +13,19 @@ import numpy as np
 from .equations import EnergyGuard, Equations, Inputs, StepStart
 from .explicit import euler_update, rk4, semi_implicit_euler
 from .implicit import implicit_midpoint
+from .jacobians import analytical, check_jacobian
 from .loop import simulate_fixed_step
 from .methods import FIXED_STEP
 from .result import SolverStats, finish
 from .stops import JointStops
+from .servo import euler_servo
+from .symplectic import lean_step, symplectic_euler
 
 # method -> stepper(integ, s: StepStart, inputs: Inputs, energy) -> (q1, qd1, dW)
-STEPPERS = {"semi_implicit_euler": semi_implicit_euler, "rk4": rk4,
-            "implicit_midpoint": implicit_midpoint}
+STEPPERS = {"semi_implicit_euler": semi_implicit_euler, "symplectic_euler": symplectic_euler,
+            "rk4": rk4, "implicit_midpoint": implicit_midpoint}
 assert tuple(STEPPERS) == FIXED_STEP
+SERVO_METHODS = ("semi_implicit_euler", "symplectic_euler")   # methods with the implicit servo
 
 
 class FixedStepIntegrator:
@@ -30,23 +34,31 @@ class FixedStepIntegrator:
     ``step(q, qd, tau, wrench=None) -> (q, qd)`` advances (n,) states by ``dt`` seconds
     with the robot's dissipation added when ``dissipation`` is true (or a ``Dissipation``).
 
-    Methods: "semi_implicit_euler" (symplectic Euler: velocity first, then position with
-    the new velocity; one dynamics call a step), "rk4" (classical Runge-Kutta, 4 calls),
-    "implicit_midpoint" (x1 = x0 + dt f((x0 + x1)/2): symplectic, A-stable; simplified
-    Newton with a Jacobian from one batched call over 2n+1 perturbed states, typically
-    2 calls a step). Coulomb friction: stick-slip, see ``Equations.modes``; a sliding
+    Methods: "semi_implicit_euler" (velocity first, then position with the new velocity;
+    one dynamics call a step; symplectic only for a constant mass matrix: its energy error
+    drifts on an arm), "symplectic_euler" (symplectic Euler in momentum form, p = M(q) qd,
+    see ``symplectic``: symplectic for any chain, bounded energy error over long runs;
+    one compiled call a step), "rk4" (classical Runge-Kutta, 4 calls),
+    "implicit_midpoint" (x1 = x0 + dt f((x0 + x1)/2) in (q, qd): symmetric and A-stable,
+    symplectic only for a constant mass matrix; simplified Newton with the analytical
+    Jacobian, or one by differences over 2n+1 perturbed states; typically 2 calls a step).
+    Coulomb friction: stick-slip, see ``Equations.modes``; a sliding
     joint whose speed crosses zero within a step stops there (no chattering).
     ``position_limits``: hard stops at the joints' finite URDF limits, see ``JointStops``.
+    ``jacobian``: "analytical" (default) or "finite_differences", the Jacobian of the
+    implicit midpoint rule's Newton iteration (``jacobians.py``).
 
     Work counters: ``stages`` (right-hand-side evaluations, a Jacobian batch counts 1),
-    ``jacobians``, ``newton_iterations``, ``newton_stalls`` (steps accepted with a
+    ``jacobians``, ``newton_iterations`` (symplectic_euler: its fixed-point iterations),
+    ``newton_stalls`` (steps accepted with a
     correction between newton_tol and ``implicit.NEWTON_ACCEPT``), ``impacts``.
     """
 
     METHODS = FIXED_STEP
 
     def __init__(self, robot, method="semi_implicit_euler", dt=1e-3, dissipation=True, *,
-                 position_limits=False, newton_tol=1e-10, max_newton=10):
+                 position_limits=False, newton_tol=1e-10, max_newton=10,
+                 jacobian="analytical"):
         if method not in self.METHODS:
             raise ValueError(f"fixed-step method {method!r} unknown; use one of {self.METHODS}")
         if not dt > 0:
@@ -60,31 +72,62 @@ class FixedStepIntegrator:
         self.jac_cache = None    # implicit methods: the Jacobian of the last steps
         self.jacobians = 0
         self.stages = 0
-        self._lean = method == "semi_implicit_euler" and not self.eq.coulomb_on
+        self._lean = method in ("semi_implicit_euler", "symplectic_euler") and \
+            not self.eq.coulomb_on
+        self.t_now = 0.0                          # symplectic_euler: the time, for messages
+        n = robot.dof
+        self.sym_beta = np.ascontiguousarray(self.eq.beta if self.eq.diss_on else np.zeros(n),
+                                             dtype=float)
+        self.sym_held = np.zeros(n)
         self.stops = JointStops.of(self.eq) if position_limits else None
+        self.servo_torque = np.zeros(n)           # the servo torque of the last step
+        self.analytical = (check_jacobian(jacobian) == "analytical"
+                           and method == "implicit_midpoint" and analytical(robot, jacobian))
 
     impacts = property(lambda self: 0 if self.stops is None else self.stops.impacts,
                        doc="steps in which a joint reached a stop")
 
-    def step(self, q, qd, tau, wrench=None, t=None):
+    def step(self, q, qd, tau, wrench=None, t=None, servo=None):
         """Advance (q, qd) by dt under constant torques ``tau`` (n,) and ``wrench`` (6,) or
-        None. Raises SimulationError on divergence (``t``, if given, names the time)."""
+        None. Raises SimulationError on divergence (``t``, if given, names the time).
+        ``servo``: a joint PD (``servo.servo(kp, kd, q_target, qd_target)``) integrated
+        implicitly (semi_implicit_euler, symplectic_euler); the torque it applied over the
+        step is left in ``servo_torque`` (zeros without one)."""
         eq, dt = self.eq, self.dt
+        self.servo_torque = np.zeros(eq.n)
+        if servo is not None and self.method not in SERVO_METHODS:
+            raise ValueError(f"a servo is integrated implicitly by {SERVO_METHODS} only, not "
+                             f"{self.method!r}; use one of those methods")
         if self._lean and not (self.stops and self.stops.touching(q)):
-            # the real-time path: one forward-dynamics call
+            # the real-time path: one forward-dynamics call (or one symplectic step call)
             q, qd = np.asarray(q, dtype=float), np.asarray(qd, dtype=float)
             tau = np.asarray(tau, dtype=float)
-            if eq.viscous_on:
-                tau = tau - eq.beta * qd
-            self.stages += 1
-            q_new, qd_new = euler_update(q, qd, eq.fd(q, qd, tau, wrench), dt)
+            if self.method == "symplectic_euler":
+                q_new, qd_new = lean_step(self, np.ascontiguousarray(q), np.ascontiguousarray(qd),
+                                          np.ascontiguousarray(tau), wrench, t, servo)
+            else:
+                if eq.viscous_on:
+                    tau = tau - eq.beta * qd
+                self.stages += 1
+                qdd = eq.fd(q, qd, tau, wrench)
+                if servo is not None:   # + the implicit servo: one mass matrix, one solve
+                    self.servo_torque, y = euler_servo(self.robot.mass_matrix(q), q, qd, qdd,
+                                                       servo, dt)
+                    qdd = qdd + y
+                q_new, qd_new = euler_update(q, qd, qdd, dt)
             eq.check_state(dt if t is None else t + dt, q_new, qd_new, self.method, dt)
             if self.stops:
                 q_new, qd_new, _ = self.stops.impact(q_new, qd_new, False)
             return q_new, qd_new
         tau = np.asarray(tau, dtype=float)
         w = None if wrench is None else np.asarray(wrench, dtype=float)
-        inputs = Inputs(lambda t, q, qd: tau, None if w is None else (lambda t, q, qd: w))
+        if servo is not None:   # stick-slip or a stop: the implicit Euler servo torque, held
+            q, qd = np.asarray(q, dtype=float), np.asarray(qd, dtype=float)
+            qdd = eq.accel(q, qd, tau, w)[0]
+            self.servo_torque = euler_servo(self.robot.mass_matrix(q), q, qd, qdd, servo, dt)[0]
+            tau = tau + self.servo_torque
+        inputs = Inputs(lambda t, q, qd: tau, None if w is None else (lambda t, q, qd: w),
+                        None, False)
         q_new, qd_new, _ = self.advance(0.0 if t is None else t, q, qd, inputs)
         return q_new, qd_new
 
@@ -122,9 +165,10 @@ class FixedStepIntegrator:
 
 
 def run_fixed(robot, duration, q0, qd0, inputs, method, dt, dissipation, output_dt,
-              check_energy, bar, position_limits=False):
+              check_energy, bar, position_limits=False, jacobian="analytical"):
     """``simulate`` with a fixed-step method, step by step."""
-    integ = FixedStepIntegrator(robot, method, dt, dissipation, position_limits=position_limits)
+    integ = FixedStepIntegrator(robot, method, dt, dissipation, position_limits=position_limits,
+                                jacobian=jacobian)
     eq = integ.eq
     nsteps = int(np.ceil(duration / dt - 1e-9))
     every = 1 if output_dt is None else max(1, int(round(output_dt / dt)))

@@ -3,7 +3,7 @@ diverging run raises (``SimulationError``, with advice that depends on the metho
 from __future__ import annotations
 
 ADAPTIVE = ("RK45", "DOP853", "Radau", "BDF", "LSODA")
-FIXED_STEP = ("semi_implicit_euler", "rk4", "implicit_midpoint")
+FIXED_STEP = ("semi_implicit_euler", "symplectic_euler", "rk4", "implicit_midpoint")
 METHODS = ADAPTIVE + FIXED_STEP
 IMPLICIT = ("Radau", "BDF", "LSODA", "implicit_midpoint")
 DEFAULT_RTOL, DEFAULT_ATOL, DEFAULT_DT = 1e-6, 1e-9, 1e-3

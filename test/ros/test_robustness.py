@@ -44,14 +44,15 @@ def nodes(ros):
 
 
 def diagnostics_of(ros, name):
-    """The latest /diagnostics status of the node ``name``, as {key: int}, via a getter."""
+    """The latest /diagnostics counts of the node ``name`` (its integer values), as
+    {key: int}, via a getter."""
     latest = {}
 
     def on(msg):
         for s in msg.status:
             if s.name == name:
                 latest.clear()
-                latest.update({v.key: int(v.value) for v in s.values})
+                latest.update({v.key: int(v.value) for v in s.values if v.value.isdigit()})
     ros.node.create_subscription(DiagnosticArray, "/diagnostics", on, 10)
     return latest
 

@@ -27,17 +27,17 @@ def ns(msg):
     return msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
 
 
-def assert_library_states(robot, msgs, rest, effort):
+def assert_library_states(robot, msgs, rest, effort, method="semi_implicit_euler"):
     """Every message in ``msgs`` is the state the library reaches from HOME at rest under
     the constant ``effort`` in the steps from the stamp of ``rest`` (the reset state) to
-    its stamp: ``sd.simulate`` with the node's settings (semi-implicit Euler at 1 ms, the
-    robot's dissipation, hard stops at the joint limits), which steps through the general
+    its stamp: ``sd.simulate`` with the node's settings (``method`` at 1 ms, the robot's
+    dissipation, hard stops at the joint limits), which steps through the general
     fixed step, not the real-time path of ``FixedStepIntegrator.step`` the node calls."""
     effort = np.asarray(effort, dtype=float)
     steps = [(ns(m) - ns(rest)) // DT_NS for m in msgs]
     assert all(ns(m) - ns(rest) == k * DT_NS and k > 0 for m, k in zip(msgs, steps))
     ref = sd.simulate(robot, max(steps) * DT_NS * 1e-9, HOME, None, effort,
-                      method="semi_implicit_euler", dt=DT_NS * 1e-9, position_limits=True,
+                      method=method, dt=DT_NS * 1e-9, position_limits=True,
                       dissipation=True)
     assert ref.t.size == max(steps) + 1
     for m, k in zip(msgs, steps):
@@ -50,9 +50,10 @@ def assert_library_states(robot, msgs, rest, effort):
 
 
 class Sim:
-    def __init__(self, ros):
+    def __init__(self, ros, **params):
         self.ros = ros
-        self.proc = ros.start("simulator", {"publish_clock": True, "initial_positions": HOME})
+        self.proc = ros.start("simulator", {"publish_clock": True, "initial_positions": HOME,
+                                            **params})
         self.robot = sd.default_robot()
         self.states = Latest(ros, JointState, "joint_states", depth=100)
         self.effort = ros.node.create_publisher(Float64MultiArray, "effort_commands", 10)
@@ -295,3 +296,27 @@ def test_a_diverging_simulation_pauses_and_the_node_keeps_serving(ros):
     finally:
         states.destroy()
         proc.stop()
+
+
+def test_symplectic_euler_in_the_node_is_the_library_method(ros, sim):
+    """integrator:=symplectic_euler: the node's states of a fall are those of
+    sd.simulate(method="symplectic_euler"), and differ from semi-implicit Euler's."""
+    sim.proc.stop()                               # one simulator at a time on the topics
+    other = Sim(ros, integrator="symplectic_euler")
+    try:
+        rest = other.reset()
+        other.pause(False)
+        msgs = [other.states.wait(lambda m: ns(m) > ns(rest), what="joint_states")]
+        while len(msgs) < 30:                     # 0.3 s of fall under zero effort
+            msgs.append(other.states.wait())
+        other.pause(True)
+        ref = assert_library_states(other.robot, msgs, rest, np.zeros(6), "symplectic_euler")
+        k = (ns(msgs[-1]) - ns(rest)) // DT_NS
+        semi = sd.simulate(other.robot, k * DT_NS * 1e-9, HOME, None, np.zeros(6),
+                           method="semi_implicit_euler", dt=DT_NS * 1e-9,
+                           position_limits=True)
+        assert np.max(np.abs(semi.q[-1] - ref.q[k])) > 1e-7     # a different method ran
+    finally:
+        other.states.destroy()
+        other.proc.stop()
+

@@ -1,0 +1,203 @@
+"""Analytical derivatives of inverse dynamics, by forward-mode differentiation of the
+3-vector Newton-Euler recursion (``rnea.py``), and of forward dynamics from them.
+
+Inverse dynamics tau(q, qd, qdd) = M qdd + b - J^T w is ``rnea._rnea``: an outward recursion
+for the angular velocity omega, angular acceleration alpha and classical acceleration acc
+of each body origin, the body wrench (fB; nB), and an inward recursion for the joint wrench
+(f; n), tau_i = S_i^T (n_i; f_i). Each recursion is differentiated along one direction at a
+time (a tangent, written d.): a change of q_j or qd_j touches nothing inboard of body j, so
+its tangents start at body j (the seeds below), travel outward through bodies j+1 .. n-1
+with the linearized outward equations, and inward through every body with the linearized
+inward equations, where joint j's own transform also turns the wrench it carries. One
+direction costs O(n); all 2n directions O(n^2), like Carpentier & Mansard, "Analytical
+derivatives of rigid body dynamics algorithms" (RSS 2018), which obtain them in spatial
+algebra. Every equation is the derivative of the ``rnea.py`` line it names.
+
+The seeds at body j (e_z its axis, omega', alpha' the parent's rates in frame j before
+joint j adds its own; revolute R_j = Xtree_R Rz(q_j), so d R_j / d q_j = R_j [e_z]x;
+prismatic p_j = Xtree_p + q_j R_j e_z):
+
+    d/dq_j,  revolute:  d omega = omega_j x e_z,  d alpha = alpha' x e_z + qd_j (omega' x e_z) x e_z,
+                        d acc = acc_j x e_z,      d e = e_j x e_z (the tip wrench in frame j)
+    d/dq_j,  prismatic: d acc = alpha' x e_z + omega' x (omega' x e_z)
+    d/dqd_j, revolute:  d omega = e_z,  d alpha = omega' x e_z
+    d/dqd_j, prismatic: d acc = 2 omega' x e_z
+
+and inward, into body j-1, the turn of joint j itself (d/dq_j only):
+    revolute:  d f += R_j (e_z x f_j),  d n += R_j (e_z x n_j) + p_j x R_j (e_z x f_j)
+    prismatic: d n += R_j (e_z x f_j)           (d p_j = R_j e_z: (R_j e_z) x (R_j f_j))
+
+The armature term I_a qdd depends on neither q nor qd; a base motion enters through the
+starting values of the recursion, which depend on neither. Forward dynamics qdd(q, qd, tau)
+solves tau = ID(q, qd, qdd), so (implicit function theorem) d qdd/d q = -M^-1 d tau/d q,
+d qdd/d qd = -M^-1 d tau/d qd at qdd = FD(q, qd, tau), and d qdd/d tau = M^-1.
+"""
+import numpy as np
+
+from ..joints import PRISMATIC
+from ._batch import as_batch, mtv, mv, unbatch
+from .crba import mass_matrix
+from .forward import forward_dynamics
+from .kinematics import joint_transforms
+from .rnea import _wrench_batch
+
+E_Z = np.array([0.0, 0.0, 1.0])
+
+
+def _cz(v):
+    """v x e_z = (v_y, -v_x, 0) over a stack."""
+    out = np.zeros_like(v)
+    out[..., 0], out[..., 1] = v[..., 1], -v[..., 0]
+    return out
+
+
+def _zc(v):
+    """e_z x v = (-v_y, v_x, 0) over a stack."""
+    return -_cz(v)
+
+
+def inverse_dynamics_derivatives(model, q, qd, qdd, wrench=None, base_motion=None):
+    """(d tau/d q, d tau/d qd), each (n, n) or (N, n, n): [.., i, j] = d tau_i / d x_j."""
+    single, (q, qd, qdd) = as_batch(model, ("q", q), ("qd", qd), ("qdd", qdd))
+    w = _wrench_batch(wrench, q.shape[0])
+    dq, dqd = _derivatives(model, q, qd, qdd, w, base_motion)
+    return unbatch(single, dq), unbatch(single, dqd)
+
+
+def forward_dynamics_derivatives(model, q, qd, tau, wrench=None, base_motion=None):
+    """(d qdd/d q, d qdd/d qd, d qdd/d tau) = (-M^-1 d tau/d q, -M^-1 d tau/d qd, M^-1)."""
+    single, (q, qd, tau) = as_batch(model, ("q", q), ("qd", qd), ("tau", tau))
+    qdd = forward_dynamics(model, q, qd, tau, wrench, "cholesky", base_motion=base_motion)
+    dq, dqd = _derivatives(model, q, qd, qdd, _wrench_batch(wrench, q.shape[0]), base_motion)
+    Minv = np.linalg.inv(mass_matrix(model, q))
+    Minv = 0.5 * (Minv + np.swapaxes(Minv, -1, -2))
+    return (unbatch(single, -Minv @ dq), unbatch(single, -Minv @ dqd), unbatch(single, Minv))
+
+
+def _forward(model, q, qd, qdd, w, base):
+    """The Newton-Euler recursion of ``rnea._rnea``, keeping what the tangents need:
+    per body (N, n, 3) omega', alpha' (the parent's, in frame i), omega, alpha, acc, the tip
+    wrench e = (f, m) in frame i, and the joint wrench (f; n) of the inward pass."""
+    N, n = q.shape
+    R, p = joint_transforms(model, q)
+    g = model.gravity
+    omega = np.zeros((N, 3))
+    alpha = np.zeros((N, 3))
+    acc = np.broadcast_to(-g, (N, 3))
+    if base is not None:
+        omega = np.broadcast_to(base.angular_velocity, (N, 3))
+        alpha = np.broadcast_to(base.angular_acceleration, (N, 3))
+        acc = np.broadcast_to(base.linear_acceleration - g, (N, 3))
+    s = {k: np.zeros((N, n, 3)) for k in ("omp", "alp", "omega", "alpha", "acc", "ef", "em",
+                                          "f", "n")}
+    ef = np.zeros((N, 3)) if w is None else w[:, :3]   # the tip wrench, carried outward
+    em = np.zeros((N, 3)) if w is None else w[:, 3:]
+    fB, nB = np.empty((N, n, 3)), np.empty((N, n, 3))
+    for i in range(n):                                           # rnea.py: outward
+        acc = acc + np.cross(alpha, p[:, i]) + np.cross(omega, np.cross(omega, p[:, i]))
+        acc, omega, alpha = mtv(R[:, i], acc), mtv(R[:, i], omega), mtv(R[:, i], alpha)
+        ef, em = mtv(R[:, i], ef), mtv(R[:, i], em)
+        s["omp"][:, i], s["alp"][:, i] = omega, alpha
+        qd_z, qdd_z = qd[:, i, None] * E_Z, qdd[:, i, None] * E_Z
+        if model.kind[i] == PRISMATIC:
+            acc = acc + 2.0 * np.cross(omega, qd_z) + qdd_z
+        else:
+            alpha = alpha + np.cross(omega, qd_z) + qdd_z
+            omega = omega + qd_z
+        s["omega"][:, i], s["alpha"][:, i], s["acc"][:, i] = omega, alpha, acc
+        s["ef"][:, i], s["em"][:, i] = ef, em
+        fB[:, i], nB[:, i] = _body_wrench(model, i, omega, alpha, acc)
+    f, nm = np.zeros((N, 3)), np.zeros((N, 3))
+    if w is not None:                                            # rnea.py: the tip load -w
+        f = -ef
+        nm = -em + np.cross(model.Xtip_p, f)
+    for i in range(n - 1, -1, -1):                               # rnea.py: inward
+        if i < n - 1:
+            f = mv(R[:, i + 1], f)
+            nm = mv(R[:, i + 1], nm) + np.cross(p[:, i + 1], f)
+        f, nm = f + fB[:, i], nm + nB[:, i]
+        s["f"][:, i], s["n"][:, i] = f, nm
+    return R, p, s
+
+
+def _body_wrench(model, i, omega, alpha, acc):
+    """rnea.py: f = m acc + alpha x h + w x (w x h), n = I_O alpha + w x I_O w + h x acc."""
+    m, h, I_O = model.mass[i], model.h[i], model.I_O[i]
+    return (m * acc + np.cross(alpha, h) + np.cross(omega, np.cross(omega, h)),
+            alpha @ I_O.T + np.cross(omega, omega @ I_O.T) + np.cross(h, acc))
+
+
+def _body_wrench_tangent(model, i, omega, dw, da, dl):
+    """The tangent of ``_body_wrench`` at omega along (d omega, d alpha, d acc):
+    d f = m d acc + d alpha x h + dw x (w x h) + w x (dw x h),
+    d n = I_O d alpha + dw x I_O w + w x I_O dw + h x d acc."""
+    m, h, I_O = model.mass[i], model.h[i], model.I_O[i]
+    df = m * dl + np.cross(da, h) + np.cross(dw, np.cross(omega, h)) + np.cross(omega, np.cross(dw, h))
+    dn = (da @ I_O.T + np.cross(dw, omega @ I_O.T) + np.cross(omega, dw @ I_O.T)
+          + np.cross(h, dl))
+    return df, dn
+
+
+def _derivatives(model, q, qd, qdd, w, base):
+    N, n = q.shape
+    R, p, s = _forward(model, q, qd, qdd, w, base)
+    dq, dqd = np.empty((N, n, n)), np.empty((N, n, n))
+    prismatic = model.kind == PRISMATIC
+    for j in range(n):
+        z = np.zeros((N, 3))
+        omp, alp = s["omp"][:, j], s["alp"][:, j]
+        # d/dq_j: the seeds of the module docstring
+        if prismatic[j]:
+            seed = (z, z, np.cross(alp, E_Z) + np.cross(omp, np.cross(omp, E_Z)), z, z)
+        else:
+            seed = (_cz(s["omega"][:, j]), _cz(alp) + qd[:, j, None] * _cz(_cz(omp)),
+                    _cz(s["acc"][:, j]), _cz(s["ef"][:, j]), _cz(s["em"][:, j]))
+        dq[:, :, j] = _sweep(model, R, p, s, qd, j, seed, True, w is not None)
+        # d/dqd_j
+        if prismatic[j]:
+            seed = (z, z, 2.0 * _cz(omp), z, z)
+        else:
+            seed = (np.broadcast_to(E_Z, (N, 3)), _cz(omp), z, z, z)
+        dqd[:, :, j] = _sweep(model, R, p, s, qd, j, seed, False, False)
+    return dq, dqd
+
+
+def _sweep(model, R, p, s, qd, j, seed, turn, wrench):
+    """d tau (N, n) along one direction seeded at body j: outward through bodies j..n-1,
+    inward through every body; ``turn``: joint j's own transform turns (d/dq_j)."""
+    N, n = R.shape[0], R.shape[1]
+    dw, da, dl, def_, dem = seed
+    dfB, dnB = np.zeros((N, n, 3)), np.zeros((N, n, 3))
+    for i in range(j, n):
+        if i > j:   # rnea.py outward, linearized: acc + alpha x p + w x (w x p), into frame i
+            w0 = s["omega"][:, i - 1]
+            dl = dl + np.cross(da, p[:, i]) + np.cross(dw, np.cross(w0, p[:, i])) \
+                + np.cross(w0, np.cross(dw, p[:, i]))
+            dl, dw, da = mtv(R[:, i], dl), mtv(R[:, i], dw), mtv(R[:, i], da)
+            def_, dem = mtv(R[:, i], def_), mtv(R[:, i], dem)
+            qd_z = qd[:, i, None] * E_Z
+            if model.kind[i] == PRISMATIC:                # acc += 2 d omega' x qd e_z
+                dl = dl + 2.0 * np.cross(dw, qd_z)
+            else:                                         # alpha += d omega' x qd e_z
+                da = da + np.cross(dw, qd_z)
+        dfB[:, i], dnB[:, i] = _body_wrench_tangent(model, i, s["omega"][:, i], dw, da, dl)
+    df, dn = np.zeros((N, 3)), np.zeros((N, 3))
+    if wrench:                                            # the tip load -e, turned
+        df = -def_
+        dn = -dem + np.cross(model.Xtip_p, df)
+    dtau = np.empty((N, n))
+    for i in range(n - 1, -1, -1):
+        if i < n - 1:                                     # rnea.py inward, linearized
+            df = mv(R[:, i + 1], df)
+            dn = mv(R[:, i + 1], dn) + np.cross(p[:, i + 1], df)
+            if turn and i + 1 == j:                       # joint j's own turn (docstring)
+                g = mv(R[:, j], _zc(s["f"][:, j]))        # R_j (e_z x f_j)
+                if model.kind[j] == PRISMATIC:
+                    dn = dn + g
+                else:
+                    df = df + g
+                    dn = dn + mv(R[:, j], _zc(s["n"][:, j])) + np.cross(p[:, j], g)
+        df, dn = df + dfB[:, i], dn + dnB[:, i]
+        dtau[:, i] = df[:, 2] if model.kind[i] == PRISMATIC else dn[:, 2]
+    return dtau
+

@@ -18,6 +18,8 @@ from serial_dynamics.sim import symplectic
 from serial_dynamics.sim.fixed_step import FixedStepIntegrator
 from serial_dynamics.sim.methods import SimulationError
 
+from test_jacobians_sim import friction_ur5e
+
 
 DOUBLE_PENDULUM = double_pendulum_urdf()      # the issue's double pendulum
 UR5E_HANGING = np.array([0.0, np.pi / 2, 0.0, -1.2726512, np.pi / 2, 0.0])   # V minimal
@@ -120,14 +122,6 @@ def test_numpy_backend_takes_the_same_steps():
 
 
 # ----------------------------------------------------------------------------- balance
-def friction_ur5e():
-    robot = sd.default_robot()
-    robot.dissipation = robot.dissipation.override(
-        viscous=[0.8, 0.8, 0.5, 0.1, 0.1, 0.05], coulomb=[4, 4, 3, 0.6, 0.6, 0.2],
-        stribeck=[2, 2, 1, 0.2, 0.2, 0.05], stribeck_rate=5.0)
-    return robot
-
-
 def test_energy_balance_with_friction_torques_and_wrench():
     """E(t) - E(0) = W_act + W_diss + W_ext to first order in dt (the work quadrature of a
     first-order method): the balance error halves with the step."""

@@ -19,12 +19,13 @@ import time
 from .core import ENTRY_POINTS, K
 from .sim.loop import _loop
 
-# two halves of about equal cold-compile time (bench/BENCHMARKS.md, *First call*)
-# (measured 2026-11-23, each half alone on an empty cache: 10.7 s and 9.6 s)
+# two halves of about equal cold-compile time (bench/BENCHMARKS.md, *First call*): the
+# dynamics kernels as listed, then the others alternating between the halves
+# (measured 2026-11-23, each half alone on an empty cache: 19.9 s and 20.4 s)
 HALVES = (("fd", "fd_batch", "loop", "planar_rnea_batch", "planar_crba", "planar_crba_batch"),
           ("rnea", "rnea_wrench", "crba", "rnea_batch", "crba_batch", "planar_rnea",
            "planar_rnea_wrench"))
-_REST = sorted(set(ENTRY_POINTS) - set(HALVES[0] + HALVES[1]))   # not yet balanced: alternate
+_REST = sorted(set(ENTRY_POINTS) - set(HALVES[0] + HALVES[1]))
 HALVES = (HALVES[0] + tuple(_REST[0::2]), HALVES[1] + tuple(_REST[1::2]))
 
 

@@ -13,7 +13,8 @@ semi-implicit Euler, M (qd1 - qd0) = dt (tau - b + tau_s), becomes
     (M + dt Kd + dt^2 Kp) qd1 = M qd0 + dt (tau - b + Kp (q* - q0) + Kd qd*)
 
 -- a PD that stays stable at any Kp, Kd >= 0 (an explicit PD, the torque from the state at
-the start of the step, is stable only for omega_n dt below 2 zeta + 2 sqrt(zeta^2 + 1)).
+the start of the step, is stable with semi-implicit Euler on one joint only for
+omega_n dt < 2 (sqrt(zeta^2 + 1) - zeta), and lower on a coupled arm: bench/bench_servo.py).
 Only Kp, Kd are implicit: the rest of the dynamics keeps its method's treatment.
 """
 from __future__ import annotations

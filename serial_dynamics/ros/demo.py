@@ -20,13 +20,12 @@ import os
 import sys
 
 import numpy as np
-from rclpy.executors import ExternalShutdownException
 
 import serial_dynamics as sd
 from serial_dynamics.trajectory import pick_and_place
 
 from . import demo_collision
-from .demo_session import NOT_FOLLOWED, SETTLE, DemoError, Session, robot_parameters
+from .demo_session import NOT_FOLLOWED, SETTLE, Session, robot_parameters, run_and_report
 
 SCENARIOS = ("pick_and_place", "collision")
 
@@ -133,19 +132,12 @@ def run(args) -> int:
         return demo_collision.run(args)
     print(f"serial_dynamics demo (ROS_DOMAIN_ID={os.environ.get('ROS_DOMAIN_ID', '0')}): simulator + "
           "computed-torque controller as separate processes", flush=True)
-    try:
-        r = run_demo(args.urdf, args.base_link, args.tip_link, rtf,
-                     getattr(args, "attach", False), log=lambda s: print(s, flush=True))
-    except (DemoError, ValueError, OSError) as exc:
-        print(f"serial-dynamics demo: error: {exc}", file=sys.stderr)
-        return 1
-    except (KeyboardInterrupt, ExternalShutdownException):
-        print("serial-dynamics demo: interrupted", file=sys.stderr)
-        return 130
-    print(report(r))
-    if getattr(args, "plot", None):
-        plot(r, args.plot)
-        print(f"plot written to {args.plot}")
+    r, failed = run_and_report(
+        lambda: run_demo(args.urdf, args.base_link, args.tip_link, rtf,
+                         getattr(args, "attach", False), log=lambda s: print(s, flush=True)),
+        report, plot, args)
+    if failed:
+        return failed
     if getattr(args, "json", None):
         with open(args.json, "w") as fh:
             json.dump({k: v for k, v in r.items() if k not in ("stamp", "q", "q_ref")}, fh,

@@ -24,12 +24,10 @@ import sys
 import time
 
 import numpy as np
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import WrenchStamped
 from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
 from rcl_interfaces.srv import SetParameters
-from rclpy.executors import ExternalShutdownException
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool
 from std_srvs.srv import SetBool
@@ -38,7 +36,7 @@ import serial_dynamics as sd
 from serial_dynamics.trajectory import pick_and_place
 
 from . import common
-from .demo_session import NOT_FOLLOWED, DemoError, Session, robot_parameters
+from .demo_session import NOT_FOLLOWED, Session, robot_parameters, run_and_report
 
 PUSH_AT = 2.6        # s into the task: 0.3 s into the lift-to-place swing (pan at 1.5 rad/s)
 FORCE = 20.0         # N on the tip, against the tip's planned velocity there (an obstacle)
@@ -267,37 +265,23 @@ def plot(r, path):
 
 
 def run(args) -> int:
-    """``serial-dynamics demo --scenario collision``."""
-    rtf = getattr(args, "real_time_factor", 1.0)
-    if not rtf > 0:
-        print("serial-dynamics demo: error: the real-time factor must be > 0", file=sys.stderr)
-        return 2
+    """``serial-dynamics demo --scenario collision`` (from ``demo.run``, which has checked
+    the real-time factor and chosen the ROS domain)."""
     if getattr(args, "attach", False):
         print("serial-dynamics demo: error: --scenario collision starts its own nodes (the "
               "simulator needs friction, the observer its thresholds); drop --attach",
               file=sys.stderr)
         return 2
-    if "ROS_DOMAIN_ID" not in os.environ:
-        os.environ["ROS_DOMAIN_ID"] = str(1 + os.getpid() % 100)
     print(f"serial_dynamics demo, collision scenario (ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}):"
           " simulator + computed-torque controller + external-torque observer as separate "
           "processes", flush=True)
-    try:
-        r = run_collision(args.urdf, args.base_link, args.tip_link, rtf,
-                          log=lambda s: print(s, flush=True))
-    except (DemoError, ValueError, OSError) as exc:
-        print(f"serial-dynamics demo: error: {exc}", file=sys.stderr)
-        return 1
-    except (KeyboardInterrupt, ExternalShutdownException):
-        print("serial-dynamics demo: interrupted", file=sys.stderr)
-        return 130
-    finally:
-        if rclpy.ok():
-            rclpy.try_shutdown()
-    print(report(r))
-    if getattr(args, "plot", None):
-        plot(r, args.plot)
-        print(f"plot written to {args.plot}")
+    r, failed = run_and_report(
+        lambda: run_collision(args.urdf, args.base_link, args.tip_link,
+                              getattr(args, "real_time_factor", 1.0),
+                              log=lambda s: print(s, flush=True)),
+        report, plot, args)
+    if failed:
+        return failed
     if getattr(args, "json", None):
         with open(args.json, "w") as fh:
             json.dump(r, fh, indent=None)

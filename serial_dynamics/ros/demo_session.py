@@ -1,16 +1,17 @@
 """What both scenarios of the demo share (``demo``, ``demo_collision``): the nodes started
 as processes, the demo's own node recording the joint states, the start of the
 pick-and-place trajectory and a spin loop that notices a node that died or a simulation
-that stopped."""
+that stopped; and the run of a scenario from the command line (``run_and_report``)."""
 from __future__ import annotations
 
 import os
+import sys
 import time
 
 import numpy as np
 import rclpy
 from builtin_interfaces.msg import Duration
-from rclpy.executors import SingleThreadedExecutor
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool
@@ -31,6 +32,28 @@ STARTUP_TIMEOUT = 150.0        # s of wall time for the nodes to come up (a firs
 
 class DemoError(RuntimeError):
     pass
+
+
+def run_and_report(run_scenario, report, plot, args):
+    """The command line's run of a scenario: ``run_scenario()`` (its record), then its
+    report printed and ``--plot`` written. Returns (record, None), or (None, exit status)
+    after an error (1, the message on stderr) or an interrupt (130)."""
+    try:
+        r = run_scenario()
+    except (DemoError, ValueError, OSError) as exc:
+        print(f"serial-dynamics demo: error: {exc}", file=sys.stderr)
+        return None, 1
+    except (KeyboardInterrupt, ExternalShutdownException):
+        print("serial-dynamics demo: interrupted", file=sys.stderr)
+        return None, 130
+    finally:
+        if rclpy.ok():
+            rclpy.try_shutdown()
+    print(report(r))
+    if getattr(args, "plot", None):
+        plot(r, args.plot)
+        print(f"plot written to {args.plot}")
+    return r, None
 
 
 def robot_parameters(urdf, base_link, tip_link):

@@ -39,7 +39,7 @@ from ._batch import as_batch, mtv, mv, unbatch
 from .crba import mass_matrix
 from .forward import forward_dynamics
 from .kinematics import joint_transforms
-from .rnea import _wrench_batch
+from .rnea import _wrench_batch, body_wrench, into_body, joint_rate
 
 E_Z = np.array([0.0, 0.0, 1.0])
 
@@ -94,19 +94,13 @@ def _forward(model, q, qd, qdd, w, base):
     em = np.zeros((N, 3)) if w is None else w[:, 3:]
     fB, nB = np.empty((N, n, 3)), np.empty((N, n, 3))
     for i in range(n):                                           # rnea.py: outward
-        acc = acc + np.cross(alpha, p[:, i]) + np.cross(omega, np.cross(omega, p[:, i]))
-        acc, omega, alpha = mtv(R[:, i], acc), mtv(R[:, i], omega), mtv(R[:, i], alpha)
+        omega, alpha, acc = into_body(R, p, i, omega, alpha, acc)
         ef, em = mtv(R[:, i], ef), mtv(R[:, i], em)
         s["omp"][:, i], s["alp"][:, i] = omega, alpha
-        qd_z, qdd_z = qd[:, i, None] * E_Z, qdd[:, i, None] * E_Z
-        if model.kind[i] == PRISMATIC:
-            acc = acc + 2.0 * np.cross(omega, qd_z) + qdd_z
-        else:
-            alpha = alpha + np.cross(omega, qd_z) + qdd_z
-            omega = omega + qd_z
+        omega, alpha, acc = joint_rate(model, i, omega, alpha, acc, qd[:, i], qdd[:, i])
         s["omega"][:, i], s["alpha"][:, i], s["acc"][:, i] = omega, alpha, acc
         s["ef"][:, i], s["em"][:, i] = ef, em
-        fB[:, i], nB[:, i] = _body_wrench(model, i, omega, alpha, acc)
+        fB[:, i], nB[:, i] = body_wrench(model, i, omega, alpha, acc)
     f, nm = np.zeros((N, 3)), np.zeros((N, 3))
     if w is not None:                                            # rnea.py: the tip load -w
         f = -ef
@@ -120,15 +114,8 @@ def _forward(model, q, qd, qdd, w, base):
     return R, p, s
 
 
-def _body_wrench(model, i, omega, alpha, acc):
-    """rnea.py: f = m acc + alpha x h + w x (w x h), n = I_O alpha + w x I_O w + h x acc."""
-    m, h, I_O = model.mass[i], model.h[i], model.I_O[i]
-    return (m * acc + np.cross(alpha, h) + np.cross(omega, np.cross(omega, h)),
-            alpha @ I_O.T + np.cross(omega, omega @ I_O.T) + np.cross(h, acc))
-
-
 def _body_wrench_tangent(model, i, omega, dw, da, dl):
-    """The tangent of ``_body_wrench`` at omega along (d omega, d alpha, d acc):
+    """The tangent of ``rnea.body_wrench`` at omega along (d omega, d alpha, d acc):
     d f = m d acc + d alpha x h + dw x (w x h) + w x (dw x h),
     d n = I_O d alpha + dw x I_O w + w x I_O dw + h x d acc."""
     m, h, I_O = model.mass[i], model.h[i], model.I_O[i]

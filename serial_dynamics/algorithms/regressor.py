@@ -29,10 +29,10 @@ The armature (reflected rotor inertia I_a, tau_i += I_a qdd_i) has the column qd
 import numpy as np
 
 from ..joints import PRISMATIC
-from ._batch import as_batch, mtv, mv, skew, unbatch
+from ._batch import as_batch, mv, skew, unbatch
 from .kinematics import joint_transforms
+from .rnea import into_body, joint_rate
 
-E_Z = np.array([0.0, 0.0, 1.0])
 PARAMETERS = ("m", "mx", "my", "mz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz")
 _SYM = ((0, 0), (0, 1), (1, 1), (0, 2), (1, 2), (2, 2))   # Ixx Ixy Iyy Ixz Iyz Izz
 
@@ -116,14 +116,8 @@ def _regressor_joint_frames(model, q, qd, qdd):
     acc = np.broadcast_to(-model.gravity, (N, 3))        # gravity as a base acceleration
     blocks = []
     for i in range(n):                                   # outward, as rnea.py
-        acc = acc + np.cross(alpha, p[:, i]) + np.cross(omega, np.cross(omega, p[:, i]))
-        acc, omega, alpha = mtv(R[:, i], acc), mtv(R[:, i], omega), mtv(R[:, i], alpha)
-        qd_z, qdd_z = qd[:, i, None] * E_Z, qdd[:, i, None] * E_Z
-        if model.kind[i] == PRISMATIC:
-            acc = acc + 2.0 * np.cross(omega, qd_z) + qdd_z
-        else:
-            alpha = alpha + np.cross(omega, qd_z) + qdd_z
-            omega = omega + qd_z
+        omega, alpha, acc = into_body(R, p, i, omega, alpha, acc)
+        omega, alpha, acc = joint_rate(model, i, omega, alpha, acc, qd[:, i], qdd[:, i])
         blocks.append(body_block(omega, alpha, acc))
     Y = np.zeros((N, n, 10 * n))
     row = np.where(model.kind == PRISMATIC, 5, 2)        # tau_j = S_j^T (n; f): n_z or f_z

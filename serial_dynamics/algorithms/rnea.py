@@ -58,20 +58,9 @@ def _rnea(model, q, qd, qdd, g, w, base=None):
     nB = np.empty((N, n, 3))            # and moment about its origin
     # --- outward: velocities and accelerations
     for i in range(n):
-        # body i-1's motion at body i's origin, in joint frame i
-        acc = acc + np.cross(alpha, p[:, i]) + np.cross(omega, np.cross(omega, p[:, i]))
-        acc, omega, alpha = mtv(R[:, i], acc), mtv(R[:, i], omega), mtv(R[:, i], alpha)
-        qd_z, qdd_z = qd[:, i, None] * E_Z, qdd[:, i, None] * E_Z
-        if model.kind[i] == PRISMATIC:   # sliding along e_z: acc += 2 w x qd e_z + qdd e_z
-            acc = acc + 2.0 * np.cross(omega, qd_z) + qdd_z
-        else:                            # spin about e_z: alpha += w x qd e_z + qdd e_z
-            alpha = alpha + np.cross(omega, qd_z) + qdd_z
-            omega = omega + qd_z
-        # Newton-Euler about the body origin: f = m acc + alpha x h + w x (w x h),
-        # n = I_O alpha + w x I_O w + h x acc
-        m, h, I_O = model.mass[i], model.h[i], model.I_O[i]
-        fB[:, i] = m * acc + np.cross(alpha, h) + np.cross(omega, np.cross(omega, h))
-        nB[:, i] = alpha @ I_O.T + np.cross(omega, omega @ I_O.T) + np.cross(h, acc)
+        omega, alpha, acc = into_body(R, p, i, omega, alpha, acc)
+        omega, alpha, acc = joint_rate(model, i, omega, alpha, acc, qd[:, i], qdd[:, i])
+        fB[:, i], nB[:, i] = body_wrench(model, i, omega, alpha, acc)
     # --- inward: joint forces; the tip load -w acts on the environment
     f, nm = np.zeros((N, 3)), np.zeros((N, 3))
     if w is not None:                    # -w in joint frame n-1, moment about its origin
@@ -87,6 +76,30 @@ def _rnea(model, q, qd, qdd, g, w, base=None):
         # tau_i = S_i^T (n; f) + I_a,i qdd_i (the rotor's inertia, reflected through the gear)
         tau[:, i] = (f[:, 2] if model.kind[i] == PRISMATIC else nm[:, 2]) + model.armature[i] * qdd[:, i]
     return tau
+
+
+def into_body(R, p, i, omega, alpha, acc):
+    """Outward recursion: body i-1's (omega, alpha, acc) at body i's origin, in joint frame
+    i (acc + alpha x p + omega x (omega x p), then R_i^T)."""
+    acc = acc + np.cross(alpha, p[:, i]) + np.cross(omega, np.cross(omega, p[:, i]))
+    return mtv(R[:, i], omega), mtv(R[:, i], alpha), mtv(R[:, i], acc)
+
+
+def joint_rate(model, i, omega, alpha, acc, qd_i, qdd_i):
+    """Outward recursion: joint i's rate added to the motion carried into frame i."""
+    qd_z, qdd_z = qd_i[:, None] * E_Z, qdd_i[:, None] * E_Z
+    if model.kind[i] == PRISMATIC:   # sliding along e_z: acc += 2 w x qd e_z + qdd e_z
+        return omega, alpha, acc + 2.0 * np.cross(omega, qd_z) + qdd_z
+    # spin about e_z: alpha += w x qd e_z + qdd e_z, omega += qd e_z
+    return omega + qd_z, alpha + np.cross(omega, qd_z) + qdd_z, acc
+
+
+def body_wrench(model, i, omega, alpha, acc):
+    """Newton-Euler about the body origin: (f, n) = (m acc + alpha x h + w x (w x h),
+    I_O alpha + w x I_O w + h x acc)."""
+    m, h, I_O = model.mass[i], model.h[i], model.I_O[i]
+    return (m * acc + np.cross(alpha, h) + np.cross(omega, np.cross(omega, h)),
+            alpha @ I_O.T + np.cross(omega, omega @ I_O.T) + np.cross(h, acc))
 
 
 def _tip_rotation(R):

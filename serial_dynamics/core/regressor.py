@@ -31,7 +31,7 @@ from numba import njit
 
 from .data import new_kin, stack_empty
 from .layout import G, KIND, WIDTH
-from .rnea import status
+from .rnea import outward_step, status
 from .signatures import D2, D3, In1, In2, Mat, Out2, Out3, Pm, Vec, f8, i8, internal
 from .spatial import finite, joint_transforms, to_child
 
@@ -70,19 +70,8 @@ def regressor_core(L, sc, R, p, V, q, qd, qdd, flags, Y):
     for i in range(n):              # outward: omega, alpha, acc (as rnea_core)
         dq, ddq = qd[i], qdd[i]
         chk += finite(dq) + finite(ddq)
-        px, py, pz = p[i, 0], p[i, 1], p[i, 2]
-        ux, uy, uz = wy * pz - wz * py, wz * px - wx * pz, wx * py - wy * px
-        tx = lx + ay * pz - az * py + wy * uz - wz * uy
-        ty = ly + az * px - ax * pz + wz * ux - wx * uz
-        tz = lz + ax * py - ay * px + wx * uy - wy * ux
-        lx, ly, lz = to_child(R, i, tx, ty, tz)
-        wx, wy, wz = to_child(R, i, wx, wy, wz)
-        ax, ay, az = to_child(R, i, ax, ay, az)
-        if L[i, KIND] == 0.0:       # spin about z: alpha += omega x (qd e_z) + qdd e_z
-            ax, ay, az = ax + wy * dq, ay - wx * dq, az + ddq
-            wz = wz + dq
-        else:                       # slide along z: acc += 2 omega x (qd e_z) + qdd e_z
-            lx, ly, lz = lx + 2.0 * wy * dq, ly - 2.0 * wx * dq, lz + ddq
+        wx, wy, wz, ax, ay, az, lx, ly, lz = outward_step(L, R, p, i, wx, wy, wz, ax, ay, az,
+                                                          lx, ly, lz, dq, ddq)
         V[i, 0], V[i, 1], V[i, 2] = to_link(L, i, wx, wy, wz)
         V[i, 3], V[i, 4], V[i, 5] = to_link(L, i, ax, ay, az)
         V[i, 6], V[i, 7], V[i, 8] = to_link(L, i, lx, ly, lz)

@@ -19,6 +19,27 @@ from .layout import ARM, G, H, IO, KIND, MASS, TIPP, W_ACC, W_ALL, W_ALPHA, W_OM
 from .spatial import finite, joint_transforms, to_child, to_parent
 
 
+@internal
+def outward_step(P, R, p, i, wx, wy, wz, ax, ay, az, lx, ly, lz, dq, ddq):
+    """Newton-Euler outward recursion, one body: body i-1's omega, alpha and acc carried to
+    body i's origin (acc + alpha x p + omega x (omega x p)), into joint frame i, then joint
+    i's rate qd, qdd added. Returns (omega, alpha, acc) of body i, 9 numbers."""
+    px, py, pz = p[i, 0], p[i, 1], p[i, 2]
+    ux, uy, uz = wy * pz - wz * py, wz * px - wx * pz, wx * py - wy * px
+    tx = lx + ay * pz - az * py + wy * uz - wz * uy
+    ty = ly + az * px - ax * pz + wz * ux - wx * uz
+    tz = lz + ax * py - ay * px + wx * uy - wy * ux
+    lx, ly, lz = to_child(R, i, tx, ty, tz)
+    wx, wy, wz = to_child(R, i, wx, wy, wz)
+    ax, ay, az = to_child(R, i, ax, ay, az)
+    if P[i, KIND] == 0.0:       # spin about z: alpha += omega x (qd e_z) + qdd e_z
+        ax, ay, az = ax + wy * dq, ay - wx * dq, az + ddq
+        wz = wz + dq
+    else:                       # slide along z: acc += 2 omega x (qd e_z) + qdd e_z
+        lx, ly, lz = lx + 2.0 * wy * dq, ly - 2.0 * wx * dq, lz + ddq
+    return wx, wy, wz, ax, ay, az, lx, ly, lz
+
+
 def rnea_core(P, sc, R, p, f, q, qd, qdd, w, flags, tau):
     """tau = M(q) qdd + b(q, qd) - J^T w into ``tau``; fills the Data arrays sc, R, p, f.
     ``w``: the external inputs (layout.W_*): the tip wrench (flag WRENCH), the base motion
@@ -45,20 +66,8 @@ def rnea_core(P, sc, R, p, f, q, qd, qdd, w, flags, tau):
         dq = qd[i] if use_qd else 0.0
         ddq = qdd[i] if use_qdd else 0.0
         chk += finite(dq) + finite(ddq)
-        px, py, pz = p[i, 0], p[i, 1], p[i, 2]
-        # acc + alpha x p + omega x (omega x p), then into body i
-        ux, uy, uz = wy * pz - wz * py, wz * px - wx * pz, wx * py - wy * px
-        tx = lx + ay * pz - az * py + wy * uz - wz * uy
-        ty = ly + az * px - ax * pz + wz * ux - wx * uz
-        tz = lz + ax * py - ay * px + wx * uy - wy * ux
-        lx, ly, lz = to_child(R, i, tx, ty, tz)
-        wx, wy, wz = to_child(R, i, wx, wy, wz)
-        ax, ay, az = to_child(R, i, ax, ay, az)
-        if P[i, KIND] == 0.0:       # spin about z: alpha += omega x (qd e_z) + qdd e_z
-            ax, ay, az = ax + wy * dq, ay - wx * dq, az + ddq
-            wz = wz + dq
-        else:                       # slide along z: acc += 2 omega x (qd e_z) + qdd e_z
-            lx, ly, lz = lx + 2.0 * wy * dq, ly - 2.0 * wx * dq, lz + ddq
+        wx, wy, wz, ax, ay, az, lx, ly, lz = outward_step(P, R, p, i, wx, wy, wz, ax, ay, az,
+                                                          lx, ly, lz, dq, ddq)
         # body wrench about its origin: n = I_O alpha + omega x (I_O omega) + h x acc,
         #                                f = m acc + alpha x h + omega x (omega x h)
         m = P[i, MASS]

@@ -25,8 +25,6 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import sysconfig
-import time
 import warnings
 
 import numpy as np
@@ -39,15 +37,14 @@ import serial_dynamics as sd                                        # noqa: E402
 from serial_dynamics.core import K                                  # noqa: E402
 from serial_dynamics.regressor import _info                         # noqa: E402
 from _report import stamp, write_section                           # noqa: E402
-
-ERD = os.path.join(sysconfig.get_paths()["purelib"], "cmeel.prefix", "share",
-                   "example-robot-data", "robots")
+from bench_planar import interleaved                                # noqa: E402
+from bench_speed import erd_path                                    # noqa: E402
 
 
 def robots():
     """name: (robot, path of its URDF for Pinocchio)."""
     out = {"UR5e": (sd.default_robot(), sd.builtin_path("ur5e"))}
-    panda = os.path.join(ERD, "panda_description/urdf/panda.urdf")
+    panda = erd_path("panda_description/urdf/panda.urdf")
     if os.path.isfile(panda):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", sd.HeldJointsWarning)
@@ -70,18 +67,6 @@ class Pin:
 
     def regressor(self, q, qd, qdd):
         return pin.computeJointTorqueRegressor(self.model, self.data, q, qd, qdd)
-
-
-def interleaved(a, b, number, rounds):
-    ta, tb = [], []
-    clock = time.perf_counter
-    for r in range(rounds):
-        for f, ts in ((a, ta), (b, tb)) if r % 2 == 0 else ((b, tb), (a, ta)):
-            t0 = clock()
-            for _ in range(number):
-                f()
-            ts.append((clock() - t0) / number)
-    return float(np.median(ta)), float(np.median(tb))
 
 
 def us(t):

@@ -38,13 +38,13 @@ PARALLEL_MIN = 256
 
 def inverse_dynamics_derivatives(robot, q, qd, qdd, wrench=None, base_motion=None):
     """(d tau/d q, d tau/d qd), each (n, n) for one state or (N, n, n) for a batch."""
-    if robot._compiled and base_motion is None and "_G" not in robot.__dict__:   # fast path
-        n = robot._n                                     # (a MimicRobot has _G: below)
+    if robot._compiled and base_motion is None and not robot._mimic:   # fast path
+        n = robot._n
         o = _empty((2, n, n))
         if (K.rnea_derivatives(robot._P, q, qd, qdd, _W0, 0, o) if wrench is None else
                 K.rnea_derivatives(robot._P, q, qd, qdd, wrench, _WRENCH, o)) == 0:
             return o[0], o[1]
-    if "_G" in robot.__dict__:                            # mimic joints: G^T (.) G
+    if robot._mimic:                                      # mimic joints: G^T (.) G
         single, _, (qa, qda, qdda) = robot._all(("q", q), ("qd", qd), ("qdd", qdd))
         dq, dqd = _id_derivatives(robot, qa, qda, qdda, wrench, base_motion, True)
         return robot._reduce2(dq), robot._reduce2(dqd)
@@ -53,13 +53,13 @@ def inverse_dynamics_derivatives(robot, q, qd, qdd, wrench=None, base_motion=Non
 
 def forward_dynamics_derivatives(robot, q, qd, tau, wrench=None, base_motion=None):
     """(d qdd/d q, d qdd/d qd, d qdd/d tau), each (n, n) or (N, n, n)."""
-    if robot._compiled and base_motion is None and "_G" not in robot.__dict__:   # fast path
+    if robot._compiled and base_motion is None and not robot._mimic:   # fast path
         n = robot._n
         o = _empty((3, n, n))
         if (K.fd_derivatives(robot._P, q, qd, tau, _W0, 0, o) if wrench is None else
                 K.fd_derivatives(robot._P, q, qd, tau, wrench, _WRENCH, o)) == 0:
             return o[0], o[1], o[2]
-    if "_G" in robot.__dict__:                            # mimic joints: the reduced system
+    if robot._mimic:                                      # mimic joints: the reduced system
         return _mimic_fd_derivatives(robot, q, qd, tau, wrench, base_motion)
     if robot._compiled and base_motion is not None:      # one state with a base motion
         o = _empty((3, robot._n, robot._n))

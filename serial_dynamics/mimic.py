@@ -36,6 +36,8 @@ class MimicRobot(Robot):
     """A ``Robot`` whose coordinates are the independent joints (see the module docstring).
     ``sd.load_urdf`` and ``sd.Robot(model)`` return one for a model with mimic joints."""
 
+    _mimic = True
+
     def __init__(self, model, dissipation=None, backend=None, **kwargs):
         self._G, self._o = model.mimic_matrix
         self._ind = model.independent

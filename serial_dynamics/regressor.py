@@ -63,8 +63,7 @@ def _info(robot):
     if info is None:
         m = robot.model
         L = None if robot._P is None else regressor_layout(robot._P, m.A)
-        info = _INFO.setdefault(robot, (L, bool(np.any(m.armature > 0)),
-                                        bool(np.any(m.mimic_leader >= 0))))
+        info = _INFO.setdefault(robot, (L, bool(np.any(m.armature > 0)), robot._mimic))
     return info
 
 

@@ -67,6 +67,7 @@ class Robot:
     # fast path); each module registers its class here (they import this one).
     _kinds = {}
     is_planar = False        # a planar chain on the planar fast path (PlanarRobot)
+    _mimic = False           # the reduced system of a chain with mimic joints (MimicRobot)
 
     def __new__(cls, model, *args, **kwargs):
         Q = None

@@ -191,7 +191,7 @@ def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853"
             args = (robot, duration, q0, qd0, inputs, method, dt, dissipation, output_dt,
                     check_energy, bar)
             if (method == "semi_implicit_euler" and robot.backend == "numba"
-                    and robot.dof == robot.model.dof        # no mimic joints
+                    and not robot._mimic
                     and not callable(torque) and inputs.wrench is None and inputs.base is None
                     and not position_limits):
                 out = run_compiled(*args)           # the compiled loop has no stops

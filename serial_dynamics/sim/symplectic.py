@@ -42,7 +42,7 @@ def kinetic_energy_gradient(robot, q, qd):
         if K.kinetic_energy_gradient(robot._P, np.asarray(q, float), np.asarray(qd, float),
                                      out) == 0:
             return out
-    if robot.dof != robot.model.dof:
+    if robot._mimic:
         full = _gradient_reference(robot.model, robot.all_joint_positions(q),
                                    robot.all_joint_velocities(qd))
         return robot._reduce(full)
@@ -50,8 +50,7 @@ def kinetic_energy_gradient(robot, q, qd):
 
 
 def _compiled(robot):
-    return (robot.backend == "numba" and robot.dof == robot.model.dof
-            and getattr(robot, "_P", None) is not None and robot._P.shape[0] == robot.dof + 1)
+    return robot._compiled and not robot._mimic
 
 
 def step(integ, q, qd, f, wrench, beta, held):

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from .equations import EnergyGuard, Equations
-from .jacobians import H_REL, accel_jacobian, analytical
+from .jacobians import accel_jacobian, analytical, perturbed
 from .methods import IMPLICIT, SimulationError, advice
 from .result import SolverStats, finish
 
@@ -47,7 +47,7 @@ def run_adaptive(robot, duration, q0, qd0, inputs, method, rtol, atol, max_step,
     if first_step is not None:
         kw["first_step"] = first_step
     if method in IMPLICIT:
-        kw["jac"] = jacobians(eq, inputs, smooth)[0 if analytical(robot, jacobian) else 1]
+        kw["jac"] = jacobians(eq, inputs, smooth)[0 if analytical(jacobian) else 1]
     solver = Solver(fun, 0.0, y0, duration, **kw)
     per_attempt = getattr(solver, "n_stages", None)   # RK: evaluations per attempted step
     guard = EnergyGuard(eq, q0, qd0, method, None, check_energy)
@@ -129,9 +129,7 @@ def jacobians(eq, inputs, smooth):
             J[2 * n, n:2 * n] += qd @ Tv
         J[2 * n + 1, n:2 * n] = delta + qd * dd
         if has_w:
-            h = H_REL * np.maximum(1.0, np.abs(y[:2 * n]))
-            X = np.repeat(y[None, :2 * n], 2 * n + 1, axis=0)
-            X[1 + np.arange(2 * n), np.arange(2 * n)] += h
+            X, h = perturbed(y[:2 * n])
             _, W = inputs.batch(t, X[:, :n], X[:, n:])
             p = eq.ext_power(X[:, :n], X[:, n:], W)
             J[2 * n + 2, :2 * n] = (p[1:] - p[0]) / h
@@ -140,9 +138,7 @@ def jacobians(eq, inputs, smooth):
     def jac(t, y):
         """Forward differences of the state equations: one batched dynamics call over the
         state and its 2n perturbations (instead of scipy's column-by-column differences)."""
-        h = 1e-7 * np.maximum(1.0, np.abs(y[:2 * n]))
-        X = np.repeat(y[None, :2 * n], 2 * n + 1, axis=0)
-        X[1 + np.arange(2 * n), np.arange(2 * n)] += h
+        X, h = perturbed(y[:2 * n])
         Q, V = X[:, :n], X[:, n:]
         tau, w = inputs.batch(t, Q, V)
         A, D = eq.accel(Q, V, tau, w, smooth=smooth)

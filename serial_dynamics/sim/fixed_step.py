@@ -13,7 +13,7 @@ import numpy as np
 from .equations import EnergyGuard, Equations, Inputs, StepStart
 from .explicit import euler_update, rk4, semi_implicit_euler
 from .implicit import implicit_midpoint
-from .jacobians import analytical, check_jacobian
+from .jacobians import analytical
 from .loop import simulate_fixed_step
 from .methods import FIXED_STEP
 from .result import SolverStats, finish
@@ -81,8 +81,7 @@ class FixedStepIntegrator:
         self.sym_held = np.zeros(n)
         self.stops = JointStops.of(self.eq) if position_limits else None
         self.servo_torque = np.zeros(n)           # the servo torque of the last step
-        self.analytical = (check_jacobian(jacobian) == "analytical"
-                           and method == "implicit_midpoint" and analytical(robot, jacobian))
+        self.analytical = analytical(jacobian) and method == "implicit_midpoint"
 
     impacts = property(lambda self: 0 if self.stops is None else self.stops.impacts,
                        doc="steps in which a joint reached a stop")

@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg import lu_factor, lu_solve
 
-from .jacobians import accel_jacobian
+from .jacobians import accel_jacobian, perturbed
 from .methods import SimulationError, advice
 
 JACOBIAN_AGE = 20            # steps a Jacobian is reused at most
@@ -51,25 +51,22 @@ def implicit_midpoint(integ, s, inputs, energy):
         a, d = eq.accel(Q, V, tau, w, stuck, sign, coulomb=coulomb)
         return a, d, tau, w
 
+    def newton_lu(Aq, Av):
+        """Newton on G(dq, dv) = [dq - dt (qd + dv/2); dv - dt a(q + dq/2, qd + dv/2)] = 0
+        with the position rows eliminated: (1 - dt/2 A_v - dt^2/4 A_q) s_v = ..., its LU."""
+        return lu_factor(np.eye(n) - dt / 2 * Av - dt * dt / 4 * Aq, check_finite=False)
+
     def jacobian_differences(x, v):
         """qdd at (x, v) and its derivatives by forward differences: one batched call
         over the state and its 2n perturbations."""
-        hq = 1e-7 * np.maximum(1.0, np.abs(x))
-        hv = 1e-7 * np.maximum(1.0, np.abs(v))
-        Q = np.repeat(x[None], 2 * n + 1, axis=0)
-        V = np.repeat(v[None], 2 * n + 1, axis=0)
-        Q[1 + np.arange(n), np.arange(n)] += hq
-        V[1 + n + np.arange(n), np.arange(n)] += hv
-        A, D, tau, w = accel(Q, V)
+        X, h = perturbed(np.concatenate([x, v]))
+        A, D, tau, w = accel(X[:, :n], X[:, n:])
         integ.jacobians += 1
         integ.stages += 1
         a0 = A[0]
-        Aq = ((A[1:n + 1] - a0) / hq[:, None]).T
-        Av = ((A[n + 1:] - a0) / hv[:, None]).T
-        # Newton on G(dq, dv) = [dq - dt (qd + dv/2); dv - dt a(q + dq/2, qd + dv/2)] = 0
-        # with the position rows eliminated: (1 - dt/2 A_v - dt^2/4 A_q) s_v = ...
-        lu = lu_factor(np.eye(n) - dt / 2 * Av - dt * dt / 4 * Aq, check_finite=False)
-        return a0, Aq, lu, (x, v, tau[0], D[0], None if w is None else w[0])
+        Aq = ((A[1:n + 1] - a0) / h[:n, None]).T
+        Av = ((A[n + 1:] - a0) / h[n:, None]).T
+        return a0, Aq, newton_lu(Aq, Av), (x, v, tau[0], D[0], None if w is None else w[0])
 
     def jacobian_analytical(x, v):
         """qdd at (x, v) and its analytical derivatives (``jacobians.accel_jacobian``):
@@ -79,8 +76,7 @@ def implicit_midpoint(integ, s, inputs, energy):
         Aq, Av, _, _ = accel_jacobian(eq, inputs, tm, x, v, tau + d, w, -eq.beta)
         integ.jacobians += 1
         integ.stages += 1
-        lu = lu_factor(np.eye(n) - dt / 2 * Av - dt * dt / 4 * Aq, check_finite=False)
-        return a, Aq, lu, (x, v, tau, d, w)
+        return a, Aq, newton_lu(Aq, Av), (x, v, tau, d, w)
 
     # analytical, unless joints are held (then the differences of the held system)
     jacobian = (jacobian_analytical if integ.analytical and (stuck is None or not stuck.any())

@@ -28,16 +28,18 @@ def check_jacobian(jacobian):
     return jacobian
 
 
-def analytical(robot, jacobian):
-    """True when the analytical route is asked for and the robot has it."""
-    if check_jacobian(jacobian) != "analytical":
-        return False
-    try:
-        n = robot.dof
-        robot.forward_dynamics_derivatives(np.zeros(n), np.zeros(n), np.zeros(n))
-    except NotImplementedError:
-        return False
-    return True
+def analytical(jacobian):
+    """True when the analytical route is asked for (every Robot has the derivatives)."""
+    return check_jacobian(jacobian) == "analytical"
+
+
+def perturbed(x):
+    """``x`` (m,) and its m forward-difference perturbations, as rows: (X (m + 1, m), h)
+    with X[0] = x, X[1 + j] = x + h_j e_j, h = H_REL max(1, |x|)."""
+    h = H_REL * np.maximum(1.0, np.abs(x))
+    X = np.repeat(x[None], x.size + 1, axis=0)
+    X[1 + np.arange(x.size), np.arange(x.size)] += h
+    return X, h
 
 
 def input_derivatives(inputs, t, q, qd):

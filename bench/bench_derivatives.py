@@ -28,7 +28,7 @@ from _report import stamp, write_section                     # noqa: E402
 
 import pinocchio as pin                                      # noqa: E402
 import serial_dynamics as sd                                 # noqa: E402
-import serial_dynamics.derivatives                           # noqa: E402,F401  (PARALLEL_MIN)
+from serial_dynamics.robot import derivatives as derivatives_module  # noqa: E402  (PARALLEL_MIN)
 from serial_dynamics.robots import HERE as ROBOTS_DIR        # noqa: E402
 
 N_BATCH = 10_000
@@ -108,8 +108,8 @@ def measure(name, robot, path, rounds):
         a, b = pair(ours, peer, number, rounds)
         rows.append((name, label, a / per, b / per, peer_name, target, err))
     # for information: the batches on one thread (no split over the cores)
-    default = sd.derivatives.PARALLEL_MIN
-    sd.derivatives.PARALLEL_MIN = 10 ** 12
+    default = derivatives_module.PARALLEL_MIN
+    derivatives_module.PARALLEL_MIN = 10 ** 12
     try:
         for label, ours, peer, peer_name, err in [
                 ("d tau/d (q, qd), one thread", lambda: robot.inverse_dynamics_derivatives(Q, QD, QDD),
@@ -120,7 +120,7 @@ def measure(name, robot, path, rounds):
             rows.append((name, f"{label}, {N_BATCH:,} states (per state)", a / N_BATCH,
                          b / N_BATCH, peer_name, None, err))
     finally:
-        sd.derivatives.PARALLEL_MIN = default
+        derivatives_module.PARALLEL_MIN = default
     return rows
 
 

@@ -27,7 +27,7 @@ sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.dirname(HERE))
 
 import serial_dynamics as sd                                   # noqa: E402
-from serial_dynamics import urdf as urdf_module                # noqa: E402
+from serial_dynamics.urdf import loader as urdf_module                # noqa: E402
 from serial_dynamics.model import Model                        # noqa: E402
 from serial_dynamics.robots.synthetic import chain_urdf        # noqa: E402
 from _report import REPORT, stamp, write_section               # noqa: E402

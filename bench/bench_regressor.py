@@ -35,7 +35,7 @@ import pinocchio as pin                                             # noqa: E402
 
 import serial_dynamics as sd                                        # noqa: E402
 from serial_dynamics.core import K                                  # noqa: E402
-from serial_dynamics.regressor import _info                         # noqa: E402
+from serial_dynamics.robot.regressor import _info                         # noqa: E402
 from _report import stamp, write_section                           # noqa: E402
 from bench_planar import interleaved                                # noqa: E402
 from bench_speed import erd_path                                    # noqa: E402

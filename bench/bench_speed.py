@@ -189,7 +189,7 @@ def batch_calls(name, robot, pm, rounds):
 def cores(robot, rounds):
     """Per-state time of the batch methods, N_BATCH states: one thread against the
     default (the batch split over the cores: ``robot.PARALLEL_MIN``), interleaved."""
-    from serial_dynamics import robot as robot_module
+    from serial_dynamics.robot import facade as robot_module
     rng = np.random.default_rng(2)
     Q, QD = robot.random_state(rng, batch=N_BATCH, speed=2.0)
     QDD = rng.normal(size=Q.shape)
@@ -500,7 +500,7 @@ def main():
     extra, rtb_note = rtb_rows(robots["UR5"], rounds)
     rows += extra
     print("simulation, peers done", flush=True)
-    from serial_dynamics import robot as robot_module
+    from serial_dynamics.robot import facade as robot_module
     core_rows = cores(robots["Panda"], rounds)
     print("cores done", flush=True)
     first = first_call(cold=not args.quick, earlier_root=root)
@@ -541,7 +541,7 @@ def main():
               "(both integrate the joint damping implicitly: MuJoCo's Euler does, and so does "
               "`sim.loop.simulate_fixed_step` by default). roboticstoolbox-python: " + rtb_note + ".", ""]
     lines += [f"**Batches over the cores** (Panda, {N_BATCH:,} states, per state; a batch of at least "
-              f"`serial_dynamics.robot.PARALLEL_MIN` = {robot_module.PARALLEL_MIN} states is split into "
+              f"`serial_dynamics.robot.facade.PARALLEL_MIN` = {robot_module.PARALLEL_MIN} states is split into "
               f"one chunk per core, {os.cpu_count()} here; the results are bitwise those of one thread, "
               "checked before timing):", "",
               "| method | one thread | split over the cores | speed-up |", "|---|---:|---:|---:|"]

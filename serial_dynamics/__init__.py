@@ -6,15 +6,12 @@
 
 The core library never imports rclpy; the ROS 2 nodes live in ``serial_dynamics.ros``.
 """
-from .base_motion import BaseMotion
-from .dissipation import Dissipation
-from .errors import ModelError, RobotDescriptionError
-from .model import Model
-from .robot import Robot
-from . import mimic, planar_robot  # noqa: F401  (register MimicRobot and PlanarRobot with Robot)
+from .model import Dissipation, Model, ModelError, RobotDescriptionError
+from .model.errors import HeldJointsWarning, SimulationError, URDFError
+from .robot import BaseMotion, Robot
 from .robots import builtin_path, builtin_robot, default_robot
-from .sim.driver import SimulationError, simulate   # sd.simulate is the function
-from .urdf import HeldJointsWarning, URDFError, load_model
+from .sim.driver import simulate   # sd.simulate is the function
+from .urdf import load_model
 
 __all__ = ["load_urdf", "Robot", "Model", "Dissipation", "RobotDescriptionError", "URDFError",
            "ModelError", "HeldJointsWarning", "default_robot", "builtin_robot", "builtin_path", "simulate",

@@ -23,7 +23,7 @@ from test_mimic import mimic_chain
 from test_pinocchio import CHAINS, URDFS, _branch_ends, _load, _tree, reference
 
 import serial_dynamics as sd
-from serial_dynamics.dissipation import Dissipation
+from serial_dynamics.model import Dissipation
 from serial_dynamics.robots.synthetic import chain_urdf
 
 RTOL = 1e-9

@@ -143,7 +143,7 @@ def test_round_off_sized_inertias_are_point_masses(I, off):
 def test_the_round_off_floor_scales_with_mass_and_size():
     """The floor is 1e-12 m L^2 (L: the link's size), not a fixed number: the same negative
     moment is round-off on a 1 kg link of 0.1 m and refused on a 1 g link of 1 mm."""
-    check = sd.inertia.check_inertia
+    check = sd.model.inertia.check_inertia
     I = np.diag([-1e-16, 1e-16, 1e-16])
     check("big", 1.0, I, length=0.1)                       # floor 1e-14: round-off
     with pytest.raises(sd.ModelError, match="'small'.*positive semi-definite"):
@@ -660,7 +660,7 @@ def test_a_long_chain_loads_without_the_dense_check():
     O(n) now (composite and articulated inertias in one pass), and the dense CRBA is not
     called for a chain without mimic joints. (Load times: bench/bench_load.py; no timing
     assertion here.)"""
-    from serial_dynamics import model as model_module
+    from serial_dynamics.model import model as model_module
     from serial_dynamics.robots.synthetic import chain_urdf
     calls = []
     dense = model_module._mass_matrix

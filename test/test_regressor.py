@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import serial_dynamics as sd
-from serial_dynamics import regressor as reg
+from serial_dynamics.robot import regressor as reg
 from serial_dynamics.algorithms import regressor as ref_reg
 
 TOL = 1e-12

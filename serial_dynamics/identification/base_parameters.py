@@ -39,7 +39,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import qr, solve_triangular
 
-from ..regressor import parameter_names
+from ..robot.regressor import parameter_names
 
 TOL = 1e-8          # rank tolerance relative to |R_00|, and a column's own threshold
 FLOOR = 1e-10       # a column this small against the largest is round-off (zero)

@@ -18,9 +18,9 @@ import warnings
 
 import numpy as np
 
-from ..inertia import check_inertia
-from ..errors import ModelError
-from ..urdf import _link_inertia, _parse
+from ..model.inertia import check_inertia
+from ..model.errors import ModelError
+from ..urdf.loader import _link_inertia, _parse
 
 # column order of one body's standard parameters (regressor.py)
 M, MX, MY, MZ, IXX, IXY, IYY, IXZ, IYZ, IZZ = range(10)

@@ -21,8 +21,8 @@ import numpy as np
 
 # The lower-level modules, not the package: ``serial_dynamics/__init__`` imports this
 # module, so importing ``load_urdf`` from the package here would be an import cycle.
-from ..robot import Robot
-from ..urdf import load_model
+from ..robot.facade import Robot
+from ..urdf.loader import load_model
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 BUILTIN = ("ur5e", "planar_3r", "spatial_3r")

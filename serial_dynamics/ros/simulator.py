@@ -32,7 +32,7 @@ from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool, Trigger
 
 from serial_dynamics.sim.fixed_step import SERVO_METHODS, FixedStepIntegrator
-from serial_dynamics.sim.methods import SimulationError
+from serial_dynamics.model.errors import SimulationError
 from serial_dynamics.sim.servo import servo
 
 from . import common, parameters, simulator_inputs

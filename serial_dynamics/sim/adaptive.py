@@ -14,7 +14,8 @@ import numpy as np
 
 from .equations import EnergyGuard, Equations
 from .jacobians import accel_jacobian, analytical, perturbed
-from .methods import IMPLICIT, SimulationError, advice
+from ..model.errors import SimulationError
+from .methods import IMPLICIT, advice
 from .result import SolverStats, finish
 
 

@@ -29,13 +29,13 @@ import time
 
 import numpy as np
 
-from ..base_motion import BaseMotion
+from ..robot.base_motion import BaseMotion
 from .adaptive import run_adaptive
 from .equations import Inputs
 from .fixed_step import run_compiled, run_fixed
 from .jacobians import check_jacobian
-from .methods import (DEFAULT_ATOL, DEFAULT_DT, DEFAULT_RTOL, FIXED_STEP, METHODS,
-                      SimulationError)
+from ..model.errors import SimulationError
+from .methods import DEFAULT_ATOL, DEFAULT_DT, DEFAULT_RTOL, FIXED_STEP, METHODS
 from .progress import Progress
 from .result import SimulationResult
 

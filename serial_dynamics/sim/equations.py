@@ -24,8 +24,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..dissipation import Dissipation
-from .methods import SimulationError, advice
+from ..model.dissipation import Dissipation
+from ..model.errors import SimulationError
+from .methods import advice
 
 REST_SPEED = 1e-9            # rad/s (m/s): a Coulomb joint slower than this is at rest
 SPEED_BOUND_FACTOR = 1e3    # divergence: |qd| > 1000 x velocity limit (1e5 where none)

@@ -19,7 +19,8 @@ import numpy as np
 from scipy.linalg import lu_factor, lu_solve
 
 from .jacobians import accel_jacobian, perturbed
-from .methods import SimulationError, advice
+from ..model.errors import SimulationError
+from .methods import advice
 
 JACOBIAN_AGE = 20            # steps a Jacobian is reused at most
 NEWTON_ACCEPT = 1e-7         # largest relative correction accepted at the last Newton

@@ -2,22 +2,13 @@
 diverging run raises (``SimulationError``, with advice that depends on the method)."""
 from __future__ import annotations
 
+from ..model.errors import SimulationError  # noqa: F401  (documented here; defined with the others)
+
 ADAPTIVE = ("RK45", "DOP853", "Radau", "BDF", "LSODA")
 FIXED_STEP = ("semi_implicit_euler", "symplectic_euler", "rk4", "implicit_midpoint")
 METHODS = ADAPTIVE + FIXED_STEP
 IMPLICIT = ("Radau", "BDF", "LSODA", "implicit_midpoint")
 DEFAULT_RTOL, DEFAULT_ATOL, DEFAULT_DT = 1e-6, 1e-9, 1e-3
-
-
-class SimulationError(RuntimeError):
-    """The simulation diverged (NaN/Inf, a state out of bounds, energy growing).
-
-    Attributes: ``t`` (s, time of detection), ``joint`` (name or None), ``reason``.
-    """
-
-    def __init__(self, message, t=None, joint=None, reason=None):
-        super().__init__(message)
-        self.t, self.joint, self.reason = t, joint, reason
 
 
 def advice(method, dt=None):

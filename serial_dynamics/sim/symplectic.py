@@ -26,7 +26,8 @@ import numpy as np
 from ..algorithms.energy import kinetic_energy_gradient as _gradient_reference
 from ..core import flags as F
 from .equations import External, split
-from .methods import SimulationError, advice
+from ..model.errors import SimulationError
+from .methods import advice
 from .servo import symplectic_terms, symplectic_torque
 
 TOL = 1e-14          # relative correction at which the fixed-point iteration stops

@@ -31,18 +31,18 @@ import numpy as np
 
 from . import derivatives as _derivatives
 from . import regressor as _regressor
-from .algorithms import aba, crba, energy, forward, kinematics, noc, rnea
-from .algorithms._batch import as_batch
-from .algorithms.planar import planar_pack
+from ..algorithms import aba, crba, energy, forward, kinematics, noc, rnea
+from ..algorithms._batch import as_batch
+from ..algorithms.planar import planar_pack
 from .base_motion import check_base_motion
 from .batches import kernel_rows as _rows
 from .batches import run_split
 from .batches import single_external as _external
-from .core import ENTRY_POINTS, K, layout
-from .core import flags as F
-from .dissipation import Dissipation
-from .model import Model
-from .payload import Payload, attach
+from ..core import ENTRY_POINTS, K, layout
+from ..core import flags as F
+from ..model.dissipation import Dissipation
+from ..model.model import Model
+from ..model.payload import Payload, attach
 
 _empty = np.empty                          # one global lookup on the fast paths
 _NO_WRENCH = np.zeros((1, 6))              # stands in for w in batch calls without one

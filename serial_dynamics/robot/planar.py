@@ -12,9 +12,9 @@ path to round-off (test/test_planar.py); bench/bench_planar.py measures the gain
 """
 from __future__ import annotations
 
-from .algorithms.planar import planar_pack
-from .core import K
-from .robot import _QD, _QD_QDD, _QD_QDD_W, _QD_W, Robot, _empty
+from ..algorithms.planar import planar_pack
+from ..core import K
+from .facade import _QD, _QD_QDD, _QD_QDD_W, _QD_W, Robot, _empty
 
 
 class PlanarRobot(Robot):

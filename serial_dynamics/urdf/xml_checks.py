@@ -3,14 +3,10 @@ that yourdfpy reads present and of the right kind, or a ``URDFError`` naming the
 joint, the element and attribute, and what is expected."""
 from __future__ import annotations
 
-from .errors import RobotDescriptionError
+from ..model.errors import URDFError
 
 MOVABLE = ("revolute", "continuous", "prismatic")
 JOINT_TYPES = MOVABLE + ("fixed", "floating", "planar")
-
-
-class URDFError(RobotDescriptionError):
-    """The URDF cannot be read or does not describe a usable serial chain."""
 
 
 # What each attribute yourdfpy reads as numbers must hold: (count, what it means).

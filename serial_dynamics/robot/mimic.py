@@ -20,9 +20,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .algorithms._batch import as_batch
-from .dissipation import Dissipation
-from .robot import FD_METHODS, Robot, _into
+from ..algorithms._batch import as_batch
+from ..model.dissipation import Dissipation
+from .facade import FD_METHODS, Robot, _into
 
 
 class _Independent:

@@ -21,12 +21,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from .algorithms import derivatives as reference
-from .algorithms._batch import as_batch
+from ..algorithms import derivatives as reference
+from ..algorithms._batch import as_batch
 from .base_motion import check_base_motion
 from .batches import kernel_rows, run_split, single_external
-from .core import K, layout
-from .core import flags as F
+from ..core import K, layout
+from ..core import flags as F
 
 _W0 = np.zeros(layout.W_WRENCH)      # w of a single call without wrench or base motion (not read)
 _empty = np.empty

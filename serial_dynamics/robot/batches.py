@@ -13,7 +13,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from .base_motion import BaseMotion
-from .core import flags as F
+from ..core import flags as F
 
 WORKERS = min(os.cpu_count() or 1, 8)      # threads of a split batch (os.cpu_count() costs ~2 us)
 PAGE = 512                                 # float64 per 4 KiB page

@@ -4,8 +4,8 @@ Parsed with yourdfpy; meshes are never loaded. The model is the chain of joints 
 ``base_link`` to ``tip_link``. Fixed joints on the chain fold into the next joint's
 placement; links hanging off the chain by fixed joints are lumped into the inertia of
 the body they are rigidly attached to; movable joints off the chain are held at zero
-and lumped too, with one warning naming them. The XML is checked first (``urdf_xml.py``);
-the tree walks that find cycles and the default tip are in ``urdf_tree.py``.
+and lumped too, with one warning naming them. The XML is checked first (``xml_checks.py``);
+the tree walks that find cycles and the default tip are in ``tree.py``.
 """
 from __future__ import annotations
 
@@ -15,18 +15,15 @@ import warnings
 
 import numpy as np
 
-from .inertia import (MAX_INERTIA, MAX_LENGTH, MAX_MASS, check_inertia, check_magnitude,
+from ..model.inertia import (MAX_INERTIA, MAX_LENGTH, MAX_MASS, check_inertia, check_magnitude,
                       combine_inertias)
-from .model import Model
+from ..model.errors import HeldJointsWarning, URDFError
+from ..model.model import Model
 from .transmissions import reflected_inertias
-from .urdf_tree import check_tree, default_tip
-from .urdf_xml import MOVABLE, URDFError, check_elements, check_well_formed
+from .tree import check_tree, default_tip
+from .xml_checks import MOVABLE, check_elements, check_well_formed
 
 __all__ = ["load_model", "URDFError", "HeldJointsWarning"]
-
-
-class HeldJointsWarning(UserWarning):
-    """Movable joints off the chain were held at zero and lumped into the chain."""
 
 
 def _parse(source):

@@ -50,12 +50,12 @@ from types import MappingProxyType
 
 import numpy as np
 
-from .algorithms._batch import motion_transform, rigid_body_inertia
-from .algorithms.crba import mass_matrix as _mass_matrix
-from .algorithms.kinematics import joint_transforms
+from ..algorithms._batch import motion_transform, rigid_body_inertia
+from ..algorithms.crba import mass_matrix as _mass_matrix
+from ..algorithms.kinematics import joint_transforms
 from .errors import ModelError
 from .inertia import MAX_INERTIA, MAX_LENGTH, MAX_MASS, check_inertia, check_magnitude
-from .joints import PRISMATIC, REVOLUTE  # noqa: F401  (re-exported)
+from ..joints import PRISMATIC, REVOLUTE  # noqa: F401  (re-exported)
 
 
 def _frozen(a, shape=None, dtype=float):

@@ -42,11 +42,11 @@ import weakref
 
 import numpy as np
 
-from .algorithms import regressor as reference
-from .algorithms._batch import as_batch
+from ..algorithms import regressor as reference
+from ..algorithms._batch import as_batch
 from .batches import kernel_rows, run_split
-from .core import K
-from .core.regressor import ARMATURE_COLUMNS, FRICTION_COLUMNS, regressor_layout
+from ..core import K
+from ..core.regressor import ARMATURE_COLUMNS, FRICTION_COLUMNS, regressor_layout
 
 PARAMETERS = reference.PARAMETERS
 FRICTION = ("fv", "fc", "fo")

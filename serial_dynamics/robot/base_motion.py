@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .core.layout import W_ALL, W_WRENCH
+from ..core.layout import W_ALL, W_WRENCH
 
 
 @dataclass(frozen=True, eq=False)

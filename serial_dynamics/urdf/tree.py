@@ -2,7 +2,7 @@
 (the end of the single chain of movable joints, or a suggestion naming the longest one)."""
 from __future__ import annotations
 
-from .urdf_xml import URDFError
+from ..model.errors import URDFError
 
 
 def check_tree(root, links, children, parent_joint):

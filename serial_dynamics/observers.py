@@ -13,7 +13,7 @@ Hirzinger, IROS 2006):
 so that rdot = K (tau_ext - r): each r_i is tau_ext_i through a first-order lag of time
 constant 1/K_i, with no acceleration measured and no matrix inverted. ``C^T qd`` is
 dT/dq at fixed qd (T = 1/2 qd^T M qd; true of any C with Mdot = C + C^T), computed by the
-compiled ``sim.symplectic.kinetic_energy_gradient``. ``delta`` = ``robot.dissipation``'s
+compiled ``Robot.kinetic_energy_gradient``. ``delta`` = ``robot.dissipation``'s
 torques, only with ``dissipation=True`` (else the friction shows up in r as an external
 torque).
 
@@ -43,7 +43,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from .sim.symplectic import kinetic_energy_gradient
 
 RCOND = 1e-10        # singular values of J below RCOND * the largest are taken as zero
 
@@ -75,7 +74,7 @@ class MomentumObserver:
     def _known(self, q, qd, tau):
         """tau + C^T qd - g [+ delta] at one sample: pdot - tau_ext."""
         robot = self.robot
-        f = tau + kinetic_energy_gradient(robot, q, qd) - robot.gravity_torques(q)
+        f = tau + robot.kinetic_energy_gradient(q, qd) - robot.gravity_torques(q)
         return f + robot.dissipation_torques(qd) if self.dissipation else f
 
     def update(self, t, q, qd, tau):

@@ -46,6 +46,7 @@ prismatic), as in Featherstone's *Rigid Body Dynamics Algorithms* (2008), Ch. 4.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from types import MappingProxyType
 
 import numpy as np
@@ -53,6 +54,7 @@ import numpy as np
 from ..algorithms._batch import motion_transform, rigid_body_inertia
 from ..algorithms.crba import mass_matrix as _mass_matrix
 from ..algorithms.kinematics import joint_transforms
+from ..algorithms.planar import planar_pack
 from .errors import ModelError
 from .inertia import MAX_INERTIA, MAX_LENGTH, MAX_MASS, check_inertia, check_magnitude
 from ..joints import PRISMATIC, REVOLUTE  # noqa: F401  (re-exported)
@@ -131,6 +133,17 @@ class Model:
             lead = self.mimic_leader[i]
             G[i, column[i] if lead < 0 else column[lead]] = 1.0 if lead < 0 else self.mimic_multiplier[i]
         return G, np.where(self.mimic_leader < 0, 0.0, self.mimic_offset)
+
+    @property
+    def has_mimic_joints(self) -> bool:
+        """Some joint of the chain follows another (``<mimic>``)."""
+        return bool(np.any(self.mimic_leader >= 0))
+
+    @cached_property
+    def planar_layout(self):
+        """The planar layout ``Q`` of a chain that moves in one plane (Angeles Sec. 7.6.1;
+        ``algorithms/planar.py``), or None. Derived on first use, once per model."""
+        return planar_pack(self)
 
     @staticmethod
     def build(*, name, joint_names, joint_types, link_names, base_link, tip_link,

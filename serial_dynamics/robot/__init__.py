@@ -1,16 +1,17 @@
 """The facade users call: ``Robot`` and its kinds, each overriding what it changes.
 
-    facade.py       Robot: inputs checked, calls sent to the compiled core or the reference
-    mimic.py        MimicRobot: the reduced system of a chain with mimic joints
-    planar.py       PlanarRobot: a planar chain on the planar fast path
+    facade.py       Robot: inputs checked, calls sent to the compiled core or the reference;
+                    its kinds (MimicRobot, PlanarRobot) and kind_of, the one place that
+                    chooses the kind a model needs
+    mimic.py        Mimic: what MimicRobot overrides (the reduced system of mimic joints)
+    planar.py       Planar: what PlanarRobot overrides (the planar fast path)
+    common.py       what they share: kernel flags, forward-dynamics methods, out=
     base_motion.py  BaseMotion: a base with known motion (a per-call input)
     batches.py      what every batch call shares (kernel rows, the split over the cores)
     regressor.py    Robot.regressor / inertial_parameters: batching, kernels, column names
     derivatives.py  Robot's dynamics derivatives: batching and kernels
 """
 from .base_motion import BaseMotion
-from .facade import Robot
-from .mimic import MimicRobot
-from .planar import PlanarRobot
+from .facade import MimicRobot, PlanarRobot, Robot, kind_of
 
-__all__ = ["Robot", "MimicRobot", "PlanarRobot", "BaseMotion"]
+__all__ = ["Robot", "MimicRobot", "PlanarRobot", "BaseMotion", "kind_of"]

@@ -38,29 +38,23 @@ PARALLEL_MIN = 256
 
 def inverse_dynamics_derivatives(robot, q, qd, qdd, wrench=None, base_motion=None):
     """(d tau/d q, d tau/d qd), each (n, n) for one state or (N, n, n) for a batch."""
-    if robot._compiled and base_motion is None and not robot._mimic:   # fast path
+    if robot._compiled and base_motion is None:           # fast path
         n = robot._n
         o = _empty((2, n, n))
         if (K.rnea_derivatives(robot._P, q, qd, qdd, _W0, 0, o) if wrench is None else
                 K.rnea_derivatives(robot._P, q, qd, qdd, wrench, _WRENCH, o)) == 0:
             return o[0], o[1]
-    if robot._mimic:                                      # mimic joints: G^T (.) G
-        single, _, (qa, qda, qdda) = robot._all(("q", q), ("qd", qd), ("qdd", qdd))
-        dq, dqd = _id_derivatives(robot, qa, qda, qdda, wrench, base_motion, True)
-        return robot._reduce2(dq), robot._reduce2(dqd)
-    return _id_derivatives(robot, q, qd, qdd, wrench, base_motion, base_motion is not None)
+    return chain_derivatives(robot, q, qd, qdd, wrench, base_motion, base_motion is not None)
 
 
 def forward_dynamics_derivatives(robot, q, qd, tau, wrench=None, base_motion=None):
     """(d qdd/d q, d qdd/d qd, d qdd/d tau), each (n, n) or (N, n, n)."""
-    if robot._compiled and base_motion is None and not robot._mimic:   # fast path
+    if robot._compiled and base_motion is None:           # fast path
         n = robot._n
         o = _empty((3, n, n))
         if (K.fd_derivatives(robot._P, q, qd, tau, _W0, 0, o) if wrench is None else
                 K.fd_derivatives(robot._P, q, qd, tau, wrench, _WRENCH, o)) == 0:
             return o[0], o[1], o[2]
-    if robot._mimic:                                      # mimic joints: the reduced system
-        return _mimic_fd_derivatives(robot, q, qd, tau, wrench, base_motion)
     if robot._compiled and base_motion is not None:      # one state with a base motion
         o = _empty((3, robot._n, robot._n))
         w, flags = _single_w(wrench, base_motion)
@@ -79,7 +73,7 @@ def forward_dynamics_derivatives(robot, q, qd, tau, wrench=None, base_motion=Non
     return tuple(x[0] for x in out) if single else out
 
 
-def _id_derivatives(robot, q, qd, qdd, wrench, base_motion, single_first):
+def chain_derivatives(robot, q, qd, qdd, wrench, base_motion, single_first):
     """The chain's own derivatives (every joint of the model): compiled (first the
     single-state entry point, with ``single_first``) or reference."""
     if robot._compiled and single_first:
@@ -98,18 +92,6 @@ def _id_derivatives(robot, q, qd, qdd, wrench, base_motion, single_first):
     if _run(robot, "rnea_derivatives_batch", N, (q, qd, qdd, w), flags, out) != 0:
         raise ValueError("wrench has a NaN or Inf entry; give finite numbers")
     return (out[0][0], out[1][0]) if single else out
-
-
-def _mimic_fd_derivatives(robot, q, qd, tau, wrench, base_motion):
-    """d qdd/d x = -(G^T M G)^-1 G^T (d tau_all/d x_all) G at qdd = the reduced forward
-    dynamics, and (G^T M G)^-1 (implicit function theorem on the reduced system)."""
-    single, (q, qd, tau), _ = robot._all(("q", q), ("qd", qd), ("tau", tau))
-    qdd = robot.forward_dynamics(q, qd, tau, wrench, base_motion=base_motion)
-    dq, dqd = inverse_dynamics_derivatives(robot, q, qd, qdd, wrench, base_motion)
-    M = robot.mass_matrix(q)
-    Minv = np.linalg.inv(M)
-    Minv = 0.5 * (Minv + np.swapaxes(Minv, -1, -2))
-    return -Minv @ dq, -Minv @ dqd, Minv
 
 
 def _single_w(wrench, base_motion):

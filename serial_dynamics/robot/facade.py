@@ -33,7 +33,6 @@ from . import derivatives as _derivatives
 from . import regressor as _regressor
 from ..algorithms import aba, crba, energy, forward, kinematics, noc, rnea
 from ..algorithms._batch import as_batch
-from ..algorithms.planar import planar_pack
 from .base_motion import check_base_motion
 from .batches import kernel_rows as _rows
 from .batches import run_split
@@ -43,14 +42,16 @@ from ..core import flags as F
 from ..model.dissipation import Dissipation
 from ..model.model import Model
 from ..model.payload import Payload, attach
+from .common import FD_METHODS, QD, QD_QDD, QD_QDD_W, QD_W
+from .common import into as _into
+from .mimic import Mimic
+from .planar import Planar
 
 _empty = np.empty                          # one global lookup on the fast paths
 _NO_WRENCH = np.zeros((1, 6))              # stands in for w in batch calls without one
 _W0 = np.zeros(6)                          # and in single forward-dynamics calls (not read)
-_QD_QDD, _QD = F.QD | F.QDD, F.QD         # flags, as module constants (no attribute lookup)
-_QD_QDD_W, _QD_W = _QD_QDD | F.WRENCH, _QD | F.WRENCH
+_QD_QDD, _QD, _QD_QDD_W, _QD_W = QD_QDD, QD, QD_QDD_W, QD_W     # module globals: one lookup
 BACKENDS = ("numba", "numpy")
-FD_METHODS = ("auto", "cholesky", "aba", "qr")
 _FD_FLAGS = {"cholesky": F.QD, "aba": F.QD | F.ABA}
 # states; splitting a batch over 2 cores paid from about 2048 states for inverse dynamics,
 # 1500 for the mass matrix and 800 for forward dynamics (UR5e, measured 2026-11-23)
@@ -62,22 +63,12 @@ PLANAR_KERNELS = tuple(k for k in ENTRY_POINTS if k.startswith("planar"))    # a
 class Robot:
     """Dynamics of one serial chain. Build it with ``serial_dynamics.load_urdf``."""
 
-    # Robot(model) builds the facade the chain needs: mimic.MimicRobot for a chain with mimic
-    # joints (the reduced system), planar_robot.PlanarRobot for a planar chain (the planar
-    # fast path); each module registers its class here (they import this one).
-    _kinds = {}
     is_planar = False        # a planar chain on the planar fast path (PlanarRobot)
-    _mimic = False           # the reduced system of a chain with mimic joints (MimicRobot)
 
     def __new__(cls, model, *args, **kwargs):
-        Q = None
-        if cls is Robot and np.any(model.mimic_leader >= 0):
-            cls = Robot._kinds["mimic"]
-        elif cls is Robot and (Q := planar_pack(model)) is not None:
-            cls = Robot._kinds["planar"]
-        robot = super().__new__(cls)
-        robot._Q = Q             # the planar layout, found on the way (PlanarRobot uses it)
-        return robot
+        # Robot(model) builds the kind the model needs: kind_of(model), at the end of this
+        # module; a kind's own constructor (with_payload's type(self)(...)) builds that kind
+        return super().__new__(kind_of(model) if cls is Robot else cls)
 
     def __init__(self, model: Model, dissipation: Dissipation | None = None, backend=None,
                  _loaded=None, _payload=None, _P=None):
@@ -319,6 +310,22 @@ class Robot:
         """(d qdd/d q, d qdd/d qd, d qdd/d tau) = (-M^-1 d tau/d q, -M^-1 d tau/d qd, M^-1)."""
         return _derivatives.forward_dynamics_derivatives(self, q, qd, tau, wrench, base_motion)
 
+    def kinetic_energy_gradient(self, q, qd):
+        """dT/dq (n,) at fixed qd, T = 1/2 qd^T M(q) qd: C(q, qd)^T qd (one state)."""
+        if self._compiled:
+            out = _empty(self._n)
+            if K.kinetic_energy_gradient(self._P, np.asarray(q, float), np.asarray(qd, float),
+                                         out) == 0:
+                return out
+        return energy.kinetic_energy_gradient(self.model, q, qd)
+
+    @property
+    def compiled_chain(self):
+        """The packed model ``P`` that sim/'s compiled whole-step kernels (the semi-implicit
+        Euler loop, the symplectic Euler step) run on in this robot's coordinates, or None
+        where they cannot: the NumPy backend, the reduced system of mimic joints."""
+        return self._P
+
     def dissipation_torques(self, qd):
         """delta(qd) of the current dissipation model (oppose the motion)."""
         return self._dissipation.torque(qd)
@@ -381,17 +388,21 @@ def _parallel(kernel, P, N, arrays, extra, out):
     return run_split(kernel, P, N, arrays, extra, (out,), PARALLEL_MIN, layout.B)
 
 
-def _into(out, result):
-    """``result``, or ``result`` written into the caller's ``out`` (checked) and ``out``."""
-    if out is None:
-        return result
-    if not (isinstance(out, np.ndarray) and out.shape == result.shape
-            and out.dtype == np.float64 and out.flags.writeable):
-        got = (f"{out.dtype} array of shape {out.shape}" if isinstance(out, np.ndarray)
-               else type(out).__name__)
-        raise ValueError(f"out must be a writable float64 array of shape {result.shape} "
-                         f"(the result's); got a {got}"
-                         + ("" if not isinstance(out, np.ndarray) or out.flags.writeable
-                            else " that is read-only"))
-    out[...] = result
-    return out
+# ----------------------------------------------------------------- the kinds of robot
+# Each kind overrides what it changes (its module says how); nothing outside robot/ asks
+# which kind it holds.
+class MimicRobot(Mimic, Robot):
+    """A chain with mimic joints: the reduced system of its independent joints (mimic.py)."""
+
+
+class PlanarRobot(Planar, Robot):
+    """A chain that moves in one plane, on the planar fast path (planar.py)."""
+
+
+def kind_of(model):
+    """The facade class ``model`` needs: the first that fits, read top to bottom."""
+    if model.has_mimic_joints:           # coordinates are the independent joints; the
+        return MimicRobot                # reduction runs the full chain's general algorithms
+    if model.planar_layout is not None:  # every revolute axis parallel, prismatic ones in
+        return PlanarRobot               # the plane: planar 3-vectors
+    return Robot

@@ -8,10 +8,11 @@ work the reduced system is
 
     tau = G^T tau_all(q_all, qd_all, qdd_all)       M = G^T M_all G       C = G^T C_all G
 
-(Featherstone 2008, Sec. 3.2: a constraint q_all = G q). ``MimicRobot`` is the ``Robot``
-facade of that system: every method maps its inputs to all joints, calls the chain's
-algorithms (compiled or reference) on them, and maps the results back; forward dynamics
-solves (G^T M G) qdd = tau - G^T b. Its coordinates, names, limits and dissipation are the
+(Featherstone 2008, Sec. 3.2: a constraint q_all = G q). ``Mimic`` holds what
+``MimicRobot`` (``facade.py``: ``class MimicRobot(Mimic, Robot)``) overrides: every method
+maps its inputs to all joints, calls the chain's algorithms (compiled or reference,
+``super()``) on them, and maps the results back; forward dynamics solves
+(G^T M G) qdd = tau - G^T b. Its coordinates, names, limits and dissipation are the
 independent joints'; a mimic joint's viscous and Coulomb friction act on its leader as
 m^2 beta and |m| tau_c (exact: its friction torque, times m by virtual work).
 """
@@ -22,7 +23,9 @@ from numba import njit
 
 from ..algorithms._batch import as_batch
 from ..model.dissipation import Dissipation
-from .facade import FD_METHODS, Robot, _into
+from . import derivatives, regressor
+from .common import FD_METHODS
+from .common import into as _into
 
 
 class _Independent:
@@ -32,11 +35,10 @@ class _Independent:
         self.dof, self.joint_names = len(names), tuple(names)
 
 
-class MimicRobot(Robot):
-    """A ``Robot`` whose coordinates are the independent joints (see the module docstring).
-    ``sd.load_urdf`` and ``sd.Robot(model)`` return one for a model with mimic joints."""
-
-    _mimic = True
+class Mimic:
+    """What a chain with mimic joints overrides: its coordinates are the independent joints
+    (see the module docstring). ``sd.load_urdf`` and ``sd.Robot(model)`` return a
+    ``MimicRobot`` for a model with mimic joints."""
 
     def __init__(self, model, dissipation=None, backend=None, **kwargs):
         self._G, self._o = model.mimic_matrix
@@ -171,6 +173,40 @@ class MimicRobot(Robot):
     def potential_energy(self, q):
         return super().potential_energy(self._all(("q", q))[2][0])
 
+    def kinetic_energy_gradient(self, q, qd):
+        """dT_r/dq_r = G^T dT/dq(G q_r + o, G qd_r)."""
+        return self._reduce(super().kinetic_energy_gradient(self.all_joint_positions(q),
+                                                            self.all_joint_velocities(qd)))
+
+    compiled_chain = None    # sim/'s whole-step kernels know no mimic constraint
+
+    # ------------------------------------------------------------- identification, derivatives
+    def regressor(self, q, qd, qdd, friction=False, armature=None):
+        """G^T Y_all: every body's columns through the reduction (tau = G^T tau_all), then the
+        friction columns of the independent joints."""
+        friction = regressor.check_friction(friction)
+        arm = regressor.armature_on(self, armature)
+        _, (q, qd, qdd), (qa, qda, qdda) = self._all(("q", q), ("qd", qd), ("qdd", qdd))
+        Y = regressor.rigid_columns(self, qa, qda, qdda, arm)
+        Y = np.swapaxes(self._reduce(np.swapaxes(Y, -1, -2)), -1, -2)     # G^T Y_all
+        return np.concatenate([Y, regressor.friction_columns(qd)], axis=-1) if friction else Y
+
+    def inverse_dynamics_derivatives(self, q, qd, qdd, wrench=None, base_motion=None):
+        """G^T (d tau_all/d x_all) G, x = q, qd."""
+        _, _, (qa, qda, qdda) = self._all(("q", q), ("qd", qd), ("qdd", qdd))
+        dq, dqd = derivatives.chain_derivatives(self, qa, qda, qdda, wrench, base_motion, True)
+        return self._reduce2(dq), self._reduce2(dqd)
+
+    def forward_dynamics_derivatives(self, q, qd, tau, wrench=None, base_motion=None):
+        """d qdd/d x = -(G^T M G)^-1 G^T (d tau_all/d x_all) G at qdd = the reduced forward
+        dynamics, and (G^T M G)^-1 (implicit function theorem on the reduced system)."""
+        _, (q, qd, tau), _ = self._all(("q", q), ("qd", qd), ("tau", tau))
+        qdd = self.forward_dynamics(q, qd, tau, wrench, base_motion=base_motion)
+        dq, dqd = self.inverse_dynamics_derivatives(q, qd, qdd, wrench, base_motion)
+        Minv = np.linalg.inv(self.mass_matrix(q))
+        Minv = 0.5 * (Minv + np.swapaxes(Minv, -1, -2))
+        return -Minv @ dq, -Minv @ dqd, Minv
+
 
 @njit(cache=True)
 def _gather(src, m, o, x, out):
@@ -211,5 +247,3 @@ def _reduced_dissipation(model, G, names):
     return Dissipation(tuple(names), (G ** 2).T @ model.damping, np.abs(G).T @ model.friction,
                        zero, zero)
 
-
-Robot._kinds["mimic"] = MimicRobot      # Robot(model) of a model with mimic joints builds one

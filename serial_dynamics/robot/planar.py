@@ -1,9 +1,11 @@
-"""``PlanarRobot``: the facade of a planar chain, on the planar fast path.
+"""``Planar``: what ``PlanarRobot`` (``facade.py``) overrides: a planar chain on the planar
+fast path.
 
 A chain whose revolute axes are all parallel and whose prismatic axes are perpendicular
 to them moves in a plane; its joint torques need only planar twists (omega_z; v_x, v_y) and
 wrenches (n_z; f_x, f_y) (Angeles, Sec. 7.6.1): ``algorithms/planar.py`` (reference,
-detection ``planar_pack``) and ``core/planar.py`` (compiled). ``sd.Robot(model)`` returns a
+detection ``planar_pack``, kept as ``Model.planar_layout``) and ``core/planar.py`` (compiled).
+``sd.Robot(model)`` returns a
 ``PlanarRobot`` for such a chain; it answers inverse dynamics, bias and gravity torques and
 the mass matrix there (single states and batches, so that a state's result is bitwise the
 same alone or in a batch), and everything else -- forward dynamics, a moving base (which
@@ -12,21 +14,26 @@ path to round-off (test/test_planar.py); bench/bench_planar.py measures the gain
 """
 from __future__ import annotations
 
-from ..algorithms.planar import planar_pack
+import numpy as np
+
 from ..core import K
-from .facade import _QD, _QD_QDD, _QD_QDD_W, _QD_W, Robot, _empty
+from .common import QD as _QD
+from .common import QD_QDD as _QD_QDD
+from .common import QD_QDD_W as _QD_QDD_W
+from .common import QD_W as _QD_W
+
+_empty = np.empty
 
 
-class PlanarRobot(Robot):
-    """A ``Robot`` on the planar fast path (``is_planar``); see the module docstring."""
+class Planar:
+    """What a planar chain overrides (``is_planar``); see the module docstring."""
 
     is_planar = True
 
     def __init__(self, model, dissipation=None, backend=None, **kwargs):
         super().__init__(model, dissipation, backend, **kwargs)
         if self._compiled:          # the batch kernels of Robot's general path, planar
-            if self._Q is None:     # (Robot(model) found it; with_payload's new model: here)
-                self._Q = planar_pack(model)
+            self._Q = model.planar_layout
             self._rnea_batch = ("planar_rnea_batch", self._Q)
             self._crba_batch = ("planar_crba_batch", self._Q)
 
@@ -60,5 +67,3 @@ class PlanarRobot(Robot):
                 return o
         return super().mass_matrix(q, out)
 
-
-Robot._kinds["planar"] = PlanarRobot

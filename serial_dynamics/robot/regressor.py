@@ -57,17 +57,17 @@ _F8 = np.dtype(np.float64)
 
 
 def _info(robot):
-    """(the kernels' layout of robot's model or None, some armature > 0, mimic joints),
-    cached per Robot (its model and compiled layout never change)."""
+    """(the kernels' layout of robot's model or None, some armature > 0), cached per Robot
+    (its model and compiled layout never change)."""
     info = _INFO.get(robot)
     if info is None:
         m = robot.model
         L = None if robot._P is None else regressor_layout(robot._P, m.A)
-        info = _INFO.setdefault(robot, (L, bool(np.any(m.armature > 0)), robot._mimic))
+        info = _INFO.setdefault(robot, (L, bool(np.any(m.armature > 0))))
     return info
 
 
-def _armature_on(robot, armature):
+def armature_on(robot, armature):
     if armature is None:
         return _info(robot)[1]
     if armature is True or armature is False:
@@ -78,7 +78,7 @@ def _armature_on(robot, armature):
     return bool(armature)
 
 
-def _check_friction(friction):
+def check_friction(friction):
     if friction is True or friction is False:
         return friction
     if not isinstance(friction, (bool, np.bool_)):
@@ -90,7 +90,7 @@ def parameter_names(robot, friction=False, armature=None):
     """The p column names: m1, mx1, .., Izz1, m2, .., then Ia1.., then fv1.., fc1.., fo1..
     (1-based numbers of the chain's joints; friction: of ``robot``'s joints, the independent
     ones where the chain has mimic joints)."""
-    friction, arm = _check_friction(friction), _armature_on(robot, armature)
+    friction, arm = check_friction(friction), armature_on(robot, armature)
     n_all = robot.model.dof
     names = [f"{s}{i + 1}" for i in range(n_all) for s in PARAMETERS]
     names += [f"Ia{i + 1}" for i in range(n_all)] if arm else []
@@ -104,7 +104,7 @@ def inertial_parameters(robot, friction=False, armature=None):
     each body's [m, m c, I_O] in its link frame (from the model as loaded, payload included),
     the armature, and (``friction=True``) robot.dissipation's viscous and Coulomb
     coefficients and a zero offset."""
-    friction, arm = _check_friction(friction), _armature_on(robot, armature)
+    friction, arm = check_friction(friction), armature_on(robot, armature)
     m = robot.model
     phi = [reference.link_frame_parameters(m.mass, m.com, m.inertia).ravel()]
     phi += [np.array(m.armature, dtype=float)] if arm else []
@@ -117,9 +117,9 @@ def inertial_parameters(robot, friction=False, armature=None):
 
 def regressor(robot, q, qd, qdd, friction=False, armature=None):
     """Y (n, p) for one state, (N, n, p) for a batch; see the module docstring."""
-    L, arm, mimic = _INFO.get(robot) or _info(robot)
-    friction, arm = _check_friction(friction), arm if armature is None else _armature_on(robot, armature)
-    if L is not None and not mimic:
+    L, arm = _INFO.get(robot) or _info(robot)
+    friction, arm = check_friction(friction), arm if armature is None else armature_on(robot, armature)
+    if L is not None:
         n = robot._n
         p = 10 * n + (n if arm else 0) + (3 * n if friction else 0)
         flags = (ARMATURE_COLUMNS if arm else 0) | (FRICTION_COLUMNS if friction else 0)
@@ -132,15 +132,10 @@ def regressor(robot, q, qd, qdd, friction=False, armature=None):
             Y = _empty((n, p))
             if K.regressor(L, q, qd, qdd, flags, Y) == 0:     # the single-state fast path
                 return Y
-    if mimic:
-        single, (q, qd, qdd), (qa, qda, qdda) = robot._all(("q", q), ("qd", qd), ("qdd", qdd))
-        Y = _rigid(robot, qa, qda, qdda, arm)
-        Y = np.swapaxes(robot._reduce(np.swapaxes(Y, -1, -2)), -1, -2)     # G^T Y_all
-    else:
-        single, (q, qd, qdd) = as_batch(robot.model, ("q", q), ("qd", qd), ("qdd", qdd))
-        if single:
-            q, qd, qdd = q[0], qd[0], qdd[0]
-        Y = _rigid(robot, q, qd, qdd, arm)
+    single, (q, qd, qdd) = as_batch(robot.model, ("q", q), ("qd", qd), ("qdd", qdd))
+    if single:
+        q, qd, qdd = q[0], qd[0], qdd[0]
+    Y = rigid_columns(robot, q, qd, qdd, arm)
     if friction:
         Y = np.concatenate([Y, friction_columns(qd)], axis=-1)
     return Y
@@ -154,7 +149,7 @@ def friction_columns(qd):
                            np.broadcast_to(eye, qd.shape[:-1] + eye.shape)], axis=-1)
 
 
-def _rigid(robot, q, qd, qdd, arm):
+def rigid_columns(robot, q, qd, qdd, arm):
     """The body (and armature) columns of every body of the chain, for validated states:
     1-D (one state) or (N, n_all)."""
     if not robot._compiled:

@@ -29,12 +29,12 @@ import time
 
 import numpy as np
 
+from ..model.errors import SimulationError
 from ..robot.base_motion import BaseMotion
 from .adaptive import run_adaptive
 from .equations import Inputs
 from .fixed_step import run_compiled, run_fixed
 from .jacobians import check_jacobian
-from ..model.errors import SimulationError
 from .methods import DEFAULT_ATOL, DEFAULT_DT, DEFAULT_RTOL, FIXED_STEP, METHODS
 from .progress import Progress
 from .result import SimulationResult
@@ -190,8 +190,7 @@ def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853"
             dt = DEFAULT_DT if dt is None else float(dt)
             args = (robot, duration, q0, qd0, inputs, method, dt, dissipation, output_dt,
                     check_energy, bar)
-            if (method == "semi_implicit_euler" and robot.backend == "numba"
-                    and not robot._mimic
+            if (method == "semi_implicit_euler" and robot.compiled_chain is not None
                     and not callable(torque) and inputs.wrench is None and inputs.base is None
                     and not position_limits):
                 out = run_compiled(*args)           # the compiled loop has no stops

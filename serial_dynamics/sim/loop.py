@@ -103,7 +103,8 @@ def simulate_fixed_step(robot, q0, qd0, tau, dt, nsteps, viscous=None, wrench=No
         raise ValueError(f"method {method!r} unknown; use 'auto', 'cholesky' or 'aba'")
     if not dt > 0 or int(nsteps) != nsteps or nsteps < 0:
         raise ValueError(f"dt = {dt}, nsteps = {nsteps}: need dt > 0 and an integer nsteps >= 0")
-    P = robot._P if robot._P is not None else pack(robot.model)
+    P = robot.compiled_chain
+    P = pack(robot.model) if P is None else P
     flags = (F.ABA if method == "aba" else 0) | (F.DAMPING if implicit_damping else 0)
     return _loop()(P, q0, qd0, tau, float(dt), int(nsteps), viscous, w, flags)
 

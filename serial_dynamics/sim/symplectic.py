@@ -2,8 +2,8 @@
 conservative chain over long runs (its energy error stays bounded, with no drift).
 
 Owns ``symplectic_euler`` (a stepper with the signature of ``fixed_step.STEPPERS``, see
-``explicit``), ``lean_step`` (the real-time path of ``FixedStepIntegrator.step``) and
-``kinetic_energy_gradient`` (dT/dq for any ``Robot``). The step, with p = M(q) qd
+``explicit``), and ``lean_step`` (the real-time path of ``FixedStepIntegrator.step``), with
+``Robot.kinetic_energy_gradient`` (dT/dq). The step, with p = M(q) qd
 (Hairer, Lubich & Wanner, GNI, Sec. VI.3, with H = 1/2 p^T M(q)^-1 p + V(q)):
 
     p1 = p0 + dt (dT/dq(q0, v) - g(q0) + J^T w + tau + delta(v)),   v = M(q0)^-1 p1
@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..algorithms.energy import kinetic_energy_gradient as _gradient_reference
 from ..core import flags as F
 from .equations import External, split
 from ..model.errors import SimulationError
@@ -34,37 +33,18 @@ TOL = 1e-14          # relative correction at which the fixed-point iteration st
 MAX_ITER = 50        # iterations; more is a SimulationError (the step is too large)
 
 
-def kinetic_energy_gradient(robot, q, qd):
-    """dT/dq (n,) at fixed qd, T = 1/2 qd^T M(q) qd, for any ``Robot`` (compiled core,
-    NumPy reference, or through the mimic reduction: dT_r/dq_r = G^T dT/dq(G q_r + o, G v))."""
-    if _compiled(robot):
-        from ..core import K
-        out = np.empty(robot.dof)
-        if K.kinetic_energy_gradient(robot._P, np.asarray(q, float), np.asarray(qd, float),
-                                     out) == 0:
-            return out
-    if robot._mimic:
-        full = _gradient_reference(robot.model, robot.all_joint_positions(q),
-                                   robot.all_joint_velocities(qd))
-        return robot._reduce(full)
-    return _gradient_reference(robot.model, q, qd)
-
-
-def _compiled(robot):
-    return robot._compiled and not robot._mimic
-
-
 def step(integ, q, qd, f, wrench, beta, held):
     """One step: (q1, qd1, v). ``f``: generalized forces held over the step, ``wrench``
     (6,) or None, ``beta``: viscous coefficients (implicit), ``held``: (n,) 1.0 where a
     joint is held."""
     robot, dt = integ.robot, integ.dt
     n = robot.dof
-    if _compiled(robot):
+    P = robot.compiled_chain
+    if P is not None:
         from ..core import K
         q1, qd1, v = np.empty(n), np.empty(n), np.empty(n)
         w = _NO_W if wrench is None else np.asarray(wrench, dtype=float)
-        status = K.symplectic_euler(robot._P, q, qd, f, w, beta, held, dt, TOL, MAX_ITER,
+        status = K.symplectic_euler(P, q, qd, f, w, beta, held, dt, TOL, MAX_ITER,
                                     0 if wrench is None else F.WRENCH, q1, qd1, v)
         if status in (-2, -3):
             _check_inputs(robot, q, qd, f, wrench)      # raises the ValueError naming it
@@ -129,7 +109,7 @@ def _step_numpy(robot, q, qd, f, wrench, beta, held, dt):
     v = np.where(free, qd, 0.0)
     prev, status = 0.0, -1
     for k in range(1, MAX_ITER + 1):
-        x = np.where(free, r + dt * kinetic_energy_gradient(robot, q, v), 0.0)
+        x = np.where(free, r + dt * robot.kinetic_energy_gradient(q, v), 0.0)
         x = np.linalg.solve(L.T, np.linalg.solve(L, x))
         diff, scale = np.max(np.abs(x - v)), 1.0 + np.max(np.abs(x))
         v = x

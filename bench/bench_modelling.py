@@ -187,7 +187,7 @@ def main():
           f"| first inverse-dynamics call on the new Robot (nothing recompiled) | {fmt_t(t_first)} |",
           f"| an inverse-dynamics call, for scale | {fmt_t(t_call)} |", "",
           "### Mimic joints", "",
-          "A 4-joint chain whose joints 3 and 4 mimic joints 2 and 1 (`test/test_mimic.py`, 2 "
+          "A 4-joint chain whose joints 3 and 4 mimic joints 2 and 1 (`test/robot/test_mimic.py`, 2 "
           "coordinates), against the same chain with all 4 joints free, and against "
           "Pinocchio's mimic joints (`buildModel(..., mimic=True)`; its ABA has no mimic "
           "joints).", "",

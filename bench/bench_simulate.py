@@ -238,7 +238,7 @@ def fidelity(T=1.5, N=400):
 # ----------------------------------------------------------------------------- report
 def ill_conditioned():
     """Forward dynamics of the ill-conditioned chain against a 50-digit reference (the
-    mpmath RNEA of test/test_simulate_hard.py)."""
+    mpmath RNEA of test/sim/test_simulate_hard.py)."""
     try:
         import mpmath
         sys.path.insert(0, os.path.join(os.path.dirname(HERE), "test"))

@@ -1,7 +1,15 @@
 import os
 import sys
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))   # test helpers (pin_reference)
+# The tests mirror the package (test/robot/ tests serial_dynamics/robot/, ...); oracles that
+# cut across it are in test/oracles/. Test modules share helpers (pin_reference, chains built
+# in test_mimic, the Pinocchio cases of test_pinocchio): test/ and each of its folders are on
+# the path, so that a helper is imported by its name wherever it lives.
+HERE = os.path.dirname(os.path.abspath(__file__))
+for _d in sorted(os.listdir(HERE), reverse=True):
+    if os.path.isdir(os.path.join(HERE, _d)) and not _d.startswith((".", "_")):
+        sys.path.insert(0, os.path.join(HERE, _d))
+sys.path.insert(0, HERE)
 
 
 def pytest_sessionstart(session):

@@ -10,7 +10,7 @@ detection ``planar_pack``, kept as ``Model.planar_layout``) and ``core/planar.py
 the mass matrix there (single states and batches, so that a state's result is bitwise the
 same alone or in a batch), and everything else -- forward dynamics, a moving base (which
 may turn the plane), the NumPy backend -- through ``Robot``. Results equal the general
-path to round-off (test/test_planar.py); bench/bench_planar.py measures the gain.
+path to round-off (test/robot/test_planar.py); bench/bench_planar.py measures the gain.
 """
 from __future__ import annotations
 

@@ -52,7 +52,7 @@ MUTATIONS = (
         "sim/equations.py",
         "np.abs(delta) / np.where(self.coulomb, self.tau_s, 1.0)",
         "np.abs(delta) / np.where(self.coulomb, self.diss.coulomb, 1.0)",
-        ("test/test_simulate.py",)),
+        ("test/sim/test_simulate.py",)),
     Mutation(
         "fast_path_skips_stops",
         "FixedStepIntegrator.step: the real-time fast path (semi-implicit Euler without "
@@ -61,7 +61,7 @@ MUTATIONS = (
         "            if self.stops:\n"
         "                q_new, qd_new, _ = self.stops.impact(q_new, qd_new, False)\n",
         "",
-        ("test/test_stops.py", "test/ros/test_simulator.py")),
+        ("test/sim/test_stops.py", "test/ros/test_simulator.py")),
     Mutation(
         "coriolis_sign_flip",
         "compiled Newton-Euler (single state; the Cholesky forward route uses it): the sign "
@@ -69,7 +69,7 @@ MUTATIONS = (
         "core/rnea.py",
         "ax, ay, az = ax + wy * dq, ay - wx * dq, az + ddq",
         "ax, ay, az = ax - wy * dq, ay + wx * dq, az + ddq",
-        ("test/test_identities.py", "test/test_aba.py", "test/test_kernels.py")),
+        ("test/oracles/test_identities.py", "test/algorithms/test_aba.py", "test/core/test_kernels.py")),
     Mutation(
         "armature_dropped",
         "compiled composite-rigid-body mass matrix: the armature left off the diagonal of "
@@ -77,14 +77,14 @@ MUTATIONS = (
         "core/crba.py",
         "M[i, i] = nz + P[i, ARM]",
         "M[i, i] = nz",
-        ("test/test_modelling.py",)),
+        ("test/robot/test_modelling.py",)),
     Mutation(
         "tip_wrench_sign",
         "compiled Newton-Euler (single state): the tip wrench read with the wrong sign",
         "core/rnea.py",
         "ex, ey, ez, mx, my, mz = w[0], w[1], w[2], w[3], w[4], w[5]",
         "ex, ey, ez, mx, my, mz = -w[0], -w[1], -w[2], -w[3], -w[4], -w[5]",
-        ("test/test_identities.py", "test/test_simulate.py")),
+        ("test/oracles/test_identities.py", "test/sim/test_simulate.py")),
     Mutation(
         "impact_without_coupling",
         "joint stops: the plastic impact stops the joint but passes no impulse to the other "
@@ -94,7 +94,7 @@ MUTATIONS = (
         "                    v[free] += np.linalg.solve(M[np.ix_(free, free)],\n"
         "                                               M[np.ix_(free, stopped)] @ qd[stopped])\n",
         "",
-        ("test/test_stops.py",)),
+        ("test/sim/test_stops.py",)),
     Mutation(
         "node_clock_without_integration",
         "simulator node: simulated time (/clock, the stamps) advances but the state is not "

@@ -34,7 +34,6 @@ import pytest
 
 from conftest import DOMAIN
 
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), os.pardir))
 pin_reference = pytest.importorskip("pin_reference")
 
 import serial_dynamics as sd  # noqa: E402

@@ -1,14 +1,11 @@
 """The simulator with mimic joints on the chain publishes every joint in joint_states (for
 robot_state_publisher): the followers at multiplier * leader + offset, the efforts of the
 independent joints as commanded and 0 for the followers."""
-import os
-import sys
 
 import numpy as np
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 from test_mimic import mimic_chain  # noqa: E402
 
 from conftest import Latest  # noqa: E402

@@ -605,7 +605,7 @@ def test_one_base_class_for_both_errors():
 def test_the_readme_lists_each_error_under_its_class():
     """README: negative mass and bad inertias are ModelErrors; the code agrees (above)."""
     import os
-    readme = open(os.path.join(os.path.dirname(__file__), "..", "README.md")).read()
+    readme = open(os.path.join(os.path.dirname(__file__), "..", "..", "README.md")).read()
     paragraph = readme[readme.index("Bad input raises"):]
     paragraph = paragraph[:paragraph.index("\n\n")]
     model_part = paragraph[paragraph.index("`sd.ModelError`"):]

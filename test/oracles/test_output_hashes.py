@@ -5,7 +5,7 @@ of issue 18 (commit feff973); a refactor that moves code must leave every one of
 unchanged. An intended change of numbers (a new algorithm, another summation order)
 regenerates the file, and says so in its commit:
 
-    python test/test_output_hashes.py --write
+    python test/oracles/test_output_hashes.py --write
 
 Robots: the default UR5e, the UR5e with armature, a chain with mimic joints, and the
 planar 3R (the planar fast path). Outputs: inverse dynamics (with and without a tip

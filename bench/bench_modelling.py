@@ -195,7 +195,7 @@ def main():
     L += [f"| {name} | {fmt_t(r)} | {fmt_t(f)} | {fmt_t(p) if p == p else '—'} | {r / f:.2f} |"
           for name, r, f, p in mimic]
     L += ["", "The reduction (q_all = G q + o, tau = G^T tau_all, M = G^T M_all G) runs around "
-          "the compiled calls of the whole chain, in small compiled loops (`mimic.py`) for one "
+          "the compiled calls of the whole chain, in small compiled loops (`robot/mimic.py`) for one "
           "state; what it adds is the difference of the first two columns."]
     write_section("modelling", "\n".join(L))
     print("\n".join(L))

@@ -4,7 +4,7 @@ Every function accepts a single state, shape ``(n,)``, or a batch ``(N, n)``, an
 returns results with the matching leading shape. These NumPy implementations are
 the readable reference and the test oracle.
 
-One frame convention for all of them: the **joint frames** that ``serial_dynamics/model.py``
+One frame convention for all of them: the **joint frames** that ``serial_dynamics/model/model.py``
 derives (``Xtree_R``, ``Xtree_p``, ``h``, ``c``, ``I_O``, ``I_c``, ``Xtip_R``, ``Xtip_p``,
 ``jframes``; docs/conventions.md). Joint frame i is body i's frame, with its origin at joint
 i and z along the joint axis, so every motion subspace is S = e_z; spatial vectors are

@@ -1,7 +1,7 @@
 """Forward dynamics by the articulated-body algorithm (ABA): O(n) in the number of joints.
 
 Featherstone, *Rigid Body Dynamics Algorithms* (2008), Sec. 7.3 and Table 7.1, in joint
-frames (see serial_dynamics/model.py and docs/conventions.md). Spatial vectors of body i are
+frames (see serial_dynamics/model/model.py and docs/conventions.md). Spatial vectors of body i are
 in joint frame i, angular part first, about its origin: motion (omega, v_O), force (n_O, f);
 S_i = e_z (angular for a revolute joint, linear for a prismatic one).
 

@@ -1,7 +1,7 @@
 """Generalized inertia (mass) matrix by the composite-rigid-body algorithm (CRBA).
 
 Featherstone, *Rigid Body Dynamics Algorithms* (2008), Sec. 6.2 and Table 6.2, in joint
-frames (see serial_dynamics/model.py and docs/conventions.md): the composite inertia IC_i of
+frames (see serial_dynamics/model/model.py and docs/conventions.md): the composite inertia IC_i of
 bodies i..n-1 is a 6x6 spatial inertia about joint i's origin, in joint frame i, and
 S_i = e_z (angular for a revolute joint, linear for a prismatic one).
 

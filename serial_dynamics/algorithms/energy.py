@@ -1,4 +1,4 @@
-"""Kinetic and potential energy of the chain (joint frames; see serial_dynamics/model.py and
+"""Kinetic and potential energy of the chain (joint frames; see serial_dynamics/model/model.py and
 docs/conventions.md)."""
 import numpy as np
 

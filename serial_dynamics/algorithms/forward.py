@@ -7,7 +7,7 @@ Two routes (Angeles, *Fundamentals of Robotic Mechanical Systems*, Sec. 7.7):
   mass matrix (M_6n = H^T H), P = H T gives M = P^T P. The QR factor of P, P = Q R, gives
   M = R^T R without ever forming M, so the condition number is not squared.
 
-Both use the joint frames (see serial_dynamics/model.py and docs/conventions.md).
+Both use the joint frames (see serial_dynamics/model/model.py and docs/conventions.md).
 """
 import numpy as np
 from scipy.linalg import solve_triangular

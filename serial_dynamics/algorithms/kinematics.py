@@ -1,6 +1,6 @@
 """Forward kinematics: joint transforms, body poses, frame poses and Jacobians.
 
-Bodies are in joint frames (see serial_dynamics/model.py and docs/conventions.md); poses of
+Bodies are in joint frames (see serial_dynamics/model/model.py and docs/conventions.md); poses of
 named links and Jacobians are returned in the base frame and do not depend on that choice.
 """
 import numpy as np

@@ -7,7 +7,7 @@ systems using a natural orthogonal complement", J. Appl. Mech. 55; Angeles,
 The 6n-dimensional twist of the chain stacks, per body i, t_i = [omega_i; cdot_i]
 (angular velocity first, then the velocity of the center of mass), in BASE coordinates,
 as in the textbook. The geometry comes once from the joint frames (see
-serial_dynamics/model.py and docs/conventions.md): with R0_i, o_i the pose of joint frame i
+serial_dynamics/model/model.py and docs/conventions.md): with R0_i, o_i the pose of joint frame i
 in the base, z_i = R0_i e_z, c_i = o_i + R0_i c[i] and the inertia about c_i in base axes
 R0_i I_c[i] R0_i^T. Then t = T(q) qd, with T the twist-shaping matrix, and K t = 0 for
 the constraint matrix K, so K T = 0. With M = diag(I_i, m_i 1) and W = diag([omega_i]x, 0):

@@ -1,6 +1,6 @@
 """Inverse dynamics by the recursive Newton-Euler algorithm (RNEA), in 3-vectors.
 
-Joint frames (see serial_dynamics/model.py and docs/conventions.md): every vector of body i
+Joint frames (see serial_dynamics/model/model.py and docs/conventions.md): every vector of body i
 is in joint frame i, moments about its origin. Outward recursion for the angular velocity
 omega, angular acceleration alpha and linear acceleration ``acc`` of the body origin; inward
 recursion for the force f and moment n that body i-1 exerts on body i. This is Featherstone,

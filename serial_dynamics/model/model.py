@@ -1,6 +1,6 @@
 """The immutable description of a serial chain (the *model*) and its validation.
 
-A ``Model`` is data: it is built once (by ``urdf.py`` or by hand), validated once,
+A ``Model`` is data: it is built once (by ``urdf/loader.py`` or by hand), validated once,
 and never mutated by an algorithm. Every array is read-only and contiguous so that
 the algorithms (pure NumPy or compiled) can use it directly.
 

@@ -5,6 +5,9 @@ its ratio on 2026-11-21 (the kernels before the dynamics-core rewrite), from EAR
     python bench/bench_speed.py            # writes the "speed" section of bench/BENCHMARKS.md
                                            # and bench/scaling.png
     python bench/bench_speed.py --quick    # fewer rounds, no cold-cache compile
+    python bench/bench_speed.py --before REV   # only the single, batch and simulation rows,
+                                           # against commit REV measured in the same run:
+                                           # the "before_after" section (a refactor's check)
 
 Each peer's answer is checked against ours before it is timed. Times are the minimum over
 interleaved rounds (ours, peer, ours, peer, ...) of the mean over a round, wall clock, one
@@ -454,6 +457,42 @@ def rtb_rows(robot_ur5, rounds):
         return [], f"roboticstoolbox-python could not run the UR5 ({type(exc).__name__}: {exc})"
 
 
+def before_after(rev, rounds, no_write):
+    """The single, batch and simulation rows of this code and of commit ``rev``, each with its
+    own interleaved peer, in one run (the earlier code in a subprocess, from a git archive):
+    a refactor must leave every ratio within its noise."""
+    root = earlier_code(tempfile.mkdtemp(), rev)
+    if root is None:
+        sys.exit(f"commit {rev} cannot be archived here (no git history?)")
+    earlier = earlier_rows(root, rounds)
+    rows, robots = [], {}
+    for name, (rel, tip) in ROBOTS.items():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", sd.HeldJointsWarning)
+            robots[name] = robot = sd.load_urdf(erd_path(rel), None, tip).warmup()
+        pm = PinModel(robot, erd_path(rel))
+        rows += single_calls(name, robot, pm, rounds) + batch_calls(name, robot, pm, rounds)
+    rows += simulation(robots["Panda"], max(5, rounds // 3))[0]
+    lines = [stamp(), "", f"`python bench/bench_speed.py --before {rev}`: every row of the speed "
+             f"table on this code and on commit {rev}, measured in the same run (that code in a "
+             "subprocess, from a git archive), each against its own interleaved peer. *change* is "
+             "this code's ratio against the earlier one's: both ratios are min-of-rounds, so the "
+             "run-to-run noise of a row is the spread of its *change* around 0 (a few percent "
+             "here on a shared machine).", "",
+             "| robot | what | peer | ours now | ratio now | ours before | ratio before | change |",
+             "|---|---|---|---:|---:|---:|---:|---:|"]
+    for robot_name, what, a, b, peer, _ in rows:
+        a_old, b_old = earlier.get((robot_name, what, peer), (None, None))
+        change = f"{(a / b) / (a_old / b_old) * 100 - 100:+.0f} %" if a_old else ""
+        lines.append(f"| {robot_name} | {what} | {peer} | {fmt_t(a)} | {a / b:.3g} | "
+                     + (f"{fmt_t(a_old)} | {a_old / b_old:.3g} | " if a_old else " | | ")
+                     + f"{change} |")
+    body = "\n".join(lines)
+    print(body)
+    if not no_write:
+        write_section("before_after", body)
+
+
 # ------------------------------------------------------------------ report
 def fmt_t(s):
     return f"{s * 1e9:.0f} ns" if s < 1e-6 * 10 else (f"{s * 1e6:.1f} µs" if s < 1e-3 else f"{s * 1e3:.2f} ms")
@@ -466,6 +505,9 @@ def main():
     ap.add_argument("--rows-only", action="store_true",
                     help="print the single and batch rows as JSON (used on the 2026-11-21 code)")
     ap.add_argument("--rounds", type=int, default=None)
+    ap.add_argument("--before", default=None, metavar="REV",
+                    help="measure the rows on commit REV too, in the same run, and write only "
+                         "the 'before_after' section")
     args = ap.parse_args()
     rounds = args.rounds or (8 if args.quick else 30)
     if args.rows_only:
@@ -479,6 +521,8 @@ def main():
         rows += simulation(robots["Panda"], max(5, rounds // 3))[0]
         print(json.dumps(rows))
         return
+    if args.before:
+        return before_after(args.before, rounds, args.no_write)
     import mujoco
     tmp = tempfile.mkdtemp()
     root = earlier_code(tmp)

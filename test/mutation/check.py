@@ -77,7 +77,7 @@ MUTATIONS = (
         "core/crba.py",
         "M[i, i] = nz + P[i, ARM]",
         "M[i, i] = nz",
-        ("test/robot/test_modelling.py",)),
+        ("test/robot/test_armature.py",)),
     Mutation(
         "tip_wrench_sign",
         "compiled Newton-Euler (single state): the tip wrench read with the wrong sign",

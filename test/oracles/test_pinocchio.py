@@ -386,7 +386,7 @@ def test_the_physical_check_of_this_file():
 def _check_mimic_reduction(robot):
     """A chain with mimic joints is the reduced system G^T (.) G of the chain with every
     joint free (q_all = G q + o): check that, and return the chain with every joint free
-    (test_modelling.py checks the reduction against Pinocchio's own mimic joints)."""
+    (test_mimic.py checks the reduction against Pinocchio's own mimic joints)."""
     import dataclasses
     n = robot.model.dof
     free = sd.Robot(dataclasses.replace(robot.model, mimic_leader=np.full(n, -1)))

@@ -369,3 +369,37 @@ def test_core_never_imports_rclpy():
 @pytest.mark.skipif(not HAVE_RCLPY, reason="rclpy not importable: serial_dynamics.ros skipped")
 def test_ros_modules_are_walked():
     assert any(_is_ros(m) for m in ALONE)
+
+
+# ------------------------------------------------------------------ public paths
+PUBLIC_PATHS = [   # documented import paths that must survive any move (issue 18)
+    ("serial_dynamics", ["load_urdf", "Robot", "Model", "Dissipation", "simulate", "BaseMotion",
+                         "RobotDescriptionError", "URDFError", "ModelError", "HeldJointsWarning",
+                         "SimulationError", "default_robot", "builtin_robot", "builtin_path"]),
+    ("serial_dynamics.model", ["Model", "Dissipation", "ModelError", "RobotDescriptionError"]),
+    ("serial_dynamics.urdf", ["load_model", "HeldJointsWarning", "URDFError"]),
+    ("serial_dynamics.robot", ["Robot", "MimicRobot", "PlanarRobot", "BaseMotion", "kind_of"]),
+    ("serial_dynamics.sim.fixed_step", ["FixedStepIntegrator"]),
+    ("serial_dynamics.sim.methods", ["SimulationError", "METHODS"]),
+    ("serial_dynamics.identification", ["identify", "base_parameters"]),
+    ("serial_dynamics.observers", ["MomentumObserver"]),
+]
+
+
+@pytest.mark.parametrize("module, names", PUBLIC_PATHS, ids=[m for m, _ in PUBLIC_PATHS])
+def test_public_paths_still_work(module, names):
+    mod = importlib.import_module(module)
+    missing = [n for n in names if not hasattr(mod, n)]
+    assert not missing, f"{module} lost {missing}"
+    import serial_dynamics as sd
+    errors = importlib.import_module("serial_dynamics.model.errors")
+    for name in ("RobotDescriptionError", "ModelError", "URDFError", "HeldJointsWarning",
+                 "SimulationError"):            # one class each, wherever it is imported from
+        assert getattr(sd, name) is getattr(errors, name)
+
+
+def test_the_top_level_keeps_only_the_entry_points():
+    top = sorted(f for f in os.listdir(os.path.dirname(serial_dynamics.__file__))
+                 if f.endswith(".py"))
+    assert top == ["__init__.py", "cli.py", "joints.py", "observers.py", "precompile.py",
+                   "trajectory.py"], top

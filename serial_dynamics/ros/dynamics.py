@@ -85,8 +85,7 @@ class Dynamics(Node):
                 raise Rejected("frame", f"tip_wrench frame_id {frame!r} is neither the base "
                                f"({self.robot.base_link!r}) nor the tip ({self.robot.tip_link!r})")
         except Rejected as exc:
-            return self.reject("inverse_dynamics/tip_wrench", exc,
-                               "; the last good wrench stays in force")
+            return self.reject("tip_wrench", exc, "; the last good wrench stays in force")
         self.wrench, self.wrench_in_tip = w, frame == self.robot.tip_link and frame != self.robot.base_link
 
     def _wrench(self, q):

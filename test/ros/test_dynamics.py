@@ -3,6 +3,12 @@ called from this process with real rclpy, answer the library's numbers on a robo
 from a URDF path and one loaded from the robot_description parameter; bad requests are
 refused field by field and the node carries on; /diagnostics counts calls, refusals and
 latency per service."""
+import ast
+import os
+import re
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 from builtin_interfaces.msg import Duration
@@ -49,11 +55,10 @@ def nodes(ros, tmp_path_factory):
     xml = open(sd.builtin_path(name)).read()
     params.write_text("/**:\n  ros__parameters:\n    robot_description: |\n"
                       + "".join(f"      {line}\n" for line in xml.splitlines()))
-    path = ros.start("dynamics", {"urdf_path": sd.builtin_path("ur5e")},
-                     ros_args=["-r", "__ns:=/from_path"])
+    path = ros.start("dynamics", {"urdf_path": sd.builtin_path("ur5e")})   # /dynamics: docs' name
     desc = ros.start("dynamics", {"gravity": list(gravity)},
                      ros_args=["-r", "__ns:=/from_description", "--params-file", str(params)])
-    return {"urdf_path": Node(ros, path, "/from_path/dynamics", sd.default_robot()),
+    return {"urdf_path": Node(ros, path, "/dynamics", sd.default_robot()),
             "robot_description": Node(ros, desc, "/from_description/dynamics",
                                       sd.load_urdf(xml, gravity=gravity))}
 
@@ -161,13 +166,32 @@ def test_bad_requests_are_refused_naming_the_field_and_the_node_carries_on(ros, 
     refused = {s: sum(b[0] == s for b in bad) for s in SERVICES}
 
     def counted(m):     # the node's report, once it counts every refusal of this test
-        s = [s for s in m.status if s.name == "/from_path/dynamics"]
+        s = [s for s in m.status if s.name == "/dynamics"]
         values = {v.key: v.value for v in s[0].values} if s else {}
         return all(int(values.get(f"refused ~/{k}", 0)) >= refused[k] for k in SERVICES) \
             and values
     report = {v.key: v.value for v in next(s for s in diagnostics.wait(counted, what="a report")
-                                           .status if s.name == "/from_path/dynamics").values}
+                                           .status if s.name == "/dynamics").values}
     diagnostics.destroy()
     for k in SERVICES:
         assert int(report[f"received ~/{k}"]) > int(report[f"refused ~/{k}"]) >= refused[k]
         assert float(report[f"~/{k} latency max (ms)"]) >= float(report[f"~/{k} latency mean (ms)"])
+
+
+def test_the_docs_service_client_gets_the_node_answers(nodes):
+    """docs/ros.md's Python service client, run as written against the running node."""
+    robot = nodes["urdf_path"].robot
+    docs = open(os.path.join(os.path.dirname(__file__), "..", "..", "docs", "ros.md")).read()
+    (code,) = [b for b in re.findall(r"```python\n(.*?)```", docs, re.S)
+               if "import InverseDynamics, MassMatrix" in b]
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=120)
+    assert run.returncode == 0, run.stderr
+    lines = dict(line.split(": ", 1) for line in run.stdout.splitlines())
+    q = [0.0, -1.571, 1.571, -1.571, -1.571, 0.0]
+    tau = ast.literal_eval(lines["gravity torques (N m)"])
+    assert list(tau) == robot.joint_names
+    np.testing.assert_allclose(list(tau.values()), robot.gravity_torques(q), rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(ast.literal_eval(lines["M(q) diagonal (kg m^2)"]),
+                               np.diag(robot.mass_matrix(q)), rtol=1e-12)
+    assert lines["a bad request"].startswith("False positions has 5 values")

@@ -26,6 +26,7 @@ import time
 import numpy as np
 from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
+from rclpy.qos import QoSProfile
 from serial_dynamics_interfaces.srv import (ForwardDynamics, InverseDynamics, MassMatrix,
                                             TrajectoryTorques)
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
@@ -40,6 +41,11 @@ PARAMETERS = {
                                "dissipation (friction) at the requested velocities"),
     **parameters.PAYLOAD_PARAMETERS,
 }
+
+
+# Services: reliable and volatile as rclpy's default, but keeping the last REQUEST_DEPTH
+# requests (as the topic pair) so that a stall of the node does not drop calls at 1 kHz.
+SERVICE_QOS = QoSProfile(depth=common.REQUEST_DEPTH)
 
 
 class Dynamics(Node):
@@ -68,7 +74,8 @@ class Dynamics(Node):
                 ("mass_matrix", MassMatrix, requests.answer_mass_matrix),
                 ("trajectory_torques", TrajectoryTorques, self._trajectory_torques)):
             self._latency[f"~/{name}"] = [0, 0.0, 0.0]
-            self.create_service(srv_type, f"~/{name}", self._serve(f"~/{name}", answer))
+            self.create_service(srv_type, f"~/{name}", self._serve(f"~/{name}", answer),
+                                qos_profile=SERVICE_QOS)
         self.pub = self.create_publisher(JointTrajectory, "inverse_dynamics/response",
                                          common.REQUEST_DEPTH)
         common.subscribe(self, self.reject, WrenchStamped, "inverse_dynamics/tip_wrench",

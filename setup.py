@@ -5,13 +5,16 @@ from glob import glob
 from setuptools import find_packages, setup
 
 PACKAGE = "serial_dynamics"
-NODES = ["simulator", "inverse_dynamics", "computed_torque_controller",
+NODES = ["simulator", "dynamics", "inverse_dynamics", "computed_torque_controller",
          "external_torque_observer"]
 
 setup(
     name=PACKAGE,
     version="0.1.0",
-    packages=find_packages(exclude=["test", "test.*", "bench"]),
+    # serial_dynamics_interfaces/ is a package of its own (ament_cmake; pip builds it from
+    # its pyproject.toml): never part of this one
+    packages=find_packages(exclude=["test", "test.*", "bench", "serial_dynamics_interfaces",
+                                    "serial_dynamics_interfaces.*"]),
     package_data={PACKAGE: ["robots/*.urdf"]},
     data_files=[
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),

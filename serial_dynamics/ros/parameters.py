@@ -124,14 +124,31 @@ def declare(node, spec: dict) -> dict:
         node.declare_parameter(name, default, descriptor)
         values[name] = _coerce(name, kind, node.get_parameter(name).value)
     # given (-p, --params-file) but not a parameter of this node: a typo or the wrong node.
-    # rclpy keeps the overrides of the command line and parameter files in this attribute.
-    unknown = sorted(x for x in getattr(node, "_parameter_overrides", {})
-                     if not node.has_parameter(x))
+    unknown = sorted(x for x in _overrides(node) if not node.has_parameter(x))
     if unknown:
         node.get_logger().warning(
             f"ignoring unknown parameter(s) {unknown}: {node.get_name()} takes "
             f"{', '.join(spec)} (and use_sim_time)")
     return values
+
+
+def _overrides(node):
+    """Names of the parameters given to ``node`` (``-p``, ``--params-file``, the
+    ``parameter_overrides`` argument), declared or not.
+
+    rclpy 7.1 (Jazzy) has no public way to list them: ``Node.__init__`` reads them from its
+    private C handle into the private ``_parameter_overrides``, which is read here (an empty
+    dict if a later rclpy renames it: the check is then skipped, nothing else changes).
+    The public options do not serve: ``allow_undeclared_parameters`` only lets *sets* of
+    undeclared names through, and ``get_parameters_by_prefix`` / ``list_parameters`` see
+    declared parameters only; ``automatically_declare_parameters_from_overrides`` declares
+    every override at construction, writable and undescribed, so that each node's
+    constructor would have to pass it and ``declare`` would have to undeclare and declare
+    again every parameter of its spec (``declare_parameter`` raises
+    ParameterAlreadyDeclaredException on a declared name) to give it its type, description
+    and read-only flag -- and undeclare the unknown ones, which would otherwise stay settable.
+    """
+    return getattr(node, "_parameter_overrides", {})
 
 
 def defaults(spec: dict) -> dict:

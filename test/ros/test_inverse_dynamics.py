@@ -196,3 +196,13 @@ def test_robot_loading_order(ros, tmp_path):
         for p in procs.values():
             p.stop()
 
+
+
+def test_old_name_is_the_dynamics_node_with_its_services(ros, node):
+    from serial_dynamics_interfaces.srv import MassMatrix
+    client = ros.node.create_client(MassMatrix, "inverse_dynamics/mass_matrix")
+    r = ros.call(client, MassMatrix.Request(positions=[0.3] * 6))
+    assert r.success
+    np.testing.assert_allclose(np.reshape(r.mass_matrix, (6, 6)), ROBOT.mass_matrix([0.3] * 6),
+                               rtol=1e-12)
+    ros.node.destroy_client(client)

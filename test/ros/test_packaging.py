@@ -6,7 +6,7 @@ import sys
 import pytest
 import yaml
 
-from serial_dynamics.ros import (computed_torque_controller, external_torque_observer,
+from serial_dynamics.ros import (computed_torque_controller, dynamics, external_torque_observer,
                                  inverse_dynamics, parameters, simulator)
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -31,8 +31,8 @@ def _flatten(d, prefix=""):
     return out
 
 
-@pytest.mark.parametrize("module", [simulator, inverse_dynamics, computed_torque_controller,
-                                    external_torque_observer])
+@pytest.mark.parametrize("module", [simulator, dynamics, inverse_dynamics,
+                                    computed_torque_controller, external_torque_observer])
 def test_config_files_list_every_parameter_with_its_default(module):
     name = module.__name__.rsplit(".", 1)[1]
     with open(os.path.join(ROOT, "config", f"{name}.yaml")) as fh:

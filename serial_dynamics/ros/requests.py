@@ -1,0 +1,120 @@
+"""The dynamics node's service requests, checked and answered in plain Python (no rclpy:
+the tests call these functions directly).
+
+Each ``answer_*`` takes the robot and a request of the matching
+``serial_dynamics_interfaces/srv`` type (anything with the same fields will do) and returns
+the response fields as a dict, or raises ``Refused`` naming the field and the fix. Rules
+(docs/ros.md, "Dynamics services"): ``joint_names`` in any order, or empty for the robot's
+order (``robot.joint_names``); empty velocities, accelerations or efforts mean zeros;
+``tip_wrench`` is exerted on the tip link at its origin, in base coordinates, and a zero
+wrench means none. Answers list the joints in the robot's order.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+
+class Refused(ValueError):
+    """A request the node refuses: ``cause`` is the field (it groups repeated refusals
+    in the node's throttled log); the text names the field and the fix."""
+
+    def __init__(self, cause: str, text: str):
+        super().__init__(text)
+        self.cause = cause
+
+
+def _show(names, at_most=8):
+    names = list(names)
+    return str(names) if len(names) <= at_most else f"{names[:at_most]} ... ({len(names)} in all)"
+
+
+def joint_order(robot, names):
+    """Model index of each of the request's joints, or None for the robot's own order."""
+    if len(names) == 0:
+        return None
+    fix = (f"name each joint of the chain {robot.joint_names} once, in any order, or leave "
+           "joint_names empty for that order")
+    if len(names) != robot.dof:
+        raise Refused("joint_names", f"joint_names has {len(names)} names for a chain of "
+                      f"{robot.dof} joints: {fix}")
+    model = {name: j for j, name in enumerate(robot.joint_names)}
+    unknown = list(dict.fromkeys(x for x in names if x not in model))
+    if unknown:
+        raise Refused("joint_names", f"joint_names {_show(unknown)} are not joints of the "
+                      f"chain: {fix}")
+    index = np.array([model[x] for x in names])
+    if len(set(index.tolist())) != robot.dof:
+        raise Refused("joint_names", f"joint_names names a joint more than once: {fix}")
+    return index
+
+
+def joint_vector(robot, index, values, field, empty_is_zero=False):
+    """One value per joint, in the model's order: a float array of length robot.dof."""
+    n = robot.dof
+    if len(values) == 0 and empty_is_zero:
+        return np.zeros(n)
+    if len(values) != n:
+        order = "of joint_names" if index is not None else f"{robot.joint_names}"
+        empty = " (or none, for zeros)" if empty_is_zero else ""
+        raise Refused(field, f"{field} has {len(values)} values: give one per joint, {n}, in "
+                      f"the order {order}{empty}")
+    a = np.asarray(values, dtype=float)
+    if not np.all(np.isfinite(a)):
+        bad = [int(i) for i in np.flatnonzero(~np.isfinite(a))]
+        raise Refused(field, f"{field} has NaN or Inf at {bad}: give finite numbers")
+    if index is None:
+        return a
+    out = np.empty(n)
+    out[index] = a
+    return out
+
+
+def tip_wrench(w):
+    """geometry_msgs/Wrench -> (6,) [force; torque] in base coordinates, or None if zero."""
+    a = np.array([w.force.x, w.force.y, w.force.z, w.torque.x, w.torque.y, w.torque.z])
+    if not np.all(np.isfinite(a)):
+        raise Refused("tip_wrench", f"tip_wrench has NaN or Inf ({a.tolist()}): give finite "
+                      "numbers, or all zeros for no wrench")
+    return a if a.any() else None
+
+
+def _finite(x, what):
+    if not np.all(np.isfinite(x)):
+        raise Refused("result", f"the {what} came out non-finite: the state is beyond what "
+                      "the model can compute (check the units: rad, rad/s, N m)")
+    return x
+
+
+def answer_inverse_dynamics(robot, req, compensate=False):
+    """tau = M(q) qdd + b(q, qd) - J^T w  (- the dissipation torques when compensated)."""
+    index = joint_order(robot, req.joint_names)
+    q = joint_vector(robot, index, req.positions, "positions")
+    qd = joint_vector(robot, index, req.velocities, "velocities", empty_is_zero=True)
+    qdd = joint_vector(robot, index, req.accelerations, "accelerations", empty_is_zero=True)
+    tau = robot.inverse_dynamics(q, qd, qdd, tip_wrench(req.tip_wrench))
+    if compensate:          # the actuators also overcome the joint dissipation
+        tau = tau - robot.dissipation_torques(qd)
+    return {"joint_names": robot.joint_names, "efforts": _finite(tau, "torques").tolist()}
+
+
+def answer_forward_dynamics(robot, req, compensate=False):
+    """qdd = M(q)^-1 (tau - b(q, qd) + J^T w)  (tau plus the dissipation torques when the
+    node compensates them, so that forward dynamics inverts the node's inverse dynamics)."""
+    index = joint_order(robot, req.joint_names)
+    q = joint_vector(robot, index, req.positions, "positions")
+    qd = joint_vector(robot, index, req.velocities, "velocities", empty_is_zero=True)
+    tau = joint_vector(robot, index, req.efforts, "efforts", empty_is_zero=True)
+    if compensate:
+        tau = tau + robot.dissipation_torques(qd)
+    qdd = robot.forward_dynamics(q, qd, tau, tip_wrench(req.tip_wrench))
+    return {"joint_names": robot.joint_names,
+            "accelerations": _finite(qdd, "accelerations").tolist()}
+
+
+def answer_mass_matrix(robot, req):
+    """M(q), row-major, rows and columns in the robot's joint order."""
+    index = joint_order(robot, req.joint_names)
+    q = joint_vector(robot, index, req.positions, "positions")
+    return {"joint_names": robot.joint_names,
+            "mass_matrix": _finite(robot.mass_matrix(q), "mass matrix").ravel().tolist()}
+

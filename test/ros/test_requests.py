@@ -1,0 +1,68 @@
+"""The dynamics node's request rules in plain Python (ros/requests.py, no node): joint
+names in any order give the same bits as the robot's order, empty arrays are zeros, a zero
+tip wrench is none, forward dynamics inverts inverse dynamics with the dissipation
+compensated, and every refusal names its field."""
+from types import SimpleNamespace as Msg
+
+import numpy as np
+import pytest
+
+import serial_dynamics as sd
+from serial_dynamics.ros import requests
+
+ROBOT = sd.default_robot()
+ROBOT.dissipation = ROBOT.dissipation.override(viscous={"elbow_joint": 0.5},
+                                               coulomb={"wrist_1_joint": 2.0})
+ZERO = Msg(force=Msg(x=0.0, y=0.0, z=0.0), torque=Msg(x=0.0, y=0.0, z=0.0))
+
+
+def wrench(w):
+    return Msg(force=Msg(x=w[0], y=w[1], z=w[2]), torque=Msg(x=w[3], y=w[4], z=w[5]))
+
+
+def test_any_joint_order_and_empty_fields_give_the_same_bits():
+    q, qd = ROBOT.random_state(3)
+    qdd = np.linspace(-1, 1, 6)
+    perm = [3, 0, 5, 1, 4, 2]
+    names = [ROBOT.joint_names[i] for i in perm]
+    shuffled = requests.answer_inverse_dynamics(ROBOT, Msg(
+        joint_names=names, positions=q[perm].tolist(), velocities=qd[perm].tolist(),
+        accelerations=qdd[perm].tolist(), tip_wrench=ZERO))
+    assert shuffled["efforts"] == ROBOT.inverse_dynamics(q, qd, qdd).tolist()
+    assert shuffled["joint_names"] == ROBOT.joint_names
+    empty = requests.answer_inverse_dynamics(ROBOT, Msg(
+        joint_names=[], positions=q.tolist(), velocities=[], accelerations=[], tip_wrench=ZERO))
+    assert empty["efforts"] == ROBOT.gravity_torques(q).tolist()
+    fd = requests.answer_forward_dynamics(ROBOT, Msg(
+        joint_names=[], positions=q.tolist(), velocities=[], efforts=[], tip_wrench=ZERO))
+    assert fd["accelerations"] == ROBOT.forward_dynamics(q, np.zeros(6), np.zeros(6)).tolist()
+
+
+def test_forward_inverts_inverse_with_the_wrench_and_the_dissipation_compensated():
+    q, qd = ROBOT.random_state(4)
+    qdd, w = np.linspace(2, -1, 6), [5.0, -3.0, 8.0, 0.5, 0.0, -1.0]
+    tau = requests.answer_inverse_dynamics(ROBOT, Msg(
+        joint_names=[], positions=q, velocities=qd, accelerations=qdd, tip_wrench=wrench(w)),
+        compensate=True)["efforts"]
+    np.testing.assert_allclose(tau, ROBOT.inverse_dynamics(q, qd, qdd, w)
+                               - ROBOT.dissipation_torques(qd), rtol=1e-13)
+    back = requests.answer_forward_dynamics(ROBOT, Msg(
+        joint_names=[], positions=q, velocities=qd, efforts=tau, tip_wrench=wrench(w)),
+        compensate=True)["accelerations"]
+    np.testing.assert_allclose(back, qdd, rtol=1e-10, atol=1e-10)
+
+
+@pytest.mark.parametrize("fields, field", [
+    (dict(joint_names=["a"] * 6), "joint_names"),
+    (dict(joint_names=ROBOT.joint_names[:3]), "joint_names"),
+    (dict(positions=[0.0] * 7), "positions"),
+    (dict(velocities=[0.0, float("nan")] * 3), "velocities"),
+    (dict(accelerations=[1.0]), "accelerations"),
+    (dict(tip_wrench=wrench([0, 0, float("nan"), 0, 0, 0])), "tip_wrench"),
+])
+def test_refusals_name_the_field(fields, field):
+    msg = Msg(**{**dict(joint_names=[], positions=[0.0] * 6, velocities=[], accelerations=[],
+                        tip_wrench=ZERO), **fields})
+    with pytest.raises(requests.Refused, match=field) as refused:
+        requests.answer_inverse_dynamics(ROBOT, msg)
+    assert refused.value.cause == field

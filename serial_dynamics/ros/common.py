@@ -13,7 +13,6 @@ import os
 import signal
 import sys
 import threading
-import time
 
 import numpy as np
 import rclpy
@@ -23,6 +22,7 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.signals import SignalHandlerOptions
 
 from .parameters import StartupError
+from .throttle import Throttle
 
 # Queue depth of every command, request and state topic (reliable, volatile: compatible
 # with the ROS defaults of rclcpp/rclpy publishers, ros2_control and robot_state_publisher).
@@ -61,8 +61,10 @@ class Rejections:
 
     def __init__(self, node, period: float = 10.0, hardware_id: str = ""):
         self.logger, self.period = node.get_logger(), period
-        self.counts, self._logged_at, self._logged_count = {}, {}, {}
+        self.once = Throttle(lambda text: self.logger.warning(text), period)
+        self.counts = self.once.counts     # per cause, for the tests
         self.received, self.sent, self.refused = {}, {}, {}
+        self.topic = None           # the topic whose handler runs (subscribe), else None
         self._watched = []          # node-specific values of every report (watch)
         self._name, self._hardware_id, self._refused_reported = (
             node.get_fully_qualified_name(), hardware_id, 0)
@@ -72,22 +74,13 @@ class Rejections:
                           clock=Clock(clock_type=ClockType.STEADY_TIME))
 
     def __call__(self, where: str, exc: Rejected, consequence: str = ""):
-        self.refused[where] = self.refused.get(where, 0) + 1
+        """Count and log a refusal. Within a message handler it is counted under the topic
+        the message came on (the key of its ``received`` count: ``refused ~/set_state``
+        beside ``received ~/set_state``), whatever short name ``where`` the log uses."""
+        topic = self.topic or where
+        self.refused[topic] = self.refused.get(topic, 0) + 1
         self.once((where, exc.cause), f"rejected {where}: {exc}{consequence}",
                   f"rejected {{}} more {where} message(s) since: {exc.cause}")
-
-    def once(self, key, text: str, repeats: str | None = None):
-        """Log ``text`` the first time ``key`` comes up; later, ``repeats`` (formatted with
-        the count) at most every ``period`` s."""
-        n = self.counts[key] = self.counts.get(key, 0) + 1
-        now = time.monotonic()
-        if n == 1:
-            self.logger.warning(text)
-        elif repeats and now - self._logged_at[key] >= self.period:
-            self.logger.warning(repeats.format(n - self._logged_count[key]))
-        else:
-            return
-        self._logged_at[key], self._logged_count[key] = now, n
 
     def got(self, topic: str):
         self.received[topic] = self.received.get(topic, 0) + 1
@@ -131,6 +124,7 @@ def subscribe(node, rejections, msg_type, topic, handler, depth=QOS_DEPTH):
     escapes it anyway (a bug) is logged once per type and the node carries on."""
     def callback(msg):
         rejections.got(topic)
+        rejections.topic = topic
         try:
             handler(msg)
         except Exception as exc:  # noqa: BLE001 -- a node never dies on a message
@@ -138,6 +132,8 @@ def subscribe(node, rejections, msg_type, topic, handler, depth=QOS_DEPTH):
                             f"internal error on a {topic} message (please report): "
                             f"{type(exc).__name__}: {exc}; the node carries on",
                             f"internal error on {{}} more {topic} message(s)")
+        finally:
+            rejections.topic = None
     return node.create_subscription(msg_type, topic, callback, depth)
 
 

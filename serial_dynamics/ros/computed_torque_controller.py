@@ -240,7 +240,8 @@ class ComputedTorqueController(Node):
         for x in params:
             if x.name == "mode" and check_mode(x.value):
                 reason = f"{check_mode(x.value)}; the mode in force ({self.mode}) stays"
-                self.get_logger().warning(f"rejected {reason}")
+                self.reject.once(("set mode",), f"rejected {reason}",
+                                 "rejected {} more sets of mode since")
                 return SetParametersResult(successful=False, reason=reason)
         return SetParametersResult(successful=True)
 

@@ -1,0 +1,92 @@
+"""Issue 20 item 5, in this process (nodes built, not spun): every parameter but the
+settable ones is read-only, ``use_sim_time`` included; refused parameter sets are logged
+once per cause, not once per set; /diagnostics names each input one way, so that
+``received X`` and ``refused X`` pair up."""
+import numpy as np
+import pytest
+from geometry_msgs.msg import WrenchStamped
+from rclpy.parameter import Parameter
+from sensor_msgs.msg import JointState
+
+from serial_dynamics.ros.computed_torque_controller import ComputedTorqueController
+from serial_dynamics.ros.external_torque_observer import ExternalTorqueObserver
+from serial_dynamics.ros.inverse_dynamics import InverseDynamics
+from serial_dynamics.ros.simulator import Simulator
+
+SETTABLE = {"payload.mass", "payload.com", "payload.inertia", "payload.link"}
+
+
+@pytest.fixture(scope="module")
+def nodes(ros):    # ros: rclpy is initialized in this process
+    made = {}
+    try:
+        for cls in (Simulator, InverseDynamics, ComputedTorqueController, ExternalTorqueObserver):
+            params = [Parameter("robot_description_timeout", value=0.0)]
+            if cls is Simulator:
+                params.append(Parameter("start_paused", value=True))
+            made[cls.NAME] = cls(namespace="/node_parameters", parameter_overrides=params)
+        yield made
+    finally:
+        for node in made.values():
+            node.close()
+            node.destroy_node()
+
+
+def test_every_parameter_but_the_settable_ones_is_read_only(nodes):
+    for name, node in nodes.items():
+        settable = SETTABLE | ({"mode"} if name == "computed_torque_controller" else set())
+        names = node.list_parameters([], 0).names
+        assert "use_sim_time" in names and settable <= set(names), (name, names)
+        writable = {x for x in names if not node.describe_parameter(x).read_only}
+        assert writable == settable, (name, writable)
+        # use_sim_time set while running: refused (a controller without /clock would stop)
+        result, = node.set_parameters([Parameter("use_sim_time", value=True)])
+        assert not result.successful and "read-only" in result.reason, (name, result)
+        assert node.get_parameter("use_sim_time").value is False
+        # the settable ones stay settable
+        result, = node.set_parameters([Parameter("payload.mass", value=0.5)])
+        assert result.successful, (name, result)
+        result, = node.set_parameters([Parameter("payload.mass", value=0.0)])
+        assert result.successful, (name, result)
+    ctl = nodes["computed_torque_controller"]
+    result, = ctl.set_parameters([Parameter("mode", value="pd_gravity")])
+    assert result.successful and ctl.mode == "pd_gravity"
+    ctl.set_parameters([Parameter("mode", value="computed_torque")])
+
+
+def test_refused_parameter_sets_are_logged_once_per_cause(nodes, capfd):
+    ctl = nodes["computed_torque_controller"]
+    capfd.readouterr()
+    for k in range(300):          # a storm: every set refused, with its reason
+        result, = ctl.set_parameters([Parameter("payload.mass", value=-1.0 - k)])
+        assert not result.successful and "negative" in result.reason, result
+        result, = ctl.set_parameters([Parameter("mode", value=f"impedance{k}")])
+        assert not result.successful and "must be one of" in result.reason, result
+    err = capfd.readouterr().err
+    lines = [x for x in err.splitlines() if "rejected" in x]
+    # before: 600 lines; now the first of each cause (repeats: a count every 10 s)
+    assert len(lines) <= 4, "\n".join(lines[:10])
+    assert sum("payload parameters" in x for x in lines) >= 1
+    assert sum("parameter 'mode' must be one of" in x for x in lines) >= 1
+
+
+def _callback(node, topic):
+    (sub,) = [s for s in node.subscriptions if s.topic_name.endswith(topic)]
+    return sub.callback
+
+
+def test_diagnostics_pair_received_and_refused_by_one_name(nodes):
+    sim, ids = nodes["simulator"], nodes["inverse_dynamics"]
+    bad_state = JointState(name=["no_such_joint"], position=[0.0])
+    _callback(sim, "/simulator/set_state")(bad_state)
+    _callback(sim, "external_wrench")(WrenchStamped())          # a zero wrench: accepted
+    bad_wrench = WrenchStamped()
+    bad_wrench.wrench.force.x = np.nan
+    _callback(sim, "external_wrench")(bad_wrench)
+    _callback(ids, "tip_wrench")(bad_wrench)
+    for node, names in ((sim, {"~/set_state", "external_wrench"}),
+                        (ids, {"inverse_dynamics/tip_wrench"})):
+        assert set(node.reject.refused) == names, node.reject.refused
+        assert set(node.reject.refused) <= set(node.reject.received), node.reject.received
+    assert sim.reject.received["external_wrench"] == 2
+    assert sim.reject.refused["external_wrench"] == 1

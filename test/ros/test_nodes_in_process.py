@@ -90,3 +90,45 @@ def test_diagnostics_pair_received_and_refused_by_one_name(nodes):
         assert set(node.reject.refused) <= set(node.reject.received), node.reject.received
     assert sim.reject.received["external_wrench"] == 2
     assert sim.reject.refused["external_wrench"] == 1
+
+
+class Sink:
+    def __init__(self):
+        self.msgs = []
+
+    def publish(self, msg):
+        self.msgs.append(msg)
+
+
+def test_the_observer_restarts_on_a_stamp_jump_back_or_far_forward(nodes, capfd):
+    """Before: after a simulator restart (stamps from 0 again) or one stamp far ahead, every
+    joint_states was refused as 'stamp not increasing', for good."""
+    obs = nodes["external_torque_observer"]
+    obs.pub_tau, obs.pub_w, obs.pub_c = Sink(), Sink(), Sink()
+    robot = obs.robot
+    q = np.array([0.1, -1.2, 1.4, -1.5, -1.5, 0.2])
+    qd = np.array([0.3, 0.0, 0.0, 0.0, 0.0, 0.0])
+    tau = robot.gravity_torques(q) + 5.0          # 5 N m the dynamics do not explain
+
+    def send(t):
+        msg = JointState(name=robot.joint_names, position=q.tolist(), velocity=qd.tolist(),
+                         effort=tau.tolist())
+        msg.header.stamp.sec, msg.header.stamp.nanosec = int(t), round((t - int(t)) * 1e9)
+        obs.on_state(msg)
+        return np.array(obs.pub_tau.msgs[-1].effort)
+
+    capfd.readouterr()
+    refused = dict(obs.reject.refused)
+    times = [100 + 0.001 * k for k in range(50)]            # a run
+    r = [send(t) for t in times]
+    assert np.all(np.abs(r[-1]) > 1.0)                     # the estimate has grown
+    for start in (0.001, 1e6, 0.5, 2.0):        # restarted; far ahead; back again; a pause
+        r0 = send(start)
+        assert np.all(r0 == 0.0), r0                      # a new start: from the momentum
+        r1 = send(start + 0.001)
+        assert np.any(r1 != 0.0)                           # and the estimate goes on
+    assert len(obs.pub_tau.msgs) == 50 + 8                 # every message answered
+    assert obs.reject.refused == refused                   # none refused
+    assert obs.restarts == 4
+    err = capfd.readouterr().err
+    assert err.count("jumped back") == 1 and err.count("jumped forward") == 1, err

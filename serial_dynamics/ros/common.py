@@ -56,14 +56,18 @@ class Rejections:
     Also counts, per topic, the messages the node received, refused and sent, and reports
     them on ``/diagnostics`` (diagnostic_msgs/DiagnosticArray, one status named after the
     node) every DIAGNOSTICS_PERIOD s of wall time: level WARN when something was refused
-    since the last report, else OK. A message dropped before the node saw it (a full
-    queue) is in no count: the sender compares its own count with "received"."""
+    since the last report, or a message was lost, else OK. A message dropped before the
+    node saw it (replaced in a full queue, lost on the way) leaves a gap in its
+    publisher's sequence numbers: counted as "lost" while the topic has one publisher;
+    with several, the senders compare their own counts with "received"."""
 
     def __init__(self, node, period: float = 10.0, hardware_id: str = ""):
         self.logger, self.period = node.get_logger(), period
         self.once = Throttle(lambda text: self.logger.warning(text), period)
         self.counts = self.once.counts     # per cause, for the tests
         self.received, self.sent, self.refused = {}, {}, {}
+        self.lost, self.skipped, self._sequence = {}, {}, {}   # sequence gaps (subscribe)
+        self._lost_reported = 0
         self.topic = None           # the topic whose handler runs (subscribe), else None
         self._watched = []          # node-specific values of every report (watch)
         self._name, self._hardware_id, self._refused_reported = (
@@ -85,6 +89,19 @@ class Rejections:
     def got(self, topic: str):
         self.received[topic] = self.received.get(topic, 0) + 1
 
+    def sequence(self, topic: str, number, publishers, latest_only=False):
+        """The publisher's sequence number of a message taken from ``topic``: a jump
+        beyond the next one means messages that never reached the node (replaced in a full
+        queue, or lost on the way). Counted only while ``publishers()`` is 1 (numbers are
+        per publisher and messages carry no publisher id), as ``lost`` -- or ``skipped``
+        on a keep-last-1 subscription (``latest_only``), where older messages are meant to
+        be replaced by newer ones. A number that goes back is a new publisher."""
+        last, self._sequence[topic] = self._sequence.get(topic), number
+        if number is None or last is None or number <= last + 1 or publishers() != 1:
+            return
+        into = self.skipped if latest_only else self.lost
+        into[topic] = into.get(topic, 0) + number - last - 1
+
     def put(self, topic: str):
         self.sent[topic] = self.sent.get(topic, 0) + 1
 
@@ -98,19 +115,23 @@ class Rejections:
     def report(self):
         # copies: the simulator counts from its stepping thread (a dict copy is atomic)
         received, sent, refused = dict(self.received), dict(self.sent), dict(self.refused)
-        total = sum(refused.values())
+        total, lost = sum(refused.values()), dict(self.lost)
         values = ([KeyValue(key=f"received {t}", value=str(n)) for t, n in received.items()]
                   + [KeyValue(key=f"sent {t}", value=str(n)) for t, n in sent.items()]
-                  + [KeyValue(key=f"refused {t}", value=str(n)) for t, n in refused.items()])
+                  + [KeyValue(key=f"refused {t}", value=str(n)) for t, n in refused.items()]
+                  + [KeyValue(key=f"lost {t}", value=str(n)) for t, n in lost.items()]
+                  + [KeyValue(key=f"skipped {t}", value=str(n))
+                     for t, n in dict(self.skipped).items()])
         warn = False
         for watched in self._watched:
             for key, value, *flag in watched():
                 values.append(KeyValue(key=key, value=str(value)))
                 warn = warn or bool(flag and flag[0])
         text = "; ".join(f"{k.key}: {k.value}" for k in values) or "no messages yet"
+        lost_total = sum(lost.values())
         level = (DiagnosticStatus.WARN if total > self._refused_reported or warn
-                 else DiagnosticStatus.OK)
-        self._refused_reported = total
+                 or lost_total > self._lost_reported else DiagnosticStatus.OK)
+        self._refused_reported, self._lost_reported = total, lost_total
         msg = DiagnosticArray(status=[DiagnosticStatus(
             level=level, name=self._name, message=text, hardware_id=self._hardware_id,
             values=values)])
@@ -120,10 +141,19 @@ class Rejections:
 
 def subscribe(node, rejections, msg_type, topic, handler, depth=QOS_DEPTH):
     """A subscription whose messages are counted (``received`` on /diagnostics) before
-    ``handler`` takes them. The handler refuses bad input itself; an exception that
-    escapes it anyway (a bug) is logged once per type and the node carries on."""
-    def callback(msg):
+    ``handler`` takes them, and whose gaps in the publisher's sequence numbers are counted
+    as ``lost`` (``skipped`` with ``depth`` 1, where only the latest message matters). The
+    handler refuses bad input itself; an exception that escapes it anyway (a bug) is
+    logged once per type and the node carries on."""
+    subscription = []
+
+    def publishers():
+        return node.count_publishers(subscription[0].topic_name)
+
+    def callback(msg, info):
         rejections.got(topic)
+        rejections.sequence(topic, info.get("publication_sequence_number"), publishers,
+                            latest_only=depth == 1)
         rejections.topic = topic
         try:
             handler(msg)
@@ -134,7 +164,8 @@ def subscribe(node, rejections, msg_type, topic, handler, depth=QOS_DEPTH):
                             f"internal error on {{}} more {topic} message(s)")
         finally:
             rejections.topic = None
-    return node.create_subscription(msg_type, topic, callback, depth)
+    subscription.append(node.create_subscription(msg_type, topic, callback, depth))
+    return subscription[0]
 
 
 def _show(values, at_most=8):

@@ -2,9 +2,13 @@
 settable ones is read-only, ``use_sim_time`` included; refused parameter sets are logged
 once per cause, not once per set; /diagnostics names each input one way, so that
 ``received X`` and ``refused X`` pair up."""
+import time
+
 import numpy as np
 import pytest
+from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import WrenchStamped
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 
@@ -72,7 +76,7 @@ def test_refused_parameter_sets_are_logged_once_per_cause(nodes, capfd):
 
 def _callback(node, topic):
     (sub,) = [s for s in node.subscriptions if s.topic_name.endswith(topic)]
-    return sub.callback
+    return lambda msg: sub.callback(msg, {})        # no message info: no sequence number
 
 
 def test_diagnostics_pair_received_and_refused_by_one_name(nodes):
@@ -132,3 +136,51 @@ def test_the_observer_restarts_on_a_stamp_jump_back_or_far_forward(nodes, capfd)
     assert obs.restarts == 4
     err = capfd.readouterr().err
     assert err.count("jumped back") == 1 and err.count("jumped forward") == 1, err
+
+
+def test_a_loss_before_the_node_is_counted_and_warned_about(ros):
+    """A burst of 300 states into an observer's queue of 10 (the test its one publisher):
+    the states replaced before the node took them are the gaps in the publisher's sequence
+    numbers, counted as lost and reported with level WARN. Before: in no count, level OK."""
+    obs = ExternalTorqueObserver(namespace="/loss", parameter_overrides=[
+        Parameter("robot_description_timeout", value=0.0)])
+    obs.pub_tau, obs.pub_w, obs.pub_c = Sink(), Sink(), Sink()
+    obs.reject._diagnostics = Sink()
+    executor = SingleThreadedExecutor()
+    executor.add_node(obs)
+    pub = ros.node.create_publisher(JointState, "/loss/joint_states", 10)
+    names = obs.robot.joint_names
+    try:
+        ros.spin_until(lambda: pub.get_subscription_count() > 0, 30, "the observer")
+        ros.spin_for(0.5)
+
+        def send(k):
+            msg = JointState(name=names, position=[0.0] * 6, velocity=[0.0] * 6,
+                             effort=[0.0] * 6)
+            msg.header.stamp.sec, msg.header.stamp.nanosec = 500, 1000 * (k + 1)
+            pub.publish(msg)
+
+        def spin(seconds):
+            deadline = time.monotonic() + seconds
+            while time.monotonic() < deadline:
+                executor.spin_once(timeout_sec=0.05)
+
+        send(0)                    # the first one taken: where the count starts
+        spin(1.0)
+        assert obs.reject.received["joint_states"] == 1
+        for k in range(1, 301):
+            send(k)
+        spin(2.0)
+        taken = obs.reject.received["joint_states"] - 1
+        lost = obs.reject.lost.get("joint_states", 0)
+        assert 0 < taken < 300 and taken + lost == 300, (taken, lost)
+        obs.reject.report()        # the first report that has the loss warns; later: OK
+        reports = [(m.status[0].level, {kv.key: kv.value for kv in m.status[0].values})
+                   for m in obs.reject._diagnostics.msgs]
+        first = next(k for k, (_, v) in enumerate(reports) if "lost joint_states" in v)
+        assert reports[first][0] == DiagnosticStatus.WARN
+        assert reports[-1][1]["lost joint_states"] == str(lost)
+    finally:
+        ros.node.destroy_publisher(pub)
+        executor.remove_node(obs)
+        obs.destroy_node()

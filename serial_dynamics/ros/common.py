@@ -8,16 +8,21 @@ imports rclpy.
 """
 from __future__ import annotations
 
+import ctypes
+import os
+import signal
 import sys
-import time
+import threading
 
 import numpy as np
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.signals import SignalHandlerOptions
 
 from .parameters import StartupError
+from .throttle import Throttle
 
 # Queue depth of every command, request and state topic (reliable, volatile: compatible
 # with the ROS defaults of rclcpp/rclpy publishers, ros2_control and robot_state_publisher).
@@ -51,13 +56,19 @@ class Rejections:
     Also counts, per topic, the messages the node received, refused and sent, and reports
     them on ``/diagnostics`` (diagnostic_msgs/DiagnosticArray, one status named after the
     node) every DIAGNOSTICS_PERIOD s of wall time: level WARN when something was refused
-    since the last report, else OK. A message dropped before the node saw it (a full
-    queue) is in no count: the sender compares its own count with "received"."""
+    since the last report, or a message was lost, else OK. A message dropped before the
+    node saw it (replaced in a full queue, lost on the way) leaves a gap in its
+    publisher's sequence numbers: counted as "lost" while the topic has one publisher;
+    with several, the senders compare their own counts with "received"."""
 
     def __init__(self, node, period: float = 10.0, hardware_id: str = ""):
         self.logger, self.period = node.get_logger(), period
-        self.counts, self._logged_at, self._logged_count = {}, {}, {}
+        self.once = Throttle(lambda text: self.logger.warning(text), period)
+        self.counts = self.once.counts     # per cause, for the tests
         self.received, self.sent, self.refused = {}, {}, {}
+        self.lost, self.skipped, self._sequence = {}, {}, {}   # sequence gaps (subscribe)
+        self._lost_reported = 0
+        self.topic = None           # the topic whose handler runs (subscribe), else None
         self._watched = []          # node-specific values of every report (watch)
         self._name, self._hardware_id, self._refused_reported = (
             node.get_fully_qualified_name(), hardware_id, 0)
@@ -67,25 +78,29 @@ class Rejections:
                           clock=Clock(clock_type=ClockType.STEADY_TIME))
 
     def __call__(self, where: str, exc: Rejected, consequence: str = ""):
-        self.refused[where] = self.refused.get(where, 0) + 1
+        """Count and log a refusal. Within a message handler it is counted under the topic
+        the message came on (the key of its ``received`` count: ``refused ~/set_state``
+        beside ``received ~/set_state``), whatever short name ``where`` the log uses."""
+        topic = self.topic or where
+        self.refused[topic] = self.refused.get(topic, 0) + 1
         self.once((where, exc.cause), f"rejected {where}: {exc}{consequence}",
                   f"rejected {{}} more {where} message(s) since: {exc.cause}")
 
-    def once(self, key, text: str, repeats: str | None = None):
-        """Log ``text`` the first time ``key`` comes up; later, ``repeats`` (formatted with
-        the count) at most every ``period`` s."""
-        n = self.counts[key] = self.counts.get(key, 0) + 1
-        now = time.monotonic()
-        if n == 1:
-            self.logger.warning(text)
-        elif repeats and now - self._logged_at[key] >= self.period:
-            self.logger.warning(repeats.format(n - self._logged_count[key]))
-        else:
-            return
-        self._logged_at[key], self._logged_count[key] = now, n
-
     def got(self, topic: str):
         self.received[topic] = self.received.get(topic, 0) + 1
+
+    def sequence(self, topic: str, number, publishers, latest_only=False):
+        """The publisher's sequence number of a message taken from ``topic``: a jump
+        beyond the next one means messages that never reached the node (replaced in a full
+        queue, or lost on the way). Counted only while ``publishers()`` is 1 (numbers are
+        per publisher and messages carry no publisher id), as ``lost`` -- or ``skipped``
+        on a keep-last-1 subscription (``latest_only``), where older messages are meant to
+        be replaced by newer ones. A number that goes back is a new publisher."""
+        last, self._sequence[topic] = self._sequence.get(topic), number
+        if number is None or last is None or number <= last + 1 or publishers() != 1:
+            return
+        into = self.skipped if latest_only else self.lost
+        into[topic] = into.get(topic, 0) + number - last - 1
 
     def put(self, topic: str):
         self.sent[topic] = self.sent.get(topic, 0) + 1
@@ -100,19 +115,23 @@ class Rejections:
     def report(self):
         # copies: the simulator counts from its stepping thread (a dict copy is atomic)
         received, sent, refused = dict(self.received), dict(self.sent), dict(self.refused)
-        total = sum(refused.values())
+        total, lost = sum(refused.values()), dict(self.lost)
         values = ([KeyValue(key=f"received {t}", value=str(n)) for t, n in received.items()]
                   + [KeyValue(key=f"sent {t}", value=str(n)) for t, n in sent.items()]
-                  + [KeyValue(key=f"refused {t}", value=str(n)) for t, n in refused.items()])
+                  + [KeyValue(key=f"refused {t}", value=str(n)) for t, n in refused.items()]
+                  + [KeyValue(key=f"lost {t}", value=str(n)) for t, n in lost.items()]
+                  + [KeyValue(key=f"skipped {t}", value=str(n))
+                     for t, n in dict(self.skipped).items()])
         warn = False
         for watched in self._watched:
             for key, value, *flag in watched():
                 values.append(KeyValue(key=key, value=str(value)))
                 warn = warn or bool(flag and flag[0])
         text = "; ".join(f"{k.key}: {k.value}" for k in values) or "no messages yet"
+        lost_total = sum(lost.values())
         level = (DiagnosticStatus.WARN if total > self._refused_reported or warn
-                 else DiagnosticStatus.OK)
-        self._refused_reported = total
+                 or lost_total > self._lost_reported else DiagnosticStatus.OK)
+        self._refused_reported, self._lost_reported = total, lost_total
         msg = DiagnosticArray(status=[DiagnosticStatus(
             level=level, name=self._name, message=text, hardware_id=self._hardware_id,
             values=values)])
@@ -122,10 +141,20 @@ class Rejections:
 
 def subscribe(node, rejections, msg_type, topic, handler, depth=QOS_DEPTH):
     """A subscription whose messages are counted (``received`` on /diagnostics) before
-    ``handler`` takes them. The handler refuses bad input itself; an exception that
-    escapes it anyway (a bug) is logged once per type and the node carries on."""
-    def callback(msg):
+    ``handler`` takes them, and whose gaps in the publisher's sequence numbers are counted
+    as ``lost`` (``skipped`` with ``depth`` 1, where only the latest message matters). The
+    handler refuses bad input itself; an exception that escapes it anyway (a bug) is
+    logged once per type and the node carries on."""
+    subscription = []
+
+    def publishers():
+        return node.count_publishers(subscription[0].topic_name)
+
+    def callback(msg, info):
         rejections.got(topic)
+        rejections.sequence(topic, info.get("publication_sequence_number"), publishers,
+                            latest_only=depth == 1)
+        rejections.topic = topic
         try:
             handler(msg)
         except Exception as exc:  # noqa: BLE001 -- a node never dies on a message
@@ -133,7 +162,10 @@ def subscribe(node, rejections, msg_type, topic, handler, depth=QOS_DEPTH):
                             f"internal error on a {topic} message (please report): "
                             f"{type(exc).__name__}: {exc}; the node carries on",
                             f"internal error on {{}} more {topic} message(s)")
-    return node.create_subscription(msg_type, topic, callback, depth)
+        finally:
+            rejections.topic = None
+    subscription.append(node.create_subscription(msg_type, topic, callback, depth))
+    return subscription[0]
 
 
 def _show(values, at_most=8):
@@ -230,23 +262,55 @@ def stamp_seconds(stamp) -> float:
 
 
 # ------------------------------------------------------------------ running a node
+SPIN_PERIOD = 0.1   # s; the longest a stop request waits for the spin loop to see it
+
+
+class _StopRequest:
+    """SIGINT and SIGTERM handler of ``run``: it only notes the signal. rclpy's own handler
+    (not installed: SignalHandlerOptions.NO) shuts the context down at once, under the
+    callbacks still running -- the source of "publisher's context is invalid" in a timer,
+    "the given context is not valid" in the executor's wait set and the errors of
+    ``take_message``. Noted here, the spin loop ends between two callbacks and the node is
+    taken down in order (its threads, its timers and publishers, then the context).
+    Before the node spins (loading the robot, compiling), a signal stops the start-up."""
+
+    def __init__(self):
+        self.signal, self.spinning = None, False
+
+    def __call__(self, signum, frame):
+        self.signal = signal.Signals(signum).name
+        if not self.spinning:
+            raise KeyboardInterrupt
+
+    def install(self):
+        if threading.current_thread() is threading.main_thread():   # signal's own rule
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                signal.signal(sig, self)
+
+
 def run(node_class, args=None) -> int:
-    """Start ``node_class`` and spin it until shutdown (Ctrl-C, SIGTERM). A bad parameter
-    or robot prints one paragraph to stderr and returns 2 -- no traceback."""
+    """Start ``node_class`` and spin it until SIGINT (Ctrl-C) or SIGTERM, then stop it in
+    order and log ``stopped (SIGINT)`` (or SIGTERM) as its last line; returns 0. A bad
+    parameter or robot prints one paragraph to stderr and returns 2 -- no traceback."""
     name = node_class.NAME
+    stop = _StopRequest()
     try:
-        rclpy.init(args=sys.argv if args is None else args)
+        rclpy.init(args=sys.argv if args is None else args,
+                   signal_handler_options=SignalHandlerOptions.NO)
     except Exception as exc:   # e.g. malformed --ros-args
         text = " ".join(str(exc).split())
         print(f"{name}: cannot start: the ROS arguments are not valid: {text}", file=sys.stderr)
         return 2
+    stop.install()
     node = None
     try:
         node = node_class()
         node.get_logger().info("ready")
         executor = SingleThreadedExecutor()
         executor.add_node(node)
-        executor.spin()
+        stop.spinning = True
+        while stop.signal is None:
+            executor.spin_once(timeout_sec=SPIN_PERIOD)
     except (StartupError, rclpy.exceptions.ParameterException) as exc:
         text = " ".join(str(exc).split())
         print(f"{name}: cannot start: {text}. See docs/ros.md for the parameters.",
@@ -255,8 +319,23 @@ def run(node_class, args=None) -> int:
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
+        stop.spinning = True                   # a second signal no longer interrupts
         if node is not None:
-            node.close()
-            node.destroy_node()
+            node.close()                       # the node's own threads first
+            node.get_logger().info(f"stopped ({stop.signal or 'shutdown'})")
+            node.destroy_node()                # timers, publishers, subscriptions
         rclpy.try_shutdown()
+    if stop.signal is not None:
+        _exit_now(0)
     return 0
+
+
+def _exit_now(code):
+    """End the process once the node has stopped. Python's own finalization would next
+    free every compiled numba kernel of the process (about 1 s for a node's ~100 kernels,
+    measured here; several seconds on a loaded machine), which nothing of a stopped node
+    needs and which would put the exit beyond a launch system's grace period."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    ctypes.CDLL(None).fflush(None)      # C stdio too (rcutils logs through it)
+    os._exit(code)

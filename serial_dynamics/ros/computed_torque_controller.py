@@ -36,7 +36,7 @@ from trajectory_msgs.msg import JointTrajectory
 
 from serial_dynamics.trajectory import Waypoints
 
-from . import common, parameters
+from . import common, parameters, pd_bound
 from .common import Rejected
 from .parameters import StartupError
 
@@ -50,9 +50,9 @@ PARAMETERS = {
     "kp": ("double[]", [400.0], "position gains (1/s^2), one or one per joint"),
     "kd": ("double[]", [40.0], "velocity gains (1/s), one or one per joint"),
     "pd.kp": ("double[]", None, "pd_gravity position gains (N m/rad), one or one per joint "
-              "([] = kp times the diagonal of M(0))"),
+              "([] = kp times the effective inertia 1/(M(q)^-1)_ii at the state used)"),
     "pd.kd": ("double[]", None, "pd_gravity velocity gains (N m s/rad), one or one per joint "
-              "([] = kd times the diagonal of M(0))"),
+              "([] = kd times the effective inertia 1/(M(q)^-1)_ii at the state used)"),
     "compensate_dissipation": ("bool", False, "add the torque that overcomes the joint "
                                "dissipation (friction) at the measured velocity"),
     **parameters.PAYLOAD_PARAMETERS,
@@ -84,11 +84,14 @@ class ComputedTorqueController(Node):
             self, parameters.load_robot(self, p), p, lambda robot: setattr(self, "robot", robot))
         self.kp = parameters.per_joint("kp", p["kp"], robot, None, positive=True)
         self.kd = parameters.per_joint("kd", p["kd"], robot, None, positive=True)
-        m0 = np.diag(robot.mass_matrix(np.zeros(robot.dof)))    # default pd gains: same
-        self.pd_kp = parameters.per_joint("pd.kp", p["pd.kp"], robot, self.kp * m0, True)
-        self.pd_kd = parameters.per_joint("pd.kd", p["pd.kd"], robot, self.kd * m0, True)
+        # pd gains given: constant; not given (None): kp, kd times the effective inertia at
+        # the state used (pd_gains), so that every joint's loop has the bandwidth of kp, kd
+        self.pd_kp, self.pd_kd = (
+            None if p[x] is None else parameters.per_joint(x, p[x], robot, None, True)
+            for x in ("pd.kp", "pd.kd"))
         if not 0 < p["control_rate"] < np.inf:
             raise StartupError(f"parameter 'control_rate' must be > 0, got {p['control_rate']}")
+        self.period = 1.0 / p["control_rate"]
         self.compensate = p["compensate_dissipation"]
         self.wrap = np.array([k == "continuous" for k in robot.joint_types])
         self.state = None           # (t, q, qd) of the latest good joint state
@@ -97,10 +100,20 @@ class ComputedTorqueController(Node):
         robot.warmup()
         self.reject = common.Rejections(self, hardware_id=robot.model.name)
         self.reject.watch(self.diagnostics)
+        # joints whose gains are beyond the stability bound: computed_torque's (the loop
+        # it makes has unit inertia), pd_gravity's at the latest state (check_bound)
+        self.beyond_ct = set(pd_bound.beyond(self.kp, self.kd, np.ones(robot.dof),
+                                             self.period).tolist())
+        self.beyond_pd = set()
+        for j in sorted(self.beyond_ct):
+            self.warn_bound(j, self.kp[j], self.kd[j], 1.0, "kp, kd (computed_torque)")
         self.add_on_set_parameters_callback(self.validate_mode)
         self.add_post_set_parameters_callback(self.apply_mode)
         self.pub = self.create_publisher(Float64MultiArray, "effort_commands", common.QOS_DEPTH)
-        common.subscribe(self, self.reject, JointState, "joint_states", self.on_state)
+        # keep last 1: the law runs on the freshest state; a queue of states behind a stall
+        # would feed it old ones, one per period, for as long as the backlog lasts
+        common.subscribe(self, self.reject, JointState, "joint_states", self.on_state,
+                         depth=1)
         common.subscribe(self, self.reject, JointTrajectory, "desired_trajectory",
                          self.on_trajectory)
         self.create_timer(1.0 / p["control_rate"], self.on_timer)
@@ -127,7 +140,9 @@ class ComputedTorqueController(Node):
         now, t = self.now(), common.stamp_seconds(msg.header.stamp)
         if t == 0.0 or abs(now - t) > MAX_STATE_AGE:
             t = now
-        self.state = (t, q, qd)
+        first, self.state = self.state is None, (t, q, qd)
+        if first:
+            self.check_bound()
         if self.reference is None or self.mode == "gravity_compensation":
             self.hold()
 
@@ -178,7 +193,8 @@ class ComputedTorqueController(Node):
                 if mode == "computed_torque":
                     tau = robot.inverse_dynamics(q, qd, qdd_ff + self.kp * e + self.kd * ed)
                 elif mode == "pd_gravity":
-                    tau = self.pd_kp * e + self.pd_kd * ed + robot.gravity_torques(q)
+                    kp, kd = self.pd_gains(robot, q)
+                    tau = kp * e + kd * ed + robot.gravity_torques(q)
                 else:                                              # gravity_compensation
                     tau = robot.gravity_torques(q)
             if self.compensate:
@@ -194,11 +210,38 @@ class ComputedTorqueController(Node):
         self.error_max = max(self.error_max or 0.0, float(np.max(np.abs(e))))
         self.saturated.update(np.flatnonzero(np.abs(tau) > robot.effort_limit).tolist())
 
+    def pd_gains(self, robot, q):
+        """pd_gravity's gains at q: pd.kp, pd.kd as given, or kp, kd times the effective
+        inertia m_i = 1/(M(q)^-1)_ii (pd_bound): each joint then meets e'' + kd e' + kp e = 0
+        at every pose (its own inertia m_i), within the bound whenever kp, kd are."""
+        if self.pd_kp is not None and self.pd_kd is not None:
+            return self.pd_kp, self.pd_kd
+        m = pd_bound.effective_inertia(robot, q)
+        return (self.kp * m if self.pd_kp is None else self.pd_kp,
+                self.kd * m if self.pd_kd is None else self.pd_kd)
+
+    def check_bound(self):
+        """Warn (once per joint) when pd_gravity's gains are beyond the explicit-PD stability
+        bound at the control rate with the effective inertia at the latest state."""
+        if self.state is None:
+            return
+        robot, q = self.robot, self.state[1]
+        m = pd_bound.effective_inertia(robot, q)
+        kp, kd = self.pd_gains(robot, q)
+        self.beyond_pd = set(pd_bound.beyond(kp, kd, m, self.period).tolist())
+        for j in sorted(self.beyond_pd):
+            self.warn_bound(j, kp[j], kd[j], m[j], "pd.kp, pd.kd (pd_gravity)")
+
+    def warn_bound(self, j, kp, kd, m, what):
+        self.reject.once(("bound", what, j), pd_bound.explain(
+            self.robot.joint_names[j], kp, kd, m, self.period, what))
+
     def validate_mode(self, params):
         for x in params:
             if x.name == "mode" and check_mode(x.value):
                 reason = f"{check_mode(x.value)}; the mode in force ({self.mode}) stays"
-                self.get_logger().warning(f"rejected {reason}")
+                self.reject.once(("set mode",), f"rejected {reason}",
+                                 "rejected {} more sets of mode since")
                 return SetParametersResult(successful=False, reason=reason)
         return SetParametersResult(successful=True)
 
@@ -214,7 +257,10 @@ class ComputedTorqueController(Node):
         """mode, max |e| and the joints beyond their effort limit since the last report."""
         err, names = self.error_max, [self.robot.joint_names[j] for j in sorted(self.saturated)]
         self.error_max, self.saturated = None, set()
+        self.check_bound()
+        beyond = [self.robot.joint_names[j] for j in sorted(self.beyond_ct | self.beyond_pd)]
         return [("mode", self.mode),
+                ("gains beyond the stability bound", ", ".join(beyond) or "none", bool(beyond)),
                 ("tracking error max (rad)", "no command" if err is None else f"{err:.6g}"),
                 ("saturated joints", ", ".join(names) or "none", bool(names))]
 

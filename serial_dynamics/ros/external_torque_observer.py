@@ -38,7 +38,8 @@ PARAMETERS = {
     "compensate_dissipation": ("bool", False, "subtract the modelled joint friction "
                                "(dissipation.*) from the momentum balance"),
     "max_sample_gap": ("double", 0.1, "s between two joint_states stamps beyond which the "
-                       "observer restarts from zero (a pause, a reset)"),
+                       "observer restarts from the current momentum (a pause, a reset); a "
+                       "stamp that goes back restarts it too (a simulator restarted)"),
     **parameters.PAYLOAD_PARAMETERS,
 }
 
@@ -79,7 +80,7 @@ class ExternalTorqueObserver(Node):
         self.observer.wrench(zero, zero)
         self.observer.reset()
         self.chain = set(robot.all_joint_names)     # mimic joints: named, not used
-        self.collision, self.r = False, np.zeros(robot.dof)
+        self.collision, self.r, self.restarts = False, np.zeros(robot.dof), 0
         self.reject = common.Rejections(self, hardware_id=robot.model.name)
         self.reject.watch(self.diagnostics)
         self.pub_tau, self.pub_w, self.pub_c = (
@@ -105,13 +106,11 @@ class ExternalTorqueObserver(Node):
             if t == 0.0:
                 raise Rejected("zero stamp", "joint_states has a zero stamp; the observer "
                                "integrates over the stamps: stamp every message")
-            if obs.t is not None and t <= obs.t:
-                raise Rejected("stamp not increasing", f"joint_states stamp {t:.9f} s does not "
-                               f"come after the previous one ({obs.t:.9f} s)")
-            if obs.t is not None and t - obs.t > self.max_gap:
-                self.reject.once("gap", f"{t - obs.t:.3g} s between two joint_states: the "
-                                 "observer restarts from zero", "observer restarted {} more times")
-                obs.reset()
+            if obs.t is not None and t == obs.t:
+                raise Rejected("stamp repeated", f"joint_states stamp {t:.9f} s is the "
+                               "previous one's (a paused simulator): nothing new to take")
+            if obs.t is not None and not 0 < t - obs.t <= self.max_gap:
+                self.restart(t - obs.t)
             r = obs.update(t, q, qd, tau)
             w, _ = obs.wrench(q, r)
         except Rejected as exc:
@@ -120,6 +119,19 @@ class ExternalTorqueObserver(Node):
         except ValueError as exc:     # anything else the library refuses
             return self.reject("joint_states", Rejected("library", str(exc)))
         self.publish(msg.header.stamp, r, w)
+
+    def restart(self, jump):
+        """A stamp that jumps back (a simulator restarted, its time at 0 again) or forward
+        by more than max_sample_gap (a pause, one stamp far off): a new start, as tf2
+        clears its buffer on a jump back. The estimate restarts from the current momentum
+        (r = 0 at this sample); logged once per direction, then counted."""
+        self.restarts += 1
+        way = "back" if jump < 0 else "forward"
+        self.reject.once(("restart", way), f"joint_states stamp jumped {way} by {abs(jump):.6g} "
+                         f"s (max_sample_gap {self.max_gap:g} s): the observer restarts from "
+                         "the current momentum", f"observer restarted {{}} more times since "
+                         f"on a stamp jump {way}")
+        self.observer.reset()
 
     def publish(self, stamp, r, w):
         ratio = np.abs(r) / self.threshold
@@ -153,7 +165,8 @@ class ExternalTorqueObserver(Node):
         j = int(np.argmax(np.abs(self.r) / self.threshold))
         return [("largest estimated torque (N m)", f"{abs(self.r[j]):.4g}"),
                 ("threshold at that joint (N m)", f"{self.threshold[j]:.4g}"),
-                ("collision", self.collision, self.collision)]
+                ("collision", self.collision, self.collision),
+                ("restarts (stamp jumps)", self.restarts)]
 
     def close(self):
         pass

@@ -9,12 +9,14 @@ import time
 import warnings
 
 import numpy as np
-from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rcl_interfaces.msg import ParameterDescriptor, ParameterType, SetParametersResult
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import String
 
 import serial_dynamics as sd
+
+from .throttle import Throttle
 
 # robot_state_publisher (Jazzy) publishes robot_description reliable + transient local.
 DESCRIPTION_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
@@ -111,12 +113,18 @@ PAYLOAD_PARAMETERS = {
                      "Settable while running"),
 }
 WRITABLE = frozenset(PAYLOAD_PARAMETERS)
+USE_SIM_TIME = "use_sim_time"
+USE_SIM_TIME_TEXT = ("run on /clock (simulated time) instead of the system clock; "
+                     "read-only: give it at start-up (-p use_sim_time:=true)")
 
 
 def declare(node, spec: dict) -> dict:
     """Declare every parameter of ``spec`` (with its description; read-only unless in
     ``WRITABLE``) and return their values, checked and converted. Raises StartupError
-    naming the parameter."""
+    naming the parameter. Also makes rclpy's own ``use_sim_time`` read-only (set while
+    running, a node without /clock would stop): give it at start-up."""
+    node.set_descriptor(USE_SIM_TIME, ParameterDescriptor(
+        description=USE_SIM_TIME_TEXT, read_only=True, type=ParameterType.PARAMETER_BOOL))
     values = {}
     for name, (kind, default, text) in spec.items():
         descriptor = ParameterDescriptor(description=text, dynamic_typing=True,
@@ -283,6 +291,7 @@ def with_payload_parameters(node, loaded, p: dict, apply):
     keeps its value. Mass 0 with zero inertia is ``loaded`` itself (no payload).
     """
     log = node.get_logger()
+    refused = Throttle(log.warning)        # a storm of bad sets: a few lines, with counts
     current = lambda: {name: node.get_parameter(name).value for name in PAYLOAD_PARAMETERS}  # noqa: E731
     try:
         robot, text = _payload_robot(loaded, {name: p[name] for name in PAYLOAD_PARAMETERS})
@@ -299,7 +308,9 @@ def with_payload_parameters(node, loaded, p: dict, apply):
         try:
             _payload_robot(loaded, {**current(), **new})
         except ValueError as exc:
-            log.warning(f"rejected payload parameters {new}: {exc}; the payload in force stays")
+            names = sorted(new)
+            refused(("payload", *names), f"rejected payload parameters {new}: {exc}; the "
+                    "payload in force stays", f"rejected {{}} more sets of {names} since")
             return SetParametersResult(successful=False, reason=str(exc))
         return SetParametersResult(successful=True)
 

@@ -111,8 +111,9 @@ def test_bad_input_is_rejected_and_control_continues(ros, ctl):
         "desired_trajectory names no joints": JointTrajectory(),
     }
     for _ in range(3):
-        for send in bad_states.values():
-            send()
+        for send in bad_states.values():    # one at a time: the controller keeps only the
+            send()                          # latest state (keep last 1)
+            ros.spin_for(0.05)
         for msg in bad_trajectories.values():
             ctl.traj.publish(msg)
     for text in (*bad_states, *bad_trajectories):

@@ -92,23 +92,24 @@ def match(data, tau):
 
 @pytest.fixture(scope="module")
 def ctls(ros):
-    """The UR5e (explicit gains, starts in computed_torque), the Panda (default gains,
-    friction compensated, starts in pd_gravity) and a controller given a bad mode, started
+    """The UR5e (explicit gains, starts in computed_torque), the Panda (pd gains given: kp,
+    kd times M_ii(0); friction compensated, starts in pd_gravity) and a controller given a bad mode, started
     together."""
     ur = sd.default_robot()
     ur_proc = ros.start("computed_torque_controller", {
         "kp": KP.tolist(), "kd": [KD], "pd.kp": PD_KP.tolist(), "pd.kd": PD_KD.tolist()},
         ros_args=["-r", "__ns:=/cm_ur"])
     path = panda_path()
-    pa_proc = ros.start("computed_torque_controller", {
-        "urdf_path": path, "base_link": "panda_link0", "tip_link": "panda_link8",
-        "mode": PD, "compensate_dissipation": True, **FRICTION}, ros_args=["-r", "__ns:=/cm_pa"])
-    bad = ros.start("computed_torque_controller", {"mode": "impedance"},
-                    ros_args=["-r", "__ns:=/cm_bad"], expect_running=False)
     with pytest.warns(Warning):      # the fingers, held: off the chain
         pa = sd.load_urdf(path, "panda_link0", "panda_link8")
+    m0 = np.diag(pa.mass_matrix(np.zeros(pa.dof)))        # pd gains: kp, kd x M_ii(0)
+    pa_proc = ros.start("computed_torque_controller", {
+        "urdf_path": path, "base_link": "panda_link0", "tip_link": "panda_link8",
+        "mode": PD, "compensate_dissipation": True, "pd.kp": (400.0 * m0).tolist(),
+        "pd.kd": (40.0 * m0).tolist(), **FRICTION}, ros_args=["-r", "__ns:=/cm_pa"])
+    bad = ros.start("computed_torque_controller", {"mode": "impedance"},
+                    ros_args=["-r", "__ns:=/cm_bad"], expect_running=False)
     pa.dissipation = pa.dissipation.override(viscous=0.5, coulomb=0.2)
-    m0 = np.diag(pa.mass_matrix(np.zeros(pa.dof)))        # default pd gains: kp, kd x M_ii(0)
     c = {"ur": Ctl(ros, "/cm_ur", ur_proc, ur, KP, KD, PD_KP, PD_KD, False, CT),
          "panda": Ctl(ros, "/cm_pa", pa_proc, pa, 400.0, 40.0, 400.0 * m0, 40.0 * m0, True, PD),
          "bad": bad}

@@ -148,7 +148,7 @@ def bad_messages(res):
         "effort has 7 values": state(later, q, qd, [*tau, 0.0]),
         "not in the chain": state(later, [*q, 0.0], [*qd, 0.0], [*tau, 0.0], [*NAMES, "gripper"]),
         "lacks joints": state(later, q[:5], qd[:5], tau[:5], NAMES[:5]),
-        "does not come after": state(t - 0.005, q, qd, tau),
+        "is the previous one's": state(t, q, qd, tau),          # a paused simulator
         "zero stamp": state(Time(), q, qd, tau),
     }
 

@@ -80,10 +80,13 @@ def test_controller_survives_huge_values_and_20001_names(ros, nodes):
         # before the fix each of these made the control law overflow and killed the node
         traj.publish(trajectory(NAMES, [HUGE] * 6))
         traj.publish(trajectory(NAMES, q2, [0.0] * 6, [HUGE] * 6))
+        # one state at a time: the controller keeps only the latest (keep last 1)
         for _ in range(3):
             states.publish(JointState(name=NAMES, position=[HUGE] * 6, velocity=[0.0] * 6))
+            ros.spin_for(0.1)
         states.publish(JointState(name=MANY, position=[0.0] * len(MANY),
                                   velocity=[0.0] * len(MANY)))
+        ros.spin_for(0.1)
         traj.publish(trajectory(MANY, [0.0] * len(MANY)))
         states.publish(JointState(name=NAMES, position=q2.tolist(), velocity=qd2.tolist()))
         efforts.clear()

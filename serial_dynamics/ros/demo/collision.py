@@ -35,8 +35,8 @@ from std_srvs.srv import SetBool
 import serial_dynamics as sd
 from serial_dynamics.trajectory import pick_and_place
 
-from . import common
-from .demo_session import NOT_FOLLOWED, Session, robot_parameters, run_and_report
+from .. import common
+from .session import NOT_FOLLOWED, Session, robot_parameters, run_and_report
 
 PUSH_AT = 2.6        # s into the task: 0.3 s into the lift-to-place swing (pan at 1.5 rad/s)
 FORCE = 20.0         # N on the tip, against the tip's planned velocity there (an obstacle)

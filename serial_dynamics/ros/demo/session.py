@@ -20,8 +20,8 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 from serial_dynamics.precompile import precompile
 from serial_dynamics.sim.fixed_step import FixedStepIntegrator
 
-from . import common
-from .processes import NodeProcess
+from .. import common
+from ..processes import NodeProcess
 
 LEAD, SETTLE = 1.5, 0.5        # s of simulated time before the trajectory (discovery can take
                                # a second on a loaded machine; copies are resent until then) and after

@@ -24,8 +24,8 @@ import numpy as np
 import serial_dynamics as sd
 from serial_dynamics.trajectory import pick_and_place
 
-from . import demo_collision
-from .demo_session import NOT_FOLLOWED, SETTLE, Session, robot_parameters, run_and_report
+from . import collision as demo_collision
+from .session import NOT_FOLLOWED, SETTLE, Session, robot_parameters, run_and_report
 
 SCENARIOS = ("pick_and_place", "collision")
 

@@ -1,0 +1,56 @@
+"""The stability bound of a PD law sampled at the control rate, per joint, at a pose (no
+rclpy here: the controller node and the tests use it).
+
+A joint with effective inertia m under an explicit PD (the torque from the state at the
+start of each period h, held over it) is stable only for
+
+    omega_n h < 2 (sqrt(zeta^2 + 1) - zeta),   omega_n = sqrt(Kp/m), zeta = Kd / (2 sqrt(Kp m))
+
+(docs/simulation.md, "Why": the Jury conditions on the 2x2 step matrix), which, squared
+out, is the same as
+
+    Kp h^2 + 2 Kd h < 4 m                      (Kp = 0 included: Kd h < 2 m)
+
+The inertia a joint's own torque meets, the others free, is m_i = 1 / (M(q)^-1)_ii
+(the effective inertia at the pose); it is at most M_ii(q) and can be many times smaller:
+on the xArm7 stretched upright (q = 0) the first and third axes line up and
+M_ii(0) / m_i is about 14 for both. Gains scaled by M_ii then pass the bound at 500 Hz
+only just (0.22 against 0.27), and any delay of the state (a queue, a busy core) takes
+the loop over it. The bound has no margin for the state's delay: keep well inside it.
+"""
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg
+
+
+def effective_inertia(robot, q) -> np.ndarray:
+    """m_i = 1 / (M(q)^-1)_ii for every joint (kg m^2; kg): the inertia joint i's torque
+    meets with the other joints free."""
+    M = robot.mass_matrix(q)
+    Minv = scipy.linalg.cho_solve(scipy.linalg.cho_factor(M), np.eye(len(M)))
+    return 1.0 / np.diag(Minv)
+
+
+def smallest_inertia(kp, kd, h) -> np.ndarray:
+    """The effective inertia below which gains kp (N m/rad) and kd (N m s/rad) at the
+    period h (s) are unstable: (Kp h^2 + 2 Kd h) / 4 (the bound above)."""
+    return (np.asarray(kp, float) * h * h + 2.0 * np.asarray(kd, float) * h) / 4.0
+
+
+def beyond(kp, kd, m, h) -> np.ndarray:
+    """Indices of the joints whose gains are at or beyond the bound at inertias ``m``."""
+    return np.flatnonzero(smallest_inertia(kp, kd, h) >= np.asarray(m, float))
+
+
+def explain(name, kp, kd, m, h, what="pd.kp, pd.kd") -> str:
+    """One joint's excess over the bound, in the terms of docs/simulation.md, with the fix."""
+    wh = np.sqrt(kp / m) * h
+    zeta = kd / (2.0 * np.sqrt(kp * m)) if kp > 0 else np.inf
+    bound = 2.0 * (np.sqrt(zeta ** 2 + 1.0) - zeta) if np.isfinite(zeta) else 0.0
+    scale = 4.0 * m / (kp * h * h + 2.0 * kd * h)
+    return (f"{what} of {name} ({kp:.4g}, {kd:.4g}) are beyond the stability bound of an "
+            f"explicit PD at {1.0 / h:.4g} Hz with the effective inertia {m:.4g} at this pose: "
+            f"omega_n h = {wh:.3g}, the bound 2(sqrt(zeta^2+1) - zeta) = {bound:.3g} "
+            f"(zeta = {zeta:.3g}); i.e. Kp h^2 + 2 Kd h = {kp * h * h + 2 * kd * h:.4g} "
+            f">= 4 m = {4 * m:.4g}. Scale both by less than {scale:.3g}, or raise control_rate")

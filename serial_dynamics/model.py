@@ -54,7 +54,8 @@ from .algorithms._batch import motion_transform, rigid_body_inertia
 from .algorithms.crba import mass_matrix as _mass_matrix
 from .algorithms.kinematics import joint_transforms
 from .errors import ModelError
-from .inertia import MAX_INERTIA, MAX_LENGTH, MAX_MASS, check_inertia, check_magnitude
+from .inertia import (MAX_DAMPING, MAX_FRICTION, MAX_INERTIA, MAX_LENGTH, MAX_MASS,
+                      check_inertia, check_magnitude)
 from .joints import PRISMATIC, REVOLUTE  # noqa: F401  (re-exported)
 
 
@@ -329,6 +330,8 @@ def _check_magnitudes(model) -> None:
         check_magnitude(link, "mass", model.mass[i], MAX_MASS, "kg")
         check_magnitude(link, "inertia", model.inertia[i], MAX_INERTIA, "kg m^2")
         check_magnitude(joint, "armature", model.armature[i], MAX_INERTIA, "kg m^2")
+        check_magnitude(joint, "damping", model.damping[i], MAX_DAMPING, "N m s/rad (N s/m)")
+        check_magnitude(joint, "friction", model.friction[i], MAX_FRICTION, "N m (N)")
     check_magnitude(f"tip link {model.tip_link!r}", "placement in the last body", model.tip_p,
                     MAX_LENGTH, "m")
 

@@ -3,7 +3,8 @@ import re
 
 # A quoted name longer than this is cut in a message (its start and its length are kept).
 MAX_NAME = 80
-_LONG_NAME = re.compile(r"'([^'\n]{%d,})'|\"([^\"\n]{%d,})\"" % (MAX_NAME + 1, MAX_NAME + 1))
+# (a name: quoted, without white space, which tells it from the prose between two names)
+_LONG_NAME = re.compile(r"'([^'\s]{%d,})'|\"([^\"\s]{%d,})\"" % (MAX_NAME + 1, MAX_NAME + 1))
 
 
 def cut_long_names(message: str) -> str:

@@ -230,7 +230,11 @@ class Model:
         inertias (Featherstone 2008, Sec. 7.3): M = L^T D L with L unit triangular
         (Sec. 6.5), so M is positive definite exactly when every D_i > 0, and D_i is the
         inertia joint i feels with the joints beyond it free, 0 <= D_i <= M_ii. With mimic
-        joints, the reduced mass matrix G^T M G of the independent joints, dense.
+        joints, the same O(n) check of the whole chain's M at q_all = G q + o suffices: M
+        positive definite makes G^T M G positive definite, G having full column rank (each
+        independent joint's row of G is a unit row). Only where it does not pass (a mimic
+        joint that moves no mass of its own) does the dense check of the reduced mass matrix
+        G^T M G decide, O(n^2).
         """
         rng = np.random.default_rng(0)
         ind = self.independent
@@ -239,6 +243,11 @@ class Model:
         lo, hi = np.clip(lo, -1e6, 1e6), np.clip(hi, -1e6, 1e6)   # hi - lo must not overflow
         qs = np.vstack([np.clip(np.zeros(ind.size), lo, hi), rng.uniform(lo, hi, (2, ind.size))])
         if ind.size < self.dof:
+            G, o = self.mimic_matrix
+            diag, pivot = _diagonal_and_pivots(self, qs @ G.T + o)
+            if np.all(diag > 1e-16 * np.max(np.abs(diag), axis=1, keepdims=True)) \
+                    and np.all(pivot > PIVOT_RTOL * diag):
+                return
             return self._check_reduced_mass_matrix(qs)
         diag, pivot = _diagonal_and_pivots(self, qs)
         for q, M_ii, D in zip(qs, diag, pivot):

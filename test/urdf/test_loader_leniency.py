@@ -203,6 +203,8 @@ def test_short_names_are_untouched():
     with pytest.raises(sd.URDFError) as info:
         sd.load_urdf(arm(), tip_link=name)
     assert repr(name) in str(info.value)
+    prose = "'a' and " + "then more words " * 10 + "'b'"        # no name is cut from prose
+    assert str(sd.RobotDescriptionError(prose)) == prose
 
 
 def test_no_warning_on_a_plain_arm():

@@ -99,6 +99,9 @@ class Model:
     mimic_leader: np.ndarray = None      # (n,) int, -1 for an independent joint
     mimic_multiplier: np.ndarray = None  # (n,)
     mimic_offset: np.ndarray = None      # (n,) rad or m
+    # the URDF the model was loaded from: a file's absolute path, or the XML text (None when
+    # built by hand); kept across with_payload, read by identification's write_urdf
+    source: object = None
     # -- derived by build(): the chain in joint frames (the algorithms' convention)
     A: np.ndarray = None        # (n, 3, 3) joint frame i's axes in link frame i
     Xtree_R: np.ndarray = None  # (n, 3, 3)
@@ -138,7 +141,7 @@ class Model:
               R_parent, p_parent, axis, mass, com, inertia, gravity=(0, 0, -9.81),
               tip_R=None, tip_p=None, lower=None, upper=None, velocity_limit=None,
               effort_limit=None, damping=None, friction=None, frames=None, armature=None,
-              mimic_leader=None, mimic_multiplier=None, mimic_offset=None,
+              mimic_leader=None, mimic_multiplier=None, mimic_offset=None, source=None,
               check_mass_matrix=True) -> "Model":
         """Build and validate a model; every array argument is copied and frozen."""
         n = len(joint_names)
@@ -173,6 +176,7 @@ class Model:
             mimic_multiplier=full(mimic_multiplier, 1.0), mimic_offset=full(mimic_offset, 0.0),
             frames=MappingProxyType({link: (int(b), _frozen(R, (3, 3)), _frozen(p, (3,)))
                                      for link, (b, R, p) in (frames or {}).items()}),
+            source=source,
         )
         _check_magnitudes(model)
         for key, value in _joint_frames(model).items():

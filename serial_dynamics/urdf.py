@@ -34,9 +34,8 @@ class HeldJointsWarning(UserWarning):
 def read_source(source):
     """(bytes, where) of a URDF given as a file path or as XML (str or bytes), with the
     header urdfdom reads and lxml refuses made plain (``without_harmless_header``)."""
-    text = source.decode() if isinstance(source, bytes) else source
-    is_xml = isinstance(text, str) and text.lstrip().startswith("<")
-    if is_xml:
+    text = _xml_text(source)
+    if text is not None:
         return without_harmless_header(text.encode()), "the URDF string"
     path = os.fspath(source)
     if not os.path.isfile(path):
@@ -195,9 +194,9 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
         if joint.type in MOVABLE and joint.mimic is not None \
                 and joint.mimic.joint not in movable_chain:
             X_acc = X @ _held_at_offset(joint, all_joints, base_link, tip_link)
-            held.append(f"{joint.name!r} (it mimics {joint.mimic.joint!r}, which is off the "
-                        f"chain and held at zero, so it is held at its offset "
-                        f"{_float(joint.mimic.offset, 0.0):g})")
+            held.append(f"joint {joint.name!r} on the chain is held at its offset "
+                        f"{_float(joint.mimic.offset, 0.0):g}: it mimics {joint.mimic.joint!r}, "
+                        "which is off the chain and held at zero")
         elif joint.type == "fixed":
             X_acc = X
         elif joint.type in MOVABLE:
@@ -264,8 +263,20 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
         effort_limit=[b["effort"] for b in bodies],
         damping=[b["damping"] for b in bodies], friction=[b["friction"] for b in bodies],
         frames=frames, armature=rotors, mimic_leader=leader, mimic_multiplier=multiplier,
-        mimic_offset=offset,
+        mimic_offset=offset, source=_kept(source),
     )
+
+
+def _xml_text(source):
+    """The URDF XML of a source given as XML (str or bytes); None for a file path."""
+    text = source.decode() if isinstance(source, bytes) else source
+    return text if isinstance(text, str) and text.lstrip().startswith("<") else None
+
+
+def _kept(source):
+    """What ``Model.source`` keeps of a URDF source: the XML, or a file's absolute path."""
+    text = _xml_text(source)
+    return text if text is not None else os.path.abspath(os.fspath(source))
 
 
 def _mimic(bodies, base_link, tip_link):

@@ -211,3 +211,10 @@ def test_no_warning_on_a_plain_arm():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         sd.load_urdf(arm())
+
+
+def test_a_dissipation_override_is_bounded_too():
+    robot = sd.load_urdf(arm())
+    with pytest.raises(ValueError, match="viscous of joint 'j2' is 1e.308.*at most 1e.12"):
+        robot.dissipation.override(viscous={"j2": 1e308})
+    assert robot.dissipation.override(coulomb={"j2": 50.0}).coulomb[1] == 50.0

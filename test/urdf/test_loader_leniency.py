@@ -124,6 +124,23 @@ def test_a_mimic_on_the_chain_whose_leader_is_off_it_is_held_at_its_offset(kind,
                                    rtol=1e-13, atol=1e-15)
 
 
+def test_the_pandas_right_finger_as_tip_agrees_with_pinocchio():
+    """The Panda's right finger mimics the left one, off this chain: both held (offset 0),
+    as Pinocchio's model with the finger joints locked at zero."""
+    from pin_reference import PinReference, erd, load
+    path = erd("panda_description/urdf/panda.urdf")
+    robot = load(path, tip="panda_rightfinger")
+    assert robot.dof == 7
+    ref = PinReference(robot, path)
+    rng = np.random.default_rng(0)
+    for _ in range(3):
+        q, qd, qdd = rng.uniform(-1, 1, (3, 7))
+        np.testing.assert_allclose(robot.mass_matrix(q), ref.mass_matrix(q), rtol=1e-12,
+                                   atol=1e-12)
+        np.testing.assert_allclose(robot.inverse_dynamics(q, qd, qdd), ref.rnea(q, qd, qdd),
+                                   rtol=1e-12, atol=1e-11)
+
+
 def test_a_mimic_whose_leader_is_above_the_base_is_held_too():
     follower = joint("j3", "l2", "l3", axis="1 0 0", extra='<mimic joint="j1" offset="-0.2"/>')
     with pytest.warns(sd.HeldJointsWarning, match="'j3'.*'j1'"):

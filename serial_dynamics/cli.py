@@ -167,7 +167,6 @@ def cmd_identify(args):
     """Identify the base parameters from a recording; summary table; --out URDF, --plot."""
     from .identification import identify, load_recording
     robot = _load(args)
-    source = args.urdf if args.urdf is not None else _builtin_source()
     data = load_recording(args.data, robot.joint_names, args.topic)
     validation = (None if args.validate is None else
                   load_recording(args.validate, robot.joint_names, args.topic))
@@ -175,7 +174,7 @@ def cmd_identify(args):
     say = (lambda message: None) if args.quiet else (lambda message: print(message, flush=True))
     res = identify(robot, data.t, data.q, data.tau, data.qd, friction=not args.no_friction,
                    method=args.method, cutoff=args.cutoff, decimate=args.decimate,
-                   validation=validation, source=source, progress=say)
+                   validation=validation, progress=say)   # write_urdf: robot.model.source
     print(res.summary())
     if args.out:
         res.write_urdf(args.out)
@@ -184,11 +183,6 @@ def cmd_identify(args):
         res.plot(args.plot)
         print(f"wrote {args.plot}")
     return 0
-
-
-def _builtin_source():
-    from .robots import DEFAULT, builtin_path
-    return builtin_path(DEFAULT)
 
 
 def _identification_options(p, name):
@@ -210,7 +204,8 @@ def _identification_options(p, name):
     p.add_argument("data", metavar="DATA",
                    help="recording: CSV (t, q_*, qd_*, tau_*) or a ROS 2 bag of JointState")
     p.add_argument("--method", default="wls", choices=("ols", "wls", "physical"),
-                   help="least squares, weighted per joint, or physically consistent (wls)")
+                   help="least squares, weighted per joint, or physically consistent (wls; "
+                   "a fit that is not physical writes the consistent parameters closest to it)")
     p.add_argument("--validate", default=None, metavar="DATA2",
                    help="a second recording to validate the identified model on")
     p.add_argument("--topic", default="/joint_states", help="JointState topic of a bag")

@@ -8,13 +8,16 @@ cache (``__pycache__``) in milliseconds. Numba compiles one function at a time i
 process, so ``precompile(jobs=2)`` starts a second process that compiles one half of them
 while this one compiles the other half, then loads that half from the cache it filled.
 Run it after installing (a container build, a CI cache step); the nodes' ``warmup()``
-then only loads.
+then only loads. ``precompile(names=...)`` compiles some of them the same way (the demo:
+the single-state kernels its nodes run, ``Robot.kernels()``).
 """
 from __future__ import annotations
 
 import subprocess
 import sys
+import threading
 import time
+from contextlib import contextmanager
 
 from .core import ENTRY_POINTS, K
 from .sim.loop import _loop
@@ -35,17 +38,40 @@ def load(names):
         _loop() if name == "loop" else getattr(K, name)
 
 
-def precompile(jobs=2):
-    """Every kernel, compiled by ``jobs`` (1 or 2) processes into the cache and loaded
-    here. Returns the seconds it took."""
+def precompile(jobs=2, names=None):
+    """Every kernel (or those ``names``), compiled by ``jobs`` (1 or 2) processes into the
+    cache and loaded here. Returns the seconds it took."""
     t0 = time.perf_counter()
+    other, mine = HALVES if names is None else (tuple(k for k in half if k in set(names))
+                                                 for half in HALVES)
     helper = (subprocess.Popen([sys.executable, "-m", "serial_dynamics.precompile", "--only",
-                                ",".join(HALVES[0])]) if jobs > 1 else None)
-    load(HALVES[1])
+                                ",".join(other)]) if jobs > 1 and other and mine else None)
+    load(mine)
     if helper is not None and helper.wait() != 0:
-        raise RuntimeError(f"the process compiling {HALVES[0]} failed (exit {helper.returncode})")
-    load(HALVES[0])                      # from the cache the helper filled (jobs=2)
+        raise RuntimeError(f"the process compiling {other} failed (exit {helper.returncode})")
+    load(other)                          # from the cache the helper filled (jobs=2)
     return time.perf_counter() - t0
+
+
+@contextmanager
+def ticking(log, what, first=1.0, every=3.0):
+    """While the block runs, ``log`` ``what`` with the seconds spent, after ``first``
+    seconds and then every ``every`` (nothing when the block is quick: a warm cache)."""
+    done, t0 = threading.Event(), time.monotonic()
+
+    def tick():
+        wait = first
+        while not done.wait(wait):
+            log(f"{what}: {time.monotonic() - t0:.0f} s ...")
+            wait = every
+
+    thread = threading.Thread(target=tick, name="ticking", daemon=True)
+    thread.start()
+    try:
+        yield
+    finally:
+        done.set()
+        thread.join()
 
 
 def main(argv=None):

@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
-from .urdf_out import body_inertia
+from .urdf_out import body_inertia, is_physical
 
 PULL = 1e-5      # the pull towards the URDF, relative to the regressor's scale
 
@@ -54,6 +54,18 @@ def joint_weights(residual, b):
     N, n = residual.shape
     var = np.sum(residual**2, axis=0) / max(N - b / n, 1)
     return 1.0 / np.sqrt(np.maximum(var, 1e-30 * max(var.max(), 1e-300)))
+
+
+def closest_standard(phi0, K, beta):
+    """The standard parameters closest to ``phi0`` that give the base parameters ``beta``
+    (K phi = beta): phi = phi0 + K^+ (beta - K phi0), minimum |phi - phi0|."""
+    return phi0 + np.linalg.pinv(K) @ (beta - K @ phi0)
+
+
+def physical_bodies(phi, bodies):
+    """(bodies,) bool: each body's 10 standard parameters are physically consistent."""
+    return np.array([is_physical(*body_inertia(phi[10 * i:10 * i + 10]))
+                     for i in range(bodies)])
 
 
 # --------------------------------------------------------------- log-Cholesky (Rucker & Wensing)

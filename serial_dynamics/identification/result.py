@@ -9,7 +9,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .preprocess import Samples, check_recording, prepare, regression
-from .urdf_out import body_inertia, is_physical, write_urdf
+from .estimate import closest_standard, physical_bodies
+from .urdf_out import write_urdf
 
 
 @dataclass(frozen=True, eq=False)
@@ -30,8 +31,10 @@ class IdentificationResult:
     """What ``identify`` found. ``beta`` (b,) the base parameters, ``std`` (b,) their
     standard deviations, ``cov`` (b, b); ``names`` their expressions in the standard
     parameters; ``standard`` (p,) physically consistent standard parameters (method
-    "physical"), else None; ``residual`` (N, n) the fit's torque residual on ``samples``;
-    ``validation`` once ``validate`` ran."""
+    "physical"; or, when an OLS/WLS fit is not physically consistent, the consistent ones
+    closest to it, with ``unphysical`` the links of the bodies the fit left inconsistent and
+    ``consistent_rms`` (n,) their torque residual), else None; ``residual`` (N, n) the
+    fit's torque residual on ``samples``; ``validation`` once ``validate`` ran."""
 
     robot: object
     method: str
@@ -45,6 +48,8 @@ class IdentificationResult:
     residual: np.ndarray
     condition_number: float
     source: object = None
+    unphysical: tuple = ()
+    consistent_rms: np.ndarray | None = None
     validation: Validation | None = None
     _closest: np.ndarray | None = field(default=None, repr=False)
 
@@ -79,26 +84,28 @@ class IdentificationResult:
 
     # ----------------------------------------------------------- standard parameters
     def standard_parameters(self):
-        """Standard parameters phi (p,) that reproduce ``beta``: the physically consistent
-        fit's, or (OLS, WLS) the ones closest to the URDF's with K phi = beta,
-        phi = phi_urdf + K^+ (beta - K phi_urdf) (minimum |phi - phi_urdf|)."""
+        """Standard parameters phi (p,) for the URDF: the physically consistent ones
+        (``standard``), or (an OLS/WLS fit that is physical) the ones closest to the URDF's
+        that reproduce ``beta``, phi = phi_urdf + K^+ (beta - K phi_urdf)."""
         if self.standard is not None:
             return self.standard
         if self._closest is None:
-            phi0 = self.robot.inertial_parameters(friction=self.friction)
-            K = self.bp.K
-            self._closest = phi0 + np.linalg.pinv(K) @ (self.beta - K @ phi0)
+            self._closest = closest_standard(
+                self.robot.inertial_parameters(friction=self.friction), self.bp.K, self.beta)
         return self._closest
 
     def write_urdf(self, path, source=None):
-        """Write the URDF (``source``, default the one given to ``identify``) with the
-        identified ``<inertial>`` of every body and ``<dynamics damping friction>`` of every
-        joint (``urdf_out.write_urdf``); ``sd.load_urdf(path)`` loads the identified robot.
-        Warns when some body is not physical (OLS/WLS; use method "physical")."""
-        source = self.source if source is None else source
+        """Write the URDF (``source``, default the one given to ``identify``, else the one
+        the robot was loaded from, ``robot.model.source``) with the identified
+        ``<inertial>`` of every body and ``<dynamics damping friction>`` of every joint
+        (``urdf_out.write_urdf``); ``sd.load_urdf(path)`` loads the identified robot (every
+        body written is physically consistent: ``standard_parameters``)."""
+        source = next((s for s in (source, self.source, self.robot.model.source)
+                       if s is not None), None)
         if source is None:
-            raise ValueError("write_urdf needs the original URDF: give identify(..., "
-                             "source=path) or write_urdf(path, source=urdf_path)")
+            raise ValueError("write_urdf needs the original URDF, and this robot was built "
+                             "by hand, not loaded from one: give identify(..., source=path) "
+                             "or write_urdf(path, source=urdf_path)")
         phi = self.standard_parameters()
         model = self.robot.model
         n = model.dof
@@ -116,10 +123,9 @@ class IdentificationResult:
         return write_urdf(source, model, body, fv, fc, path)
 
     def physical(self):
-        """(n,) bool: each body's standard parameters are physically consistent."""
-        phi = self.standard_parameters()
-        return np.array([is_physical(*body_inertia(phi[10 * i:10 * i + 10]))
-                         for i in range(self.robot.model.dof)])
+        """(n,) bool: each body's standard parameters (those written) are physically
+        consistent."""
+        return physical_bodies(self.standard_parameters(), self.robot.model.dof)
 
     # ----------------------------------------------------------- reports
     def summary(self) -> str:
@@ -145,10 +151,14 @@ class IdentificationResult:
                 f"{j} {r:.3g}" for j, r in zip(joints, v.rms)))
             lines.append(f"validation relative error: {100 * v.total:.2f} % (per joint "
                          + ", ".join(f"{100 * e:.1f}" for e in v.relative) + " %)")
-        bad = [model_name for model_name, ok in zip(self.robot.model.link_names, self.physical())
-               if not ok]
-        lines.append("every body physically consistent" if not bad else
-                     f"not physically consistent: {bad} (use method 'physical' to write a URDF)")
+        if self.unphysical:
+            lines.append(
+                f"the {self.method} fit is not physically consistent for "
+                f"{list(self.unphysical)}; write_urdf writes the physically consistent "
+                "parameters closest to it (their fit torque RMS per joint: " + ", ".join(
+                    f"{j} {r:.3g}" for j, r in zip(joints, self.consistent_rms)) + ")")
+        else:
+            lines.append("every body physically consistent")
         return "\n".join(lines)
 
     def plot(self, path=None, title=None):

@@ -13,14 +13,16 @@ the file (visuals, collisions, transmissions, other joints) is kept as it was.
 """
 from __future__ import annotations
 
+import io
 import os
 import warnings
 
 import numpy as np
 
-from ..model.inertia import check_inertia
 from ..model.errors import ModelError
-from ..urdf.loader import _link_inertia, _parse
+from ..model.inertia import check_inertia
+from ..urdf.loader import _link_inertia, _parse, read_source
+from ..urdf.xml_checks import check_well_formed
 
 # column order of one body's standard parameters (regressor.py)
 M, MX, MY, MZ, IXX, IXY, IYY, IXZ, IYZ, IZZ = range(10)
@@ -77,8 +79,7 @@ def write_urdf(source, model, phi, damping, friction, path):
     Returns the list of warnings issued (strings)."""
     from lxml import etree
 
-    is_xml = isinstance(source, str) and source.lstrip().startswith("<")
-    tree = etree.fromstring(source.encode()) if is_xml else etree.parse(os.fspath(source)).getroot()
+    tree = check_well_formed(io.BytesIO(read_source(source)[0]), "the URDF")
     links = {e.get("name"): e for e in tree.findall("link")}
     joints = {e.get("name"): e for e in tree.findall("joint")}
     said = []

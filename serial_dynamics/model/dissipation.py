@@ -18,6 +18,12 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .inertia import MAX_DAMPING, MAX_FRICTION
+
+
+# the torques' coefficients are bounded as the URDF's (inertia.py): finite at any finite speed
+_BOUNDS = {"viscous": MAX_DAMPING, "coulomb": MAX_FRICTION, "stribeck": MAX_FRICTION}
+
 
 @dataclass(frozen=True, eq=False)
 class Dissipation:
@@ -38,10 +44,13 @@ class Dissipation:
             if a.shape != (n,):
                 raise ValueError(f"dissipation {name} has {a.size} values; give one per joint "
                                  f"({n}: {list(self.joint_names)})")
-            bad = np.flatnonzero(~np.isfinite(a) | (a < 0))
+            bound = _BOUNDS.get(name, np.inf)
+            bad = np.flatnonzero(~np.isfinite(a) | (a < 0) | (a > bound))
             if bad.size:
                 raise ValueError(f"dissipation {name} of joint {self.joint_names[bad[0]]!r} is "
-                                 f"{a[bad[0]]}; coefficients must be finite and >= 0")
+                                 f"{a[bad[0]]}; coefficients must be finite and >= 0"
+                                 + (f", and at most {bound:g} (beyond any robot)"
+                                    if np.isfinite(bound) else ""))
             a.setflags(write=False)
             object.__setattr__(self, name, a)
 

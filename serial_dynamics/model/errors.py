@@ -3,12 +3,32 @@
 The ROS layer keeps its own (``ros.common.Rejected``, a refused message; ``ros.parameters.
 StartupError``; the demo's ``DemoError``): they never leave a node.
 """
+import re
+
+# A quoted name longer than this is cut in a message (its start and its length are kept).
+MAX_NAME = 80
+# (a name: quoted, without white space, which tells it from the prose between two names)
+_LONG_NAME = re.compile(r"'([^'\s]{%d,})'|\"([^\"\s]{%d,})\"" % (MAX_NAME + 1, MAX_NAME + 1))
+
+
+def cut_long_names(message: str) -> str:
+    """``message`` with every quoted name of more than MAX_NAME characters cut to its first
+    60, followed by its length: 'LLLL...' (1000000 characters)."""
+    def cut(match):
+        name = match.group(1) if match.group(1) is not None else match.group(2)
+        return f"'{name[:60]}...' ({len(name)} characters)"
+    return _LONG_NAME.sub(cut, message)
 
 
 class RobotDescriptionError(ValueError):
     """The robot description cannot be used: the URDF cannot be read (``URDFError``) or the
     chain it describes is not a valid dynamic model (``ModelError``). Catch this one for
-    both; the message names the link, joint or element at fault and what is expected."""
+    both; the message names the link, joint or element at fault and what is expected (a
+    name too long to read is cut, ``cut_long_names``)."""
+
+    def __init__(self, message="", *args):
+        super().__init__(cut_long_names(message) if isinstance(message, str) else message,
+                         *args)
 
 
 class ModelError(RobotDescriptionError):

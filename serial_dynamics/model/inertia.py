@@ -65,6 +65,11 @@ def combine_inertias(parts):
 # them overflow, which would otherwise surface as NaN deep in an algorithm.
 MAX_LENGTH, MAX_MASS = 1e4, 1e7          # m, kg
 MAX_INERTIA = MAX_MASS * MAX_LENGTH**2   # kg m^2
+# Joint dissipation beyond these is no joint's: a Coulomb torque of MAX_MASS's weight (10 m/s^2)
+# on a MAX_LENGTH lever, and that torque per rad/s of viscous damping; the friction torque
+# then stays finite at any finite speed (damping="1e308" would be inf above 1.8 rad/s).
+MAX_FRICTION = MAX_MASS * MAX_LENGTH * 10.0     # N m (N for a prismatic joint)
+MAX_DAMPING = MAX_FRICTION                       # N m s/rad (N s/m)
 
 
 def check_magnitude(who, what, value, bound, unit) -> None:

@@ -56,7 +56,8 @@ from ..algorithms.crba import mass_matrix as _mass_matrix
 from ..algorithms.kinematics import joint_transforms
 from ..algorithms.planar import planar_pack
 from .errors import ModelError
-from .inertia import MAX_INERTIA, MAX_LENGTH, MAX_MASS, check_inertia, check_magnitude
+from .inertia import (MAX_DAMPING, MAX_FRICTION, MAX_INERTIA, MAX_LENGTH, MAX_MASS,
+                      check_inertia, check_magnitude)
 from ..joints import PRISMATIC, REVOLUTE  # noqa: F401  (re-exported)
 
 
@@ -100,6 +101,9 @@ class Model:
     mimic_leader: np.ndarray = None      # (n,) int, -1 for an independent joint
     mimic_multiplier: np.ndarray = None  # (n,)
     mimic_offset: np.ndarray = None      # (n,) rad or m
+    # the URDF the model was loaded from: a file's absolute path, or the XML text (None when
+    # built by hand); kept across with_payload, read by identification's write_urdf
+    source: object = None
     # -- derived by build(): the chain in joint frames (the algorithms' convention)
     A: np.ndarray = None        # (n, 3, 3) joint frame i's axes in link frame i
     Xtree_R: np.ndarray = None  # (n, 3, 3)
@@ -150,7 +154,7 @@ class Model:
               R_parent, p_parent, axis, mass, com, inertia, gravity=(0, 0, -9.81),
               tip_R=None, tip_p=None, lower=None, upper=None, velocity_limit=None,
               effort_limit=None, damping=None, friction=None, frames=None, armature=None,
-              mimic_leader=None, mimic_multiplier=None, mimic_offset=None,
+              mimic_leader=None, mimic_multiplier=None, mimic_offset=None, source=None,
               check_mass_matrix=True) -> "Model":
         """Build and validate a model; every array argument is copied and frozen."""
         n = len(joint_names)
@@ -185,6 +189,7 @@ class Model:
             mimic_multiplier=full(mimic_multiplier, 1.0), mimic_offset=full(mimic_offset, 0.0),
             frames=MappingProxyType({link: (int(b), _frozen(R, (3, 3)), _frozen(p, (3,)))
                                      for link, (b, R, p) in (frames or {}).items()}),
+            source=source,
         )
         _check_magnitudes(model)
         for key, value in _joint_frames(model).items():
@@ -242,7 +247,11 @@ class Model:
         inertias (Featherstone 2008, Sec. 7.3): M = L^T D L with L unit triangular
         (Sec. 6.5), so M is positive definite exactly when every D_i > 0, and D_i is the
         inertia joint i feels with the joints beyond it free, 0 <= D_i <= M_ii. With mimic
-        joints, the reduced mass matrix G^T M G of the independent joints, dense.
+        joints, the same O(n) check of the whole chain's M at q_all = G q + o suffices: M
+        positive definite makes G^T M G positive definite, G having full column rank (each
+        independent joint's row of G is a unit row). Only where it does not pass (a mimic
+        joint that moves no mass of its own) does the dense check of the reduced mass matrix
+        G^T M G decide, O(n^2).
         """
         rng = np.random.default_rng(0)
         ind = self.independent
@@ -251,6 +260,11 @@ class Model:
         lo, hi = np.clip(lo, -1e6, 1e6), np.clip(hi, -1e6, 1e6)   # hi - lo must not overflow
         qs = np.vstack([np.clip(np.zeros(ind.size), lo, hi), rng.uniform(lo, hi, (2, ind.size))])
         if ind.size < self.dof:
+            G, o = self.mimic_matrix
+            diag, pivot = _diagonal_and_pivots(self, qs @ G.T + o)
+            if np.all(diag > 1e-16 * np.max(np.abs(diag), axis=1, keepdims=True)) \
+                    and np.all(pivot > PIVOT_RTOL * diag):
+                return
             return self._check_reduced_mass_matrix(qs)
         diag, pivot = _diagonal_and_pivots(self, qs)
         for q, M_ii, D in zip(qs, diag, pivot):
@@ -342,6 +356,8 @@ def _check_magnitudes(model) -> None:
         check_magnitude(link, "mass", model.mass[i], MAX_MASS, "kg")
         check_magnitude(link, "inertia", model.inertia[i], MAX_INERTIA, "kg m^2")
         check_magnitude(joint, "armature", model.armature[i], MAX_INERTIA, "kg m^2")
+        check_magnitude(joint, "damping", model.damping[i], MAX_DAMPING, "N m s/rad (N s/m)")
+        check_magnitude(joint, "friction", model.friction[i], MAX_FRICTION, "N m (N)")
     check_magnitude(f"tip link {model.tip_link!r}", "placement in the last body", model.tip_p,
                     MAX_LENGTH, "m")
 

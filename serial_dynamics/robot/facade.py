@@ -56,7 +56,9 @@ _FD_FLAGS = {"cholesky": F.QD, "aba": F.QD | F.ABA}
 # states; splitting a batch over 2 cores paid from about 2048 states for inverse dynamics,
 # 1500 for the mass matrix and 800 for forward dynamics (UR5e, measured 2026-11-23)
 PARALLEL_MIN = 2048
-ROBOT_KERNELS = ("rnea", "rnea_wrench", "crba", "fd", "rnea_batch", "crba_batch", "fd_batch")  # warmup()
+SINGLE_KERNELS = ("rnea", "rnea_wrench", "crba", "fd")     # warmup(): one state a call
+BATCH_KERNELS = ("rnea_batch", "crba_batch", "fd_batch")    # warmup(batch=True): batches too
+ROBOT_KERNELS = SINGLE_KERNELS + BATCH_KERNELS
 PLANAR_KERNELS = tuple(k for k in ENTRY_POINTS if k.startswith("planar"))    # and, if planar
 
 
@@ -353,16 +355,26 @@ class Robot:
     def total_energy(self, q, qd):
         return self.kinetic_energy(q, qd) + self.potential_energy(q)
 
-    def warmup(self):
-        """Compile or load every fast path once (numba backend: every kernel of the Robot
-        methods, single and batch, from the numba cache when it is warm), so that the first
-        real call is fast. Nodes call this before they report ready. Returns self."""
-        if self._compiled:
-            K.load_all(ROBOT_KERNELS + (PLANAR_KERNELS if self.is_planar else ()))
+    def kernels(self, batch=False):
+        """The compiled kernels of the dynamics methods (what ``warmup`` loads): those of one
+        state a call, and with ``batch`` those of batches too; () on the numpy backend."""
+        if not self._compiled:
+            return ()
+        names = SINGLE_KERNELS + (BATCH_KERNELS if batch else ())
+        return names + tuple(k for k in PLANAR_KERNELS if self.is_planar
+                             and (batch or not k.endswith("batch")))
+
+    def warmup(self, batch=False):
+        """Compile or load the fast paths once (numba backend: the kernels of the Robot
+        methods for one state, ``kernels()``; with ``batch`` for batches too; from the numba
+        cache when it is warm), so that the first real call is fast. Nodes call this before
+        they report ready; what else a program calls compiles on its first use (a cold
+        compile of every batch kernel is about half of the whole). Returns self."""
+        K.load_all(self.kernels(batch))
         q = np.zeros(self.dof)
         qb = np.zeros((2, self.dof))
         w = np.zeros(6)
-        for x in (q, qb):
+        for x in (q, qb) if batch else (q,):
             self.inverse_dynamics(x, x, x)
             self.inverse_dynamics(x, x, x, wrench=w)
             self.bias_torques(x, x)

@@ -49,6 +49,17 @@ def chain_urdf(n, *, masses=1.0, lengths=0.3, radius=0.02, axes=("z", "y", "x"),
     return "\n".join(out) + "\n"
 
 
+def mimic_chain_urdf(n, follower=None, multiplier=0.5, **kw) -> str:
+    """``chain_urdf(n, **kw)`` with joint ``follower`` (1-based; default the last) mimicking
+    the joint before it: ``<mimic joint="joint{follower - 1}" multiplier=...>``."""
+    follower = n if follower is None else follower
+    xml = chain_urdf(n, **kw)
+    start = xml.index(f'<joint name="joint{follower}"')
+    end = xml.index("</joint>", start)
+    return (xml[:end] + f'<mimic joint="joint{follower - 1}" multiplier="{_f(multiplier)}"/>'
+            + xml[end:])
+
+
 def stiff_chain_urdf(n=4) -> str:
     """Heavy proximal links (20 kg), very light distal links (10 g), joint damping
     1 .. 0.05 N m s/rad: a stiff ODE. For n = 4 the damped modes of the state equations

@@ -62,7 +62,7 @@ class Dynamics(Node):
         self.compensate = p["compensate_dissipation"]
         self.wrench = None            # latest tip wrench: (6,) in base_link, or (6,) in tip_link
         self.wrench_in_tip = False
-        self.robot.warmup()
+        self.robot.warmup(batch=True)      # trajectories are one batched call
         self.reject = common.Rejections(self, hardware_id=self.robot.model.name)
         self._window = [time.monotonic(), 0, 0.0, 0.0]    # since: requests, sum, max latency (s)
         self.reject.watch(self._diagnostics)

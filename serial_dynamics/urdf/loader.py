@@ -15,30 +15,39 @@ import warnings
 
 import numpy as np
 
+from ..algorithms._batch import rotation_about
 from ..model.inertia import (MAX_INERTIA, MAX_LENGTH, MAX_MASS, check_inertia, check_magnitude,
                       combine_inertias)
 from ..model.errors import HeldJointsWarning, URDFError
 from ..model.model import Model
 from .transmissions import reflected_inertias
 from .tree import check_tree, default_tip
-from .xml_checks import MOVABLE, check_elements, check_well_formed
+from .xml_checks import (MOVABLE, check_elements, check_well_formed, without_harmless_header,
+                         without_undeclared_prefixes)
 
 __all__ = ["load_model", "URDFError", "HeldJointsWarning"]
+
+
+def read_source(source):
+    """(bytes, where) of a URDF given as a file path or as XML (str or bytes), with the
+    header urdfdom reads and lxml refuses made plain (``without_harmless_header``)."""
+    text = _xml_text(source)
+    if text is not None:
+        return without_harmless_header(text.encode()), "the URDF string"
+    path = os.fspath(source)
+    if not os.path.isfile(path):
+        raise URDFError(f"URDF file {path!r} not found; give a path to a .urdf file or "
+                        "the URDF XML itself as a string")
+    with open(path, "rb") as f:
+        return without_harmless_header(f.read()), repr(path)
 
 
 def _parse(source):
     import yourdfpy
     from lxml import etree
 
-    text = source.decode() if isinstance(source, bytes) else source
-    is_xml = isinstance(text, str) and text.lstrip().startswith("<")
-    if not is_xml:
-        path = os.fspath(source)
-        if not os.path.isfile(path):
-            raise URDFError(f"URDF file {path!r} not found; give a path to a .urdf file or "
-                            "the URDF XML itself as a string")
-    where = "the URDF string" if is_xml else repr(os.fspath(source))
-    xml = check_well_formed(io.BytesIO(text.encode()) if is_xml else os.fspath(source), where)
+    data, where = read_source(source)
+    xml = check_well_formed(io.BytesIO(data), where)
     check_elements(xml, where)        # every value yourdfpy reads, named, before it reads it
     for parent, tags in (("link", ("visual", "collision")),      # what the model never uses
                          ("joint", ("calibration", "safety_controller"))):
@@ -47,10 +56,11 @@ def _parse(source):
                 element.remove(unused)
     for unused in xml.findall("material"):
         xml.remove(unused)
+    plain = etree.tostring(without_undeclared_prefixes(xml))
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            urdf = yourdfpy.URDF.load(io.BytesIO(etree.tostring(xml)), build_scene_graph=False,
+            urdf = yourdfpy.URDF.load(io.BytesIO(plain), build_scene_graph=False,
                                       load_meshes=False, build_collision_scene_graph=False,
                                       load_collision_meshes=False)
     except Exception as exc:  # pragma: no cover - _check_elements lets nothing through
@@ -166,16 +176,25 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
                         "choose a tip in the subtree of the base")
     chain_joints = {j.name for j in chain}
     chain_links = [base_link] + [j.child for j in chain]    # a list: lumping order is fixed
+    movable_chain = {j.name for j in chain if j.type in MOVABLE}
+    all_joints = {j.name for j in robot.joints}
 
     # -- walk the chain: fold fixed joints, place links in bodies
     bodies = []                                  # dicts per movable joint
     frames = {base_link: (-1, np.eye(3), np.zeros(3))}
     X_acc = np.eye(4)                            # next frame, in the current body
     parts = {}                                   # inertia parts per body
+    held = []                                    # movable joints held (names, for the warning)
     for joint in chain:
         what = f"joint {joint.name!r}"
         X = X_acc @ _origin(joint)
-        if joint.type == "fixed":
+        if joint.type in MOVABLE and joint.mimic is not None \
+                and joint.mimic.joint not in movable_chain:
+            X_acc = X @ _held_at_offset(joint, all_joints, base_link, tip_link)
+            held.append(f"joint {joint.name!r} on the chain is held at its offset "
+                        f"{_float(joint.mimic.offset, 0.0):g}: it mimics {joint.mimic.joint!r}, "
+                        "which is off the chain and held at zero")
+        elif joint.type == "fixed":
             X_acc = X
         elif joint.type in MOVABLE:
             bodies.append(_body(joint, X))
@@ -187,7 +206,7 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
         frames[joint.child] = (len(bodies) - 1, X_acc[:3, :3].copy(), X_acc[:3, 3].copy())
 
     # -- lump every link rigidly attached to a body (chain links and off-chain subtrees)
-    held = []
+    off_chain, followers = [], []
     stack = [(name, frames[name][0], _pose(frames[name])) for name in chain_links]
     while stack:
         name, body, X_link = stack.pop()
@@ -200,12 +219,19 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
                 continue
             X = X_link @ _origin(joint)
             if joint.type != "fixed":
-                held.append(joint.name)
+                off_chain.append(joint.name)
+                if joint.mimic is not None and joint.mimic.joint in movable_chain:
+                    followers.append(f"{joint.name!r} mimics {joint.mimic.joint!r}")
             frames[joint.child] = (body, X[:3, :3].copy(), X[:3, 3].copy())
             stack.append((joint.child, body, X))
+    if off_chain:
+        held.insert(0, f"joints {sorted(off_chain)} are off the chain: held at zero and "
+                       "lumped into the link they hang from" + (
+                           f" ({', '.join(sorted(followers))} on the chain but does not "
+                           "follow it: its mass stays where zero puts it; choose a tip_link "
+                           "whose chain holds it to model it)" if followers else ""))
     if held:
-        warnings.warn(f"joints {sorted(held)} are off the chain {base_link!r} -> {tip_link!r}: "
-                      "held at zero and lumped into the link they hang from",
+        warnings.warn(f"chain {base_link!r} -> {tip_link!r}: " + "; ".join(held),
                       HeldJointsWarning, stacklevel=3)
     rotors = _armature(xml, bodies, armature, base_link, tip_link)
     leader, multiplier, offset = _mimic(bodies, base_link, tip_link)
@@ -234,8 +260,20 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
         effort_limit=[b["effort"] for b in bodies],
         damping=[b["damping"] for b in bodies], friction=[b["friction"] for b in bodies],
         frames=frames, armature=rotors, mimic_leader=leader, mimic_multiplier=multiplier,
-        mimic_offset=offset,
+        mimic_offset=offset, source=_kept(source),
     )
+
+
+def _xml_text(source):
+    """The URDF XML of a source given as XML (str or bytes); None for a file path."""
+    text = source.decode() if isinstance(source, bytes) else source
+    return text if isinstance(text, str) and text.lstrip().startswith("<") else None
+
+
+def _kept(source):
+    """What ``Model.source`` keeps of a URDF source: the XML, or a file's absolute path."""
+    text = _xml_text(source)
+    return text if text is not None else os.path.abspath(os.fspath(source))
 
 
 def _mimic(bodies, base_link, tip_link):
@@ -262,6 +300,24 @@ def _mimic(bodies, base_link, tip_link):
                             "with a multiplier other than 0 (a joint that never moves is fixed)")
         leader[i], multiplier[i], offset[i] = index[lead], m, o
     return leader, multiplier, offset
+
+
+def _held_at_offset(joint, all_joints, base_link, tip_link):
+    """The motion (4, 4) of a mimic joint on the chain whose leader is off it: the leader
+    is held at zero like every joint off the chain, so the joint at multiplier * 0 + offset."""
+    lead = joint.mimic.joint
+    if lead not in all_joints:
+        raise URDFError(f"joint {joint.name!r} on the chain {base_link!r} -> {tip_link!r} "
+                        f"mimics {lead!r}, which is not a joint of this URDF; fix the name in "
+                        "its <mimic joint=...>")
+    offset = _float(joint.mimic.offset, 0.0)
+    axis = _body(joint, np.eye(4))["axis"]
+    X = np.eye(4)
+    if joint.type == "prismatic":
+        X[:3, 3] = offset * axis
+    else:
+        X[:3, :3] = rotation_about(axis, np.array([offset]))[0]
+    return X
 
 
 def _armature(xml, bodies, override, base_link, tip_link):
@@ -312,26 +368,27 @@ def _body(joint, X):
                         'the joint axis, e.g. <axis xyz="0 0 1"/>')
     axis = axis / big                    # |axis| of 1e200 or 1e-200 would over/underflow
     lim, dyn = joint.limit, joint.dynamics
-    lower = _float(getattr(lim, "lower", None), -np.inf)
-    upper = _float(getattr(lim, "upper", None), np.inf)
+    given = {key: getattr(lim, key, None) for key in ("lower", "upper", "effort", "velocity")}
+    given.update({key: getattr(dyn, key, None) for key in ("damping", "friction")})
+    values = {key: _float(v, 0.0) for key, v in given.items()}
+    for key, v in values.items():    # an absent limit is none; an Inf one is refused
+        if not np.isfinite(v):
+            element = "limit" if key in ("lower", "upper", "effort", "velocity") else "dynamics"
+            raise URDFError(f"{what}: <{element} {key}=\"{v}\"> is a NaN or Inf; give a "
+                            "finite number" + (", or leave the attribute out for none"
+                                               if element == "limit" else ""))
+    lower, upper = _float(given["lower"], -np.inf), _float(given["upper"], np.inf)
     if joint.type == "continuous" or lower == upper:   # URDF default 0/0 means "no limits"
         lower, upper = -np.inf, np.inf
-    effort = _float(getattr(lim, "effort", None), np.inf)
-    velocity = _float(getattr(lim, "velocity", None), np.inf)
-    values = dict(lower=lower, upper=upper, effort=effort, velocity=velocity,
-                  damping=_float(getattr(dyn, "damping", None), 0.0),
-                  friction=_float(getattr(dyn, "friction", None), 0.0))
-    for key, v in values.items():
-        if np.isnan(v) or (key not in ("lower", "upper", "effort", "velocity") and np.isinf(v)):
-            raise URDFError(f"{what}: {key} is {v}; fix the number")
-    if values["lower"] > values["upper"]:
+    if lower > upper:
         raise URDFError(f"{what}: lower limit {lower} > upper limit {upper}")
+    values.update(lower=lower, upper=upper)
     for key in ("damping", "friction"):
         if values[key] < 0:
             raise URDFError(f"{what}: <dynamics {key}=\"{values[key]}\"> is negative; "
                             "dissipation coefficients must be >= 0")
-    for key in ("effort", "velocity"):      # non-positive limits are read as absent
-        if values[key] <= 0:
+    for key in ("effort", "velocity"):      # absent or non-positive limits are none
+        if given[key] is None or values[key] <= 0:
             values[key] = np.inf
     return dict(name=joint.name, type=joint.type, link=joint.child, X=X,
                 axis=axis / np.linalg.norm(axis), mimic=joint.mimic, **values)

@@ -3,6 +3,8 @@ that yourdfpy reads present and of the right kind, or a ``URDFError`` naming the
 joint, the element and attribute, and what is expected."""
 from __future__ import annotations
 
+import re
+
 from ..model.errors import URDFError
 
 MOVABLE = ("revolute", "continuous", "prismatic")
@@ -108,6 +110,45 @@ def check_elements(root, where):
 
 def _ordinal(k) -> str:
     return f"{k}{'th' if 10 <= k % 100 <= 20 else {1: 'st', 2: 'nd', 3: 'rd'}.get(k % 10, 'th')}"
+
+
+# An XML declaration (any version) after nothing but blank space, as urdfdom (TinyXML2)
+# reads it; lxml wants version 1.0 at the very first byte.
+_DECLARATION = re.compile(rb"\A(\xef\xbb\xbf)?(\s*)<\?xml(\s.*?)?\?>", re.S)
+_ENCODING = re.compile(rb"""encoding\s*=\s*["']([A-Za-z0-9._-]+)["']""")
+
+
+def without_harmless_header(data: bytes) -> bytes:
+    """The document ``data`` with what urdfdom reads and lxml refuses before the root
+    element made plain: blank lines before the XML declaration, a declaration of another
+    version than 1.0 (pybullet's ``<?xml version="0.0" ?>``). The declaration becomes
+    ``<?xml version="1.0"?>`` (its encoding kept) on line 1, followed by as many line breaks
+    as it replaced, so that every error keeps its line number."""
+    m = _DECLARATION.match(data)
+    if m is None:
+        return data
+    encoding = _ENCODING.search(m.group(3) or b"")
+    declaration = (b'<?xml version="1.0"' + (b' encoding="' + encoding.group(1) + b'"'
+                                             if encoding else b"") + b"?>")
+    return ((m.group(1) or b"") + declaration + b"\n" * m.group(0).count(b"\n")
+            + data[m.end():])
+
+
+def without_undeclared_prefixes(root):
+    """A copy of ``root`` without the elements and attributes whose namespace prefix is
+    not declared (``xacro:``, ``drake:`` leftovers): no URDF reader uses them, and yourdfpy
+    logs two error lines for each before parsing the file the same way."""
+    import copy
+
+    root = copy.deepcopy(root)
+    for element in [e for e in root.iter() if isinstance(e.tag, str) and ":" in e.tag
+                    and not e.tag.startswith("{")]:
+        if element.getparent() is not None:
+            element.getparent().remove(element)
+    for element in root.iter():
+        for key in [k for k in element.attrib if ":" in k and not k.startswith("{")]:
+            del element.attrib[key]
+    return root
 
 
 def check_well_formed(handle, where):

@@ -268,7 +268,7 @@ def test_backends_and_the_environment_switch(monkeypatch):
 
 
 def test_warmup_loads_every_kernel_of_the_robot_methods():
-    robot = sd.default_robot().warmup()
+    robot = sd.default_robot().warmup(batch=True)
     # the kernels of the dynamics methods warmup() calls; the regressor, derivatives and
     # energy kernels are loaded on their first use (a node does not need them to start)
     dynamics = {name for name, (func, *_) in core.ENTRY_POINTS.items()
@@ -278,7 +278,7 @@ def test_warmup_loads_every_kernel_of_the_robot_methods():
     for name in ROBOT_KERNELS:
         assert name in vars(core.K), name             # compiled (or loaded) entry point
     assert robot.backend == "numba" and not robot.is_planar
-    planar = sd.builtin_robot("planar_3r").warmup()   # a planar chain: its kernels too
+    planar = sd.builtin_robot("planar_3r").warmup(batch=True)   # a planar chain: its kernels too
     assert planar.is_planar
     for name in PLANAR_KERNELS:
         assert name in vars(core.K), name

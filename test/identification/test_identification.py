@@ -81,7 +81,8 @@ def test_validation_torques_within_the_noise_level(run):
 
 def test_the_physically_consistent_fit_keeps_every_inertia_valid(run):
     ols, phys = run["ols"], run["phys"]
-    assert not np.all(ols.physical())          # the closest standard parameters to the URDF
+    assert ols.unphysical                      # the closest standard parameters to the URDF
+    assert np.all(ols.physical())              # ... so the consistent ones closest to the fit
     assert np.all(phys.physical())
     phi = phys.standard_parameters()
     for i in range(6):

@@ -17,7 +17,7 @@ from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-from serial_dynamics.precompile import precompile
+from serial_dynamics.precompile import precompile, ticking
 from serial_dynamics.sim.fixed_step import FixedStepIntegrator
 
 from .. import common
@@ -76,11 +76,13 @@ class Session:
                  simulator_params=None, nodes=()):
         self.robot, self.traj, self.rtf, self.log, self.procs = robot, traj, real_time_factor, log, []
         if not attach:
-            # compile the kernels here, once, into the cache the nodes load from (two nodes
-            # compiling the same kernels side by side on a cold cache take twice as long)
+            # compile the kernels the nodes run here, once, on two cores, into the cache the
+            # nodes load from (two nodes compiling the same kernels side by side on a cold
+            # cache take twice as long); a warm cache only loads
             t = time.monotonic()
-            precompile(jobs=2)               # every kernel, on two cores; a warm cache only loads
-            FixedStepIntegrator(robot).step(traj.q[0], np.zeros(robot.dof), np.zeros(robot.dof))
+            with ticking(log, "compiling the numerical kernels the nodes run (first run only)"):
+                precompile(jobs=2, names=robot.kernels())
+                FixedStepIntegrator(robot).step(traj.q[0], np.zeros(robot.dof), np.zeros(robot.dof))
             if time.monotonic() - t > 2.0:
                 log(f"compiled the numerical kernels in {time.monotonic() - t:.0f} s (first run only)")
             self.procs.append(NodeProcess("simulator", {**robot_params, "publish_clock": True,

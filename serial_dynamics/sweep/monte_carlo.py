@@ -22,9 +22,7 @@ import dataclasses
 import numpy as np
 import pandas as pd
 
-from .. import control
-from ..sim.driver import simulate
-from ..sim.methods import SimulationError
+from .. import SimulationError, control, default_robot, simulate
 from ..trajectory import Waypoints, pick_and_place
 from .run import run
 
@@ -104,7 +102,6 @@ class Study:
 
     def __init__(self, robot, waypoints, law, kp, kd, compensate, payload_com, settle, dt,
                  lost):
-        from .. import default_robot
         robot = default_robot() if robot is None else robot
         if law not in control.MODES:
             raise ValueError(f"law {law!r} unknown; use one of {', '.join(control.MODES)}")

@@ -14,11 +14,15 @@ from __future__ import annotations
 import os
 import sys
 from collections.abc import Mapping
+from importlib.util import find_spec
 
 import pandas as pd
 
 ERROR = "error"             # the column that says why a case did not run ("" when it ran)
 TASKS_PER_SLOT = 4          # tasks per worker thread: balances uneven cases, bounds a rerun
+MIN_TASKS = 100             # and at least this many: the progress bar moves by 1 %, a dead
+                            # worker's rerun is short; at ~2 ms of scheduling per task
+                            # (bench/bench_sweep.py) 100 tasks cost ~0.2 s in all
 
 
 def run(fn, cases, client=None, progress=True, *, workers=None, chunk_size=None):
@@ -31,7 +35,7 @@ def run(fn, cases, client=None, progress=True, *, workers=None, chunk_size=None)
         ``workers`` processes, default one per core, closed at the end) or "serial" (every
         case in this process, in order: the reference, and the way to debug ``fn``).
     progress: Dask's progress bar on stderr (and the dashboard's address, when it has one).
-    chunk_size: cases per task (default: ``TASKS_PER_SLOT`` tasks per worker thread).
+    chunk_size: cases per task (default: ``chunks``).
     ``fn`` and what it closes over (a ``Robot`` travels as its model data) are pickled to
     the workers; outputs are scalars (numbers, strings, bools), one column each.
     """
@@ -42,7 +46,7 @@ def run(fn, cases, client=None, progress=True, *, workers=None, chunk_size=None)
     elif client is None:
         from distributed import Client, LocalCluster
         with LocalCluster(n_workers=workers or os.cpu_count(), threads_per_worker=1,
-                          processes=True, host="127.0.0.1", dashboard_address=None) as cluster, \
+                          processes=True, host="127.0.0.1", dashboard_address=":0") as cluster, \
                 Client(cluster) as local:
             rows = _on_cluster(fn, records, local, progress, chunk_size)
     else:
@@ -71,10 +75,10 @@ def _row(fn, case):
 
 
 def chunks(n_cases, slots, chunk_size=None):
-    """(start, stop) of each task: ``chunk_size`` cases, or ``TASKS_PER_SLOT`` tasks per
-    worker slot, in equal parts."""
+    """(start, stop) of each task: ``chunk_size`` cases, or as many cases as make
+    ``TASKS_PER_SLOT`` tasks per worker slot (at least ``MIN_TASKS`` tasks), in equal parts."""
     if chunk_size is None:
-        chunk_size = -(-n_cases // max(1, TASKS_PER_SLOT * slots))
+        chunk_size = -(-n_cases // max(MIN_TASKS, TASKS_PER_SLOT * slots))
     if not (isinstance(chunk_size, int) and chunk_size >= 1):
         raise ValueError(f"chunk_size = {chunk_size!r}; give a whole number of cases >= 1")
     return [(i, min(i + chunk_size, n_cases)) for i in range(0, n_cases, chunk_size)]
@@ -86,10 +90,9 @@ def _on_cluster(fn, records, client, progress, chunk_size):
                for a, b in chunks(len(records), slots, chunk_size)]
     if progress and futures:
         from distributed import progress as bar
-        link = getattr(client, "dashboard_link", None)
-        if link and client.scheduler_info().get("services", {}).get("dashboard"):
-            print(f"sweep: {len(records)} cases in {len(futures)} tasks; dashboard {link}",
-                  file=sys.stderr)
+        link = client.dashboard_link if find_spec("bokeh") else "none (pip install bokeh)"
+        print(f"sweep: {len(records)} cases in {len(futures)} tasks; dashboard: {link}",
+              file=sys.stderr)
         bar(futures)
     return [row for rows in client.gather(futures) for row in rows]
 

@@ -4,7 +4,7 @@ under model uncertainty (``monte_carlo``), identification over many recordings
 sweep``). docs/scale.md. Needs the ``cluster`` extra (dask[distributed], pandas, pyarrow).
 """
 from .identification import identify_recordings
-from .monte_carlo import Study, draw, monte_carlo, plot, summary
+from .robustness import Study, draw, monte_carlo, plot, summary
 from .run import run
 
 __all__ = ["run", "monte_carlo", "identify_recordings", "Study", "draw", "summary", "plot"]

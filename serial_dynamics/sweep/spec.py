@@ -15,7 +15,7 @@ import sys
 import yaml
 
 from .identification import identify_recordings
-from .monte_carlo import monte_carlo
+from .robustness import monte_carlo
 
 STUDIES = {"monte_carlo": monte_carlo, "identification": identify_recordings}
 NOT_IN_SPEC = ("client", "progress", "workers", "waypoints")   # the command line's, or code's

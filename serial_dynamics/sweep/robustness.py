@@ -1,4 +1,5 @@
-"""``sweep.monte_carlo``: the robustness of a controller under model uncertainty.
+"""``sweep.monte_carlo``: the robustness of a controller under model uncertainty (a
+Monte-Carlo study).
 
 Each case draws a plant -- the nominal robot with a payload on its tip, every body's mass
 and inertia scaled, the joint friction scaled, a start off the trajectory -- and runs the

@@ -5,7 +5,7 @@ import pytest
 
 import serial_dynamics as sd
 from serial_dynamics import sweep
-from serial_dynamics.sweep.monte_carlo import NOMINAL_VISCOUS, Study
+from serial_dynamics.sweep.robustness import NOMINAL_VISCOUS, Study
 
 
 def study(law="computed_torque", kp=400.0, dt=0.002, lost=1.0):

@@ -34,13 +34,14 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from trajectory_msgs.msg import JointTrajectory
 
+from serial_dynamics import control
 from serial_dynamics.trajectory import Waypoints
 
 from . import common, parameters
 from .common import Rejected
 from .parameters import StartupError
 
-MODES = ("computed_torque", "pd_gravity", "gravity_compensation")
+MODES = control.MODES      # the laws: serial_dynamics/control.py
 PARAMETERS = {
     "mode": ("string", "computed_torque", "control law: computed_torque, pd_gravity or "
              "gravity_compensation. Settable while running"),
@@ -84,9 +85,9 @@ class ComputedTorqueController(Node):
             self, parameters.load_robot(self, p), p, lambda robot: setattr(self, "robot", robot))
         self.kp = parameters.per_joint("kp", p["kp"], robot, None, positive=True)
         self.kd = parameters.per_joint("kd", p["kd"], robot, None, positive=True)
-        m0 = np.diag(robot.mass_matrix(np.zeros(robot.dof)))    # default pd gains: same
-        self.pd_kp = parameters.per_joint("pd.kp", p["pd.kp"], robot, self.kp * m0, True)
-        self.pd_kd = parameters.per_joint("pd.kd", p["pd.kd"], robot, self.kd * m0, True)
+        kp0, kd0 = control.pd_gains(robot, self.kp, self.kd)    # default pd gains: same
+        self.pd_kp = parameters.per_joint("pd.kp", p["pd.kp"], robot, kp0, True)
+        self.pd_kd = parameters.per_joint("pd.kd", p["pd.kd"], robot, kd0, True)
         if not 0 < p["control_rate"] < np.inf:
             raise StartupError(f"parameter 'control_rate' must be > 0, got {p['control_rate']}")
         self.compensate = p["compensate_dissipation"]
@@ -174,15 +175,9 @@ class ComputedTorqueController(Node):
         e[self.wrap] = np.angle(np.exp(1j * e[self.wrap]))     # shortest way round
         ed, robot, mode = qd_ref - qd, self.robot, self.mode
         try:
+            kp, kd = (self.kp, self.kd) if mode == "computed_torque" else (self.pd_kp, self.pd_kd)
             with np.errstate(over="ignore", invalid="ignore"):    # checked below
-                if mode == "computed_torque":
-                    tau = robot.inverse_dynamics(q, qd, qdd_ff + self.kp * e + self.kd * ed)
-                elif mode == "pd_gravity":
-                    tau = self.pd_kp * e + self.pd_kd * ed + robot.gravity_torques(q)
-                else:                                              # gravity_compensation
-                    tau = robot.gravity_torques(q)
-            if self.compensate:
-                tau = tau - robot.dissipation_torques(qd)
+                tau = control.torque(robot, mode, q, qd, e, ed, qdd_ff, kp, kd, self.compensate)
             if not np.all(np.isfinite(tau)):
                 raise ValueError("the torque came out non-finite")
         except (ValueError, ArithmeticError) as exc:   # e.g. gains times error overflow

@@ -41,7 +41,10 @@ def run(fn, cases, client=None, progress=True, *, workers=None, chunk_size=None)
     """
     table = _as_table(cases)
     records = table.to_dict("records")
-    if isinstance(client, str) and client == "serial":
+    if isinstance(client, str):
+        if client != "serial":
+            raise ValueError(f"client = {client!r}; give a dask.distributed Client (e.g. "
+                             "Client('tcp://host:8786')), None (local processes) or 'serial'")
         rows = run_cases(fn, records)
     elif client is None:
         from distributed import Client, LocalCluster
@@ -103,13 +106,13 @@ def _as_table(cases):
     cases = list(cases)
     bad = next((k for k, c in enumerate(cases) if not isinstance(c, Mapping)), None)
     if bad is not None:
-        raise ValueError(f"case {bad} is a {type(cases[bad]).__name__}; give the cases as "
+        raise ValueError(f"case {bad} is of type {type(cases[bad]).__name__}; give the cases as "
                          "dicts (column: value) or a pandas DataFrame")
     return pd.DataFrame(cases)
 
 
 def assemble(table, rows):
     """The case columns, then the outputs in the order they first appear, then ``error``."""
-    out = pd.DataFrame(rows, index=table.index)
+    out = pd.DataFrame(rows, index=table.index, columns=None if rows else [ERROR])
     out = out[[c for c in out.columns if c != ERROR] + [ERROR]]
     return pd.concat([table, out], axis=1)

@@ -10,6 +10,7 @@ import pytest
 
 import serial_dynamics as sd
 from serial_dynamics import sweep
+from serial_dynamics.sweep.run import chunks
 
 distributed = pytest.importorskip("distributed")
 
@@ -103,3 +104,14 @@ def test_a_killed_worker_loses_no_case(client, tmp_path):
     # case 5's task ran twice (killed, then rerun); the table holds it once
     assert sum(int(k) == 5 for _, k, _ in ran) == 2
     client.wait_for_workers(2, timeout=60)                      # the nanny restarted it
+
+
+def test_no_cases_and_bad_arguments():
+    empty = sweep.run(dynamics, [], client="serial")
+    assert list(empty.columns) == ["error"] and len(empty) == 0
+    with pytest.raises(ValueError, match="client = 'tcp://nowhere'"):
+        sweep.run(dynamics, [{"k": 1}], client="tcp://nowhere")
+    with pytest.raises(ValueError, match="case 1 is of type int"):
+        sweep.run(dynamics, [{"k": 1}, 2], client="serial")
+    with pytest.raises(ValueError, match="chunk_size = 0"):
+        chunks(10, 2, 0)

@@ -33,6 +33,8 @@ setup(
             "ros-jazzy-rmw-fastrtps-cpp",
         ],
         "plot": ["matplotlib"],
+        # scale-out (serial_dynamics.sweep): Dask's distributed scheduler, tables, Parquet, specs
+        "cluster": ["dask[distributed]", "pandas", "pyarrow", "pyyaml"],
         "test": ["pytest", "hypothesis", "pin", "example-robot-data", "matplotlib", "mpmath"],
         "bench": ["pin", "example-robot-data", "mujoco", "matplotlib"],
     },

@@ -1,4 +1,5 @@
-"""Command line: serial-dynamics {info,demo,simulate,excite,identify} [URDF] [options]."""
+"""Command line: serial-dynamics {info,demo,simulate,excite,identify} [URDF] [options];
+serial-dynamics sweep SPEC.yaml --out results.parquet."""
 from __future__ import annotations
 
 import argparse
@@ -185,6 +186,16 @@ def cmd_identify(args):
     return 0
 
 
+def cmd_sweep(args):
+    from .sweep import spec
+    return spec.command(args)
+
+
+def _builtin_source():
+    from .robots import DEFAULT, builtin_path
+    return builtin_path(DEFAULT)
+
+
 def _identification_options(p, name):
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.add_argument("--no-friction", action="store_true",
@@ -249,6 +260,15 @@ def main(argv=None):
             _simulate_options(p)
         if name in ("excite", "identify"):
             _identification_options(p, name)
+    p = sub.add_parser("sweep", help="run a study from a YAML spec on Dask (docs/scale.md)")
+    p.add_argument("spec", metavar="SPEC.yaml", help="the study (config/sweep_example.yaml)")
+    p.add_argument("--scheduler", default=None, metavar="tcp://HOST:8786",
+                   help="a running Dask scheduler (default: local worker processes)")
+    p.add_argument("--workers", type=int, default=None,
+                   help="local worker processes (default: one per core)")
+    p.add_argument("--out", required=True, metavar="RESULTS.parquet", help="the table")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_sweep)
     args = parser.parse_args(argv)
     warnings.showwarning = _warning_line
     try:

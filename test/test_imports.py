@@ -401,5 +401,5 @@ def test_public_paths_still_work(module, names):
 def test_the_top_level_keeps_only_the_entry_points():
     top = sorted(f for f in os.listdir(os.path.dirname(serial_dynamics.__file__))
                  if f.endswith(".py"))
-    assert top == ["__init__.py", "cli.py", "joints.py", "observers.py", "precompile.py",
-                   "trajectory.py"], top
+    assert top == ["__init__.py", "cli.py", "control.py", "joints.py", "observers.py",
+                   "precompile.py", "trajectory.py"], top

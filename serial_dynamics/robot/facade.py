@@ -25,7 +25,9 @@ memory (``core/data.py``), so one ``Robot`` may be called from several threads a
 """
 from __future__ import annotations
 
+import dataclasses
 import os
+from types import MappingProxyType
 
 import numpy as np
 
@@ -152,6 +154,17 @@ class Robot:
             raise ValueError("dissipation must be a serial_dynamics.Dissipation for the joints "
                              f"{self.joint_names}")
         self._dissipation = value
+
+    def __reduce__(self):
+        """Pickled as data, never as compiled kernels: (this kind, the model as loaded, the
+        dissipation, the backend, the payload). Unpickling rebuilds the facade the same way,
+        so any kind travels unchanged and computes the same bits; the kernels come from the
+        receiving machine's numba cache (sweep.run sends robots to Dask workers this way)."""
+        model = self._loaded[0]
+        fields = {f.name: getattr(model, f.name) for f in dataclasses.fields(model)}
+        fields.update({k: dict(v) for k, v in fields.items() if isinstance(v, MappingProxyType)})
+        return (_unpickle, (type(self), type(model), fields, self._dissipation, self._backend,
+                            self._payload))
 
     def __repr__(self):
         return (f"Robot({self.model.name!r}, dof={self.dof}, {self.base_link!r} -> "
@@ -392,6 +405,22 @@ class Robot:
         lo = np.where(np.isfinite(self.lower), self.lower, -np.pi)
         hi = np.where(np.isfinite(self.upper), self.upper, np.pi)
         return rng.uniform(lo, hi, shape), rng.uniform(-speed, speed, shape)
+
+
+def _unpickle(kind, model_type, fields, dissipation, backend, payload):
+    """``Robot.__reduce__``'s inverse: the model's read-only arrays and mapping views as
+    built, then the facade, then the payload attached as ``with_payload`` attaches it."""
+    for key, value in fields.items():
+        if isinstance(value, dict):
+            fields[key] = MappingProxyType(value)
+        for a in value.values() if isinstance(value, dict) else (value,):
+            for x in a if isinstance(a, tuple) else (a,):
+                if isinstance(x, np.ndarray):
+                    x.setflags(write=False)
+    robot = kind(model_type(**fields), dissipation, backend)
+    if payload is None:
+        return robot
+    return robot.with_payload(payload.mass, payload.com, payload.inertia, payload.link)
 
 
 def _parallel(kernel, P, N, arrays, extra, out):

@@ -331,13 +331,19 @@ def main(argv=None):
     ratio = (np.median([r["p50"] for r in pair["service"]])
              / np.median([r["p50"] for r in pair["topic"]]))
     print(f"service / topic median round trip: {ratio:.2f}")
+    cores = os.cpu_count() or 1
+    shared = ("" if load < cores else
+              f" The machine was shared with other jobs (a load average of {load:.1f} on "
+              f"{cores} cores): the rows under load and the simulator's real-time factor "
+              "measure that contention as much as the nodes, and a round disturbed by it "
+              "shows in the table below.")
     ladder_rows = "\n".join(
         f"| {rate} | {r['rate']:.0f} Hz | {r['sent']} | {r['node_received']} | {r['lost']} | "
         f"{r['p50']:.2f} ms | {r['p99']:.2f} ms | {r['max']:.1f} ms |" for rate, r in ladder)
     body = f"""## ROS 2 nodes: latency and real-time factor
 
 {stamp()}
-Load average of the machine when the run started: {load:.1f}.
+Load average of the machine when the run started: {load:.1f}.{shared}
 
 `python bench/bench_ros_latency.py` (ROS 2 Jazzy rclpy and Fast DDS from the PyPI wheels; each
 node a separate process on one machine; the client is an rclpy node as well, so its own

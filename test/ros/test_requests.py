@@ -2,6 +2,8 @@
 names in any order give the same bits as the robot's order, empty arrays are zeros, a zero
 tip wrench is none, forward dynamics inverts inverse dynamics with the dissipation
 compensated, and every refusal names its field."""
+import subprocess
+import sys
 from types import SimpleNamespace as Msg
 
 import numpy as np
@@ -66,3 +68,10 @@ def test_refusals_name_the_field(fields, field):
     with pytest.raises(requests.Refused, match=field) as refused:
         requests.answer_inverse_dynamics(ROBOT, msg)
     assert refused.value.cause == field
+
+
+def test_the_request_rules_import_no_ros():
+    code = ("import sys, serial_dynamics.ros.requests\n"
+            "bad = sorted(m for m in sys.modules if m.startswith(('rclpy', 'rcl_')) or '_msgs' in m)\n"
+            "assert not bad, bad")
+    subprocess.run([sys.executable, "-c", code], check=True)

@@ -9,7 +9,7 @@ import time
 
 import serial_dynamics as sd
 from serial_dynamics import precompile
-from serial_dynamics.robot import BATCH_KERNELS, SINGLE_KERNELS
+from serial_dynamics.robot.facade import BATCH_KERNELS, SINGLE_KERNELS
 
 
 def loaded_after(code):

@@ -11,7 +11,7 @@ from .dissipation import Dissipation
 from .errors import ModelError, RobotDescriptionError
 from .model import Model
 from .robot import Robot
-from . import mimic, planar_robot  # noqa: F401  (register MimicRobot and PlanarRobot with Robot)
+from . import floating_robot, mimic, planar_robot  # noqa: F401  (register the kinds with Robot)
 from .robots import builtin_path, builtin_robot, default_robot
 from .sim.driver import SimulationError, simulate   # sd.simulate is the function
 from .urdf import HeldJointsWarning, URDFError, load_model

@@ -68,10 +68,13 @@ class Robot:
     _kinds = {}
     is_planar = False        # a planar chain on the planar fast path (PlanarRobot)
     _mimic = False           # the reduced system of a chain with mimic joints (MimicRobot)
+    is_floating = False      # a free-floating base (floating_robot.FloatingRobot)
 
     def __new__(cls, model, *args, **kwargs):
         Q = None
-        if cls is Robot and np.any(model.mimic_leader >= 0):
+        if cls is Robot and model.floating:
+            cls = Robot._kinds["floating"]
+        elif cls is Robot and np.any(model.mimic_leader >= 0):
             cls = Robot._kinds["mimic"]
         elif cls is Robot and (Q := planar_pack(model)) is not None:
             cls = Robot._kinds["planar"]
@@ -100,6 +103,8 @@ class Robot:
 
     # ------------------------------------------------------------- description
     dof = property(lambda self: self.model.dof)
+    nq = property(lambda self: self.model.dof, doc="the length of q (n + 7 on a floating base)")
+    nv = property(lambda self: self.model.dof, doc="the length of qd (n + 6 on a floating base)")
     joint_names = property(lambda self: list(self.model.joint_names))
     joint_types = property(lambda self: list(self.model.joint_types))
     link_names = property(lambda self: list(self.model.link_names))
@@ -364,6 +369,10 @@ class Robot:
             for method in ("cholesky", "aba"):
                 self.forward_dynamics(x, x, x, method=method)
         return self
+
+    def integrate(self, q, qd, dt):
+        """q + qd dt (a floating base moves its pose on SE(3): FloatingRobot)."""
+        return np.asarray(q, dtype=float) + np.asarray(qd, dtype=float) * dt
 
     def random_state(self, rng=None, batch=None, speed=1.0):
         """(q, qd) drawn uniformly within the joint limits (+-pi where unlimited) and

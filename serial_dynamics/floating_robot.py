@@ -1,0 +1,181 @@
+"""``FloatingRobot``: the facade of a chain on a free-floating base (a satellite, a drone, a
+walking body): ``sd.load_urdf(..., floating_base=True)`` or a URDF whose root joint is
+``type="floating"``.
+
+Coordinates (Pinocchio's free-flyer; docs/modelling.md): q = [x, y, z, qx, qy, qz, qw,
+joints] (``nq`` = n + 7), v = [base linear velocity, base angular velocity (both in the base
+frame), joint rates] (``nv`` = n + 6); ``dof`` = n joints. Generalized forces are [base
+force; base moment] (base frame, about the base origin) then joint torques; forward dynamics
+takes joint torques (n,) (the base is free) or (n+6,). Poses and Jacobians are in the WORLD
+frame, and a tip ``wrench`` is given in world coordinates. Gravity is the world's.
+
+It overrides what a free base changes and runs the NumPy reference
+(``algorithms/floating.py``) for single states and batches; the rest of ``Robot`` (the
+description, dissipation, payload) is inherited. Not available on a floating base yet:
+the Coriolis matrix, the regressor, the dynamics derivatives, a ``base_motion``.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .algorithms import floating as fb
+from .algorithms import kinematics
+from .algorithms._batch import skew
+from .algorithms.aba import CROSSOVER
+from .robot import Robot, _into
+
+FD_METHODS = ("auto", "aba", "cholesky")
+
+
+class FloatingRobot(Robot):
+    """A ``Robot`` whose base floats (``is_floating``); see the module docstring."""
+
+    is_floating = True
+
+    def __init__(self, model, dissipation=None, backend=None, **kwargs):
+        if np.any(model.mimic_leader >= 0):
+            raise ValueError(f"chain {model.base_link!r} -> {model.tip_link!r} has mimic joints; "
+                             "a floating base with mimic joints is not supported: load it with "
+                             "floating_base=False, or make the mimic joints independent")
+        super().__init__(model, dissipation, backend, **kwargs)
+
+    nq = property(lambda self: self.model.dof + 7, doc="n + 7: [x, y, z, qx, qy, qz, qw, joints]")
+    nv = property(lambda self: self.model.dof + 6, doc="n + 6: [v_O, omega (base frame), joints]")
+
+    def __repr__(self):
+        return (f"FloatingRobot({self.model.name!r}, dof={self.dof}, floating base "
+                f"{self.base_link!r} -> {self.tip_link!r}, joints={self.joint_names})")
+
+    # ------------------------------------------------------------- dynamics
+    def inverse_dynamics(self, q, qd, qdd, wrench=None, base_motion=None, out=None):
+        """tau (n+6,): [base force; base moment] (base frame) and joint torques for the
+        accelerations qdd = dv/dt (n+6); ``wrench`` on the tip, world coordinates."""
+        _no_base_motion(base_motion)
+        return _into(out, fb.inverse_dynamics(self.model, q, qd, qdd, wrench))
+
+    def mass_matrix(self, q, out=None):
+        """M (n+6, n+6), in the order of v."""
+        return _into(out, fb.mass_matrix(self.model, q))
+
+    def bias_torques(self, q, qd, wrench=None, base_motion=None, out=None):
+        """b (n+6,) = inverse_dynamics(q, v, 0, wrench)."""
+        _no_base_motion(base_motion)
+        return _into(out, fb.bias(self.model, q, qd, wrench))
+
+    def gravity_torques(self, q, out=None):
+        """g (n+6,): what holds the whole robot still against gravity (the base's part is
+        the weight, carried by whatever holds the base)."""
+        return _into(out, fb.gravity_forces(self.model, q))
+
+    def forward_dynamics(self, q, qd, tau, wrench=None, method="auto", base_motion=None,
+                         out=None):
+        """a = dv/dt (n+6,) for joint torques ``tau`` (n,) (the base free) or generalized
+        forces (n+6,). ``method``: "auto", "aba" (articulated bodies through the floating
+        root, FDfb) or "cholesky" (M a = tau - b)."""
+        _no_base_motion(base_motion)
+        if method not in FD_METHODS:
+            raise ValueError(f"forward-dynamics method {method!r} unknown for a floating base; "
+                             f"use one of {FD_METHODS}")
+        if method == "auto":
+            method = "aba" if self.dof + 6 >= CROSSOVER else "cholesky"
+        return _into(out, fb.forward_dynamics(self.model, q, qd, tau, wrench, method))
+
+    def coriolis_matrix(self, q, qd):
+        raise NotImplementedError("the Coriolis matrix of a floating base is not available; "
+                                  "use bias_torques(q, v) for C v + g")
+
+    def regressor(self, *args, **kwargs):
+        raise NotImplementedError("the regressor of a floating base is not available")
+
+    def inertial_parameters(self, *args, **kwargs):
+        raise NotImplementedError("the regressor of a floating base is not available")
+
+    def inverse_dynamics_derivatives(self, *args, **kwargs):
+        raise NotImplementedError("dynamics derivatives of a floating base are not available")
+
+    def forward_dynamics_derivatives(self, *args, **kwargs):
+        raise NotImplementedError("dynamics derivatives of a floating base are not available")
+
+    # ------------------------------------------------------------- kinematics, energy, momentum
+    def forward_kinematics(self, q, link=None):
+        """4x4 pose of ``link`` (default: the tip) in the world."""
+        single, q, R, _ = fb.as_batch(self.model, q)
+        X = kinematics.forward_kinematics(self.model, q[:, 7:], link)
+        B = np.zeros_like(X)
+        B[:, :3, :3], B[:, :3, 3], B[:, 3, 3] = R, q[:, :3], 1.0
+        return (B @ X)[0] if single else B @ X
+
+    def jacobian(self, q, link=None):
+        """6 x (n+6) Jacobian of ``link``'s origin, [linear; angular] velocity in world axes,
+        times v: the base's columns [R, -R [r]x; 0, R] (r: the link origin in the base
+        frame), the joints' columns R J_fixed."""
+        single, q, R, _ = fb.as_batch(self.model, q)
+        N = q.shape[0]
+        r = kinematics.forward_kinematics(self.model, q[:, 7:], link)[:, :3, 3]
+        J = np.zeros((N, 6, self.nv))
+        J[:, :3, :3] = R
+        J[:, :3, 3:6] = -R @ skew(r)
+        J[:, 3:, 3:6] = R
+        Jj = kinematics.jacobian(self.model, q[:, 7:], link)
+        J[:, :3, 6:], J[:, 3:, 6:] = R @ Jj[:, :3], R @ Jj[:, 3:]
+        return J[0] if single else J
+
+    def kinetic_energy(self, q, qd):
+        return fb.kinetic_energy(self.model, q, qd)
+
+    def potential_energy(self, q):
+        return fb.potential_energy(self.model, q)
+
+    def center_of_mass(self, q):
+        """(3,): the center of mass of the base and the chain, world frame."""
+        return fb.center_of_mass(self.model, q)
+
+    def centroidal_momentum(self, q, qd):
+        """(6,): [linear momentum; angular momentum about the center of mass], world axes."""
+        return fb.centroidal_momentum(self.model, q, qd)
+
+    def integrate(self, q, qd, dt):
+        """q moved by v dt: the base pose on SE(3) (exponential map), the joints by qd dt."""
+        return fb.integrate(self.model, q, qd, dt)
+
+    def random_state(self, rng=None, batch=None, speed=1.0):
+        """(q, v): the base within 1 m of the origin with a uniformly random unit quaternion,
+        joints within their limits (+-pi where unlimited), velocities in +-speed."""
+        return fb.random_state(self.model, rng, batch, speed)
+
+    def neutral(self):
+        """q (n+7,) with the base at the origin, unrotated, and every joint at zero."""
+        return np.concatenate([np.zeros(6), [1.0], np.zeros(self.dof)])
+
+    # ------------------------------------------------------------- space robotics
+    def base_reaction(self, q, qd_joints):
+        """v_base (6,) or (N, 6) = -M_bb^-1 M_bj qd: the base's motion [v_O; omega] (base
+        frame) that a joint motion causes when the total momentum is zero (no external
+        force; Umetani & Yoshida 1989)."""
+        single, q, _, _ = fb.as_batch(self.model, q)
+        M = fb.mass_matrix_joints(self.model, q[:, 7:])
+        qdj = np.broadcast_to(np.asarray(qd_joints, dtype=float), (q.shape[0], self.dof))
+        vb = -np.linalg.solve(M[:, :6, :6], np.einsum("nij,nj->ni", M[:, :6, 6:], qdj)[..., None])
+        return vb[:, :, 0][0] if single else vb[:, :, 0]
+
+    def generalized_jacobian(self, q, link=None):
+        """J* (6, n): ``link``'s twist [linear; angular] (world axes) from the joint rates
+        alone at zero total momentum, J* = J_j - J_b M_bb^-1 M_bj (Umetani & Yoshida 1989)."""
+        single, q, _, _ = fb.as_batch(self.model, q)
+        M = fb.mass_matrix_joints(self.model, q[:, 7:])
+        J = self.jacobian(q, link)
+        Js = J[:, :, 6:] - J[:, :, :6] @ np.linalg.solve(M[:, :6, :6], M[:, :6, 6:])
+        return Js[0] if single else Js
+
+    def warmup(self):
+        """Nothing to compile (the NumPy reference runs a floating base); returns self."""
+        return self
+
+
+def _no_base_motion(base_motion):
+    if base_motion is not None:
+        raise ValueError("base_motion prescribes a fixed base's motion; a floating base moves "
+                         "by its own dynamics (give its velocity in v)")
+
+
+Robot._kinds["floating"] = FloatingRobot

@@ -9,10 +9,19 @@ force; base moment] (base frame, about the base origin) then joint torques; forw
 takes joint torques (n,) (the base is free) or (n+6,). Poses and Jacobians are in the WORLD
 frame, and a tip ``wrench`` is given in world coordinates. Gravity is the world's.
 
-It overrides what a free base changes and runs the NumPy reference
-(``algorithms/floating.py``) for single states and batches; the rest of ``Robot`` (the
-description, dissipation, payload) is inherited. Not available on a floating base yet:
-the Coriolis matrix, the regressor, the dynamics derivatives, a ``base_motion``.
+Backends. ``"numpy"`` runs the reference (``algorithms/floating.py``). ``"numba"`` (the
+default) runs the fixed-base compiled kernels on the *instantaneous chain*: the base's six
+degrees of freedom as three prismatic joints along the base's x, y, z axes and three revolute
+joints about them, all at zero, the base's inertia on the last (``virtual_chain``). At that
+configuration the virtual joints' rates are v's base part, so the chain's mass matrix is M
+and its generalized forces are the base wrench in the base frame; only the accelerations
+differ, by the velocity products of the virtual joints (``_to_chain``, ``_from_chain``):
+qdd_p = a_lin + omega x v_O, qdd_r = alpha - (wy wz, -wx wz, wx wy). Gravity, R^T g per
+state, enters as the base's acceleration (layout.W_ACC), the tip wrench in base coordinates.
+The tests hold both backends to Pinocchio's free-flyer.
+
+Not available on a floating base yet: the Coriolis matrix, the regressor, the dynamics
+derivatives, a ``base_motion``.
 """
 from __future__ import annotations
 
@@ -22,7 +31,13 @@ from .algorithms import floating as fb
 from .algorithms import kinematics
 from .algorithms._batch import skew
 from .algorithms.aba import CROSSOVER
-from .robot import Robot, _into
+from .batches import kernel_rows, run_split
+from .core import K
+from .core import flags as F
+from .core.layout import B, W_ACC, W_ALL
+from .core.layout import pack as layout_pack
+from .model import Model
+from .robot import PARALLEL_MIN, Robot, _into
 
 FD_METHODS = ("auto", "aba", "cholesky")
 
@@ -38,6 +53,7 @@ class FloatingRobot(Robot):
                              "a floating base with mimic joints is not supported: load it with "
                              "floating_base=False, or make the mimic joints independent")
         super().__init__(model, dissipation, backend, **kwargs)
+        self._chain = layout_pack(virtual_chain(model)) if self._compiled else None
 
     nq = property(lambda self: self.model.dof + 7, doc="n + 7: [x, y, z, qx, qy, qz, qw, joints]")
     nv = property(lambda self: self.model.dof + 6, doc="n + 6: [v_O, omega (base frame), joints]")
@@ -51,21 +67,57 @@ class FloatingRobot(Robot):
         """tau (n+6,): [base force; base moment] (base frame) and joint torques for the
         accelerations qdd = dv/dt (n+6); ``wrench`` on the tip, world coordinates."""
         _no_base_motion(base_motion)
-        return _into(out, fb.inverse_dynamics(self.model, q, qd, qdd, wrench))
+        if not self._compiled:
+            return _into(out, fb.inverse_dynamics(self.model, q, qd, qdd, wrench))
+        single, q, R, s = fb.as_batch(self.model, q, v=qd, a=qdd)
+        v, a = (np.zeros((q.shape[0], self.nv)) if s[k] is None else s[k] for k in ("v", "a"))
+        return _into(out, self._rnea(single, q, R, v, _to_chain(v, a), wrench, F.QD | F.QDD))
+
+    def _rnea(self, single, q, R, v, qdd_chain, wrench, flags):
+        qv, w, flags = self._chain_inputs(q, R, wrench, flags)
+        N = qv.shape[0]
+        tau = np.empty((N, self.nv))
+        run_split(K.rnea_batch, self._chain, N, (qv, kernel_rows(v), kernel_rows(qdd_chain), w),
+                  (flags,), (tau,), PARALLEL_MIN, B)
+        return tau[0] if single else tau
+
+    def _chain_inputs(self, q, R, wrench, flags):
+        """The instantaneous chain's q (zeros for the base), and its external vector w:
+        the tip wrench and gravity as the base's acceleration -R^T g, base coordinates."""
+        N = q.shape[0]
+        qv = np.zeros((N, self.nv))
+        qv[:, 6:] = q[:, 7:]
+        w = np.zeros((N, W_ALL))
+        w[:, W_ACC:W_ACC + 3] = -np.einsum("nji,j->ni", R, self.model.gravity)
+        if wrench is not None:
+            wr = np.broadcast_to(np.asarray(wrench, dtype=float), (N, 6))
+            if not np.all(np.isfinite(wr)):
+                raise ValueError("wrench has a NaN or Inf entry; give finite numbers")
+            w[:, :3] = np.einsum("nji,nj->ni", R, wr[:, :3])
+            w[:, 3:6] = np.einsum("nji,nj->ni", R, wr[:, 3:])
+            flags |= F.WRENCH
+        return qv, w, flags | F.BASE
 
     def mass_matrix(self, q, out=None):
         """M (n+6, n+6), in the order of v."""
-        return _into(out, fb.mass_matrix(self.model, q))
+        if not self._compiled:
+            return _into(out, fb.mass_matrix(self.model, q))
+        single, q, _, _ = fb.as_batch(self.model, q)
+        qv = np.zeros((q.shape[0], self.nv))
+        qv[:, 6:] = q[:, 7:]
+        M = np.empty((q.shape[0], self.nv, self.nv))
+        run_split(K.crba_batch, self._chain, q.shape[0], (qv,), (), (M,), PARALLEL_MIN, B)
+        return _into(out, M[0] if single else M)
 
     def bias_torques(self, q, qd, wrench=None, base_motion=None, out=None):
         """b (n+6,) = inverse_dynamics(q, v, 0, wrench)."""
         _no_base_motion(base_motion)
-        return _into(out, fb.bias(self.model, q, qd, wrench))
+        return self.inverse_dynamics(q, qd, None, wrench, out=out)
 
     def gravity_torques(self, q, out=None):
         """g (n+6,): what holds the whole robot still against gravity (the base's part is
         the weight, carried by whatever holds the base)."""
-        return _into(out, fb.gravity_forces(self.model, q))
+        return self.inverse_dynamics(q, None, None, out=out)
 
     def forward_dynamics(self, q, qd, tau, wrench=None, method="auto", base_motion=None,
                          out=None):
@@ -78,7 +130,16 @@ class FloatingRobot(Robot):
                              f"use one of {FD_METHODS}")
         if method == "auto":
             method = "aba" if self.dof + 6 >= CROSSOVER else "cholesky"
-        return _into(out, fb.forward_dynamics(self.model, q, qd, tau, wrench, method))
+        if not self._compiled:
+            return _into(out, fb.forward_dynamics(self.model, q, qd, tau, wrench, method))
+        single, q, R, s = fb.as_batch(self.model, q, v=qd, tau=tau)
+        qv, w, flags = self._chain_inputs(q, R, wrench, F.QD | (F.ABA if method == "aba" else 0))
+        N = qv.shape[0]
+        qdd = np.empty((N, self.nv))
+        run_split(K.fd_batch, self._chain, N, (qv, kernel_rows(s["v"]), kernel_rows(s["tau"]), w),
+                  (flags,), (qdd,), PARALLEL_MIN, B)
+        a = _from_chain(np.broadcast_to(s["v"], (N, self.nv)), qdd)
+        return _into(out, a[0] if single else a)
 
     def coriolis_matrix(self, q, qd):
         raise NotImplementedError("the Coriolis matrix of a floating base is not available; "
@@ -121,7 +182,12 @@ class FloatingRobot(Robot):
         return J[0] if single else J
 
     def kinetic_energy(self, q, qd):
-        return fb.kinetic_energy(self.model, q, qd)
+        """T = 1/2 v^T M v (J)."""
+        if not self._compiled:
+            return fb.kinetic_energy(self.model, q, qd)
+        M = self.mass_matrix(q)
+        v = np.broadcast_to(np.asarray(qd, dtype=float), M.shape[:-1])
+        return 0.5 * np.einsum("...i,...ij,...j->...", v, M, v)
 
     def potential_energy(self, q):
         return fb.potential_energy(self.model, q)
@@ -170,6 +236,54 @@ class FloatingRobot(Robot):
     def warmup(self):
         """Nothing to compile (the NumPy reference runs a floating base); returns self."""
         return self
+
+
+def virtual_chain(model) -> Model:
+    """The instantaneous chain of a floating ``model`` (module docstring): prismatic joints
+    along the base's x, y, z, revolute joints about them (massless, the last carrying the
+    base's inertia), then the chain; no gravity (it comes with each call)."""
+    n = model.dof
+    eye, zero = np.eye(3), np.zeros(3)
+    names = [f"_base_{k}" for k in ("x", "y", "z", "rx", "ry", "rz")]
+    frames = {link: (b + 6 if b >= 0 else 5, R, p) for link, (b, R, p) in model.frames.items()}
+    return Model.build(
+        name=model.name, joint_names=names + list(model.joint_names),
+        joint_types=["prismatic"] * 3 + ["revolute"] * 3 + list(model.joint_types),
+        link_names=names[:5] + [model.base_link] + list(model.link_names),
+        base_link="_world", tip_link=model.tip_link,
+        R_parent=np.concatenate([np.broadcast_to(eye, (6, 3, 3)), model.R_parent]),
+        p_parent=np.concatenate([np.zeros((6, 3)), model.p_parent]),
+        axis=np.concatenate([eye, eye, model.axis]),
+        mass=np.r_[np.zeros(5), model.base_mass, model.mass],
+        com=np.concatenate([np.zeros((5, 3)), [model.base_com], model.com]),
+        inertia=np.concatenate([np.zeros((5, 3, 3)), [model.base_inertia], model.inertia]),
+        gravity=zero, tip_R=model.tip_R, tip_p=model.tip_p, frames=frames,
+        armature=np.r_[np.zeros(6), model.armature], check_mass_matrix=False)
+
+
+def _velocity_products(v):
+    """The instantaneous chain's velocity-product accelerations (module docstring): of the
+    base origin, omega x v_O; of the base's rotation, (wy wz, -wx wz, wx wy)."""
+    w = v[:, 3:6]
+    wx, wy, wz = w[:, 0], w[:, 1], w[:, 2]
+    return np.cross(w, v[:, :3]), np.stack([wy * wz, -wx * wz, wx * wy], axis=1)
+
+
+def _to_chain(v, a):
+    """The instantaneous chain's qdd for the accelerations a = dv/dt."""
+    lin, ang = _velocity_products(v)
+    out = np.array(a, dtype=float)
+    out[:, :3] += lin
+    out[:, 3:6] -= ang
+    return out
+
+
+def _from_chain(v, qdd):
+    """a = dv/dt from the instantaneous chain's qdd (``_to_chain`` inverted)."""
+    lin, ang = _velocity_products(v)
+    qdd[:, :3] -= lin
+    qdd[:, 3:6] += ang
+    return qdd
 
 
 def _no_base_motion(base_motion):

@@ -370,6 +370,10 @@ class Robot:
                 self.forward_dynamics(x, x, x, method=method)
         return self
 
+    def neutral(self):
+        """q at rest: every joint at zero (a floating base also at the world origin)."""
+        return np.zeros(self.nq)
+
     def integrate(self, q, qd, dt):
         """q + qd dt (a floating base moves its pose on SE(3): FloatingRobot)."""
         return np.asarray(q, dtype=float) + np.asarray(qd, dtype=float) * dt

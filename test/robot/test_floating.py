@@ -147,7 +147,8 @@ def test_a_base_1e9_times_heavier_is_a_fixed_base():
     k = 1e9
     heavy = sd.Robot(dataclasses.replace(
         robot.model, base_mass=k * robot.model.base_mass, base_h=k * robot.model.base_h,
-        base_inertia=k * robot.model.base_inertia, base_I_O=k * robot.model.base_I_O))
+        base_inertia=k * robot.model.base_inertia, base_I_O=k * robot.model.base_I_O),
+        backend="numpy")                     # 4e9 kg: beyond the loader's magnitude checks
     for q, qd, _, tau in ((*fixed.random_state(s, speed=2.0), None,
                            np.random.default_rng(s).uniform(-5, 5, 6)) for s in range(3)):
         qf, vf = np.r_[np.zeros(6), 1.0, q], np.r_[np.zeros(6), qd]
@@ -203,3 +204,19 @@ def test_a_root_floating_joint_floats_and_one_below_the_root_is_refused():
                                        '<child link="l2"/></joint><link name="l2"/>')
     with pytest.raises(sd.URDFError, match="'loose' on the chain is floating"):
         sd.load_urdf(below, tip_link="l2")
+
+
+def test_the_compiled_backend_is_the_reference():
+    robot, _ = load("panda")
+    ref = sd.Robot(robot.model, backend="numpy")
+    q, v = robot.random_state(11, batch=7, speed=2.0)
+    rng = np.random.default_rng(12)
+    a, tau, w = rng.normal(size=(7, robot.nv)), rng.normal(size=(7, robot.dof)), rng.normal(size=6)
+    for got, want in ((robot.inverse_dynamics(q, v, a, w), ref.inverse_dynamics(q, v, a, w)),
+                      (robot.mass_matrix(q), ref.mass_matrix(q)),
+                      (robot.forward_dynamics(q, v, tau, w, method="aba"),
+                       ref.forward_dynamics(q, v, tau, w, method="aba")),
+                      (robot.forward_dynamics(q[0], v[0], tau[0], method="cholesky"),
+                       ref.forward_dynamics(q[0], v[0], tau[0], method="cholesky")),
+                      (robot.kinetic_energy(q, v), ref.kinetic_energy(q, v))):
+        assert rel_err(got, want) <= 1e-12

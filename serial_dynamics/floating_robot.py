@@ -40,6 +40,8 @@ from .model import Model
 from .robot import PARALLEL_MIN, Robot, _into
 
 FD_METHODS = ("auto", "aba", "cholesky")
+_ZERO6 = np.zeros(6)
+_W_BAD = np.zeros(0)         # a w that no entry point accepts (status 2): the general path
 
 
 class FloatingRobot(Robot):
@@ -53,10 +55,11 @@ class FloatingRobot(Robot):
                              "a floating base with mimic joints is not supported: load it with "
                              "floating_base=False, or make the mimic joints independent")
         super().__init__(model, dissipation, backend, **kwargs)
+        self._nq, self._nv = model.dof + 7, model.dof + 6
         self._chain = layout_pack(virtual_chain(model)) if self._compiled else None
 
-    nq = property(lambda self: self.model.dof + 7, doc="n + 7: [x, y, z, qx, qy, qz, qw, joints]")
-    nv = property(lambda self: self.model.dof + 6, doc="n + 6: [v_O, omega (base frame), joints]")
+    nq = property(lambda self: self._nq, doc="n + 7: [x, y, z, qx, qy, qz, qw, joints]")
+    nv = property(lambda self: self._nv, doc="n + 6: [v_O, omega (base frame), joints]")
 
     def __repr__(self):
         return (f"FloatingRobot({self.model.name!r}, dof={self.dof}, floating base "
@@ -69,6 +72,12 @@ class FloatingRobot(Robot):
         _no_base_motion(base_motion)
         if not self._compiled:
             return _into(out, fb.inverse_dynamics(self.model, q, qd, qdd, wrench))
+        if self._single(q, qd) and type(qdd) is np.ndarray and qdd.shape == (self.nv,):
+            qv, w, flags = self._single_inputs(q, wrench, F.QD | F.QDD)
+            o = np.empty(self._nv) if out is None else out
+            if K.rnea_wrench(self._chain, qv, qd, _to_chain(qd, qdd), w, flags,
+                             o) == 0:
+                return o
         single, q, R, s = fb.as_batch(self.model, q, v=qd, a=qdd)
         v, a = (np.zeros((q.shape[0], self.nv)) if s[k] is None else s[k] for k in ("v", "a"))
         return _into(out, self._rnea(single, q, R, v, _to_chain(v, a), wrench, F.QD | F.QDD))
@@ -80,6 +89,31 @@ class FloatingRobot(Robot):
         run_split(K.rnea_batch, self._chain, N, (qv, kernel_rows(v), kernel_rows(qdd_chain), w),
                   (flags,), (tau,), PARALLEL_MIN, B)
         return tau[0] if single else tau
+
+    def _single(self, q, v):
+        """q and v are one state of float64 vectors of the right lengths (the fast path)."""
+        return (type(q) is np.ndarray and type(v) is np.ndarray and q.shape == (self._nq,)
+                and v.shape == (self._nv,) and q.dtype == v.dtype == np.float64)
+
+    def _single_inputs(self, q, wrench, flags):
+        """``_chain_inputs`` of one state, in scalars (a zero quaternion or a bad wrench:
+        flags that no kernel accepts, so that the general path names the culprit)."""
+        x, y, z, s = q[3:7].tolist()
+        nrm = (x * x + y * y + z * z + s * s) ** 0.5
+        if not nrm > 1e-12 or (wrench is not None and np.shape(wrench) != (6,)):
+            return q, _W_BAD, flags
+        x, y, z, s = x / nrm, y / nrm, z / nrm, s / nrm
+        R = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * s), 2 * (x * z + y * s)],
+                      [2 * (x * y + z * s), 1 - 2 * (x * x + z * z), 2 * (y * z - x * s)],
+                      [2 * (x * z - y * s), 2 * (y * z + x * s), 1 - 2 * (x * x + y * y)]])
+        qv = np.concatenate((_ZERO6, q[7:]))
+        w = np.zeros(W_ALL)
+        w[W_ACC:W_ACC + 3] = -(self.model.gravity @ R)         # -R^T g
+        if wrench is not None:
+            wr = np.asarray(wrench, dtype=float)
+            w[:3], w[3:6] = wr[:3] @ R, wr[3:] @ R
+            flags |= F.WRENCH
+        return qv, w, flags | F.BASE
 
     def _chain_inputs(self, q, R, wrench, flags):
         """The instantaneous chain's q (zeros for the base), and its external vector w:
@@ -132,6 +166,14 @@ class FloatingRobot(Robot):
             method = "aba" if self.dof + 6 >= CROSSOVER else "cholesky"
         if not self._compiled:
             return _into(out, fb.forward_dynamics(self.model, q, qd, tau, wrench, method))
+        flags = F.QD | (F.ABA if method == "aba" else 0)
+        if self._single(q, qd) and type(tau) is np.ndarray and tau.shape in ((self._n,), (self._nv,)):
+            qv, w, flags = self._single_inputs(q, wrench, flags)
+            o = np.empty(self._nv) if out is None else out
+            if tau.shape[0] == self._n:
+                tau = np.concatenate((_ZERO6, tau))
+            if K.fd(self._chain, qv, qd, tau, w, flags, o) == 0:
+                return _from_chain(qd, o)
         single, q, R, s = fb.as_batch(self.model, q, v=qd, tau=tau)
         qv, w, flags = self._chain_inputs(q, R, wrench, F.QD | (F.ABA if method == "aba" else 0))
         N = qv.shape[0]
@@ -262,27 +304,27 @@ def virtual_chain(model) -> Model:
 
 
 def _velocity_products(v):
-    """The instantaneous chain's velocity-product accelerations (module docstring): of the
-    base origin, omega x v_O; of the base's rotation, (wy wz, -wx wz, wx wy)."""
-    w = v[:, 3:6]
-    wx, wy, wz = w[:, 0], w[:, 1], w[:, 2]
-    return np.cross(w, v[:, :3]), np.stack([wy * wz, -wx * wz, wx * wy], axis=1)
+    """The instantaneous chain's velocity-product accelerations (module docstring), v (N, nv)
+    or (nv,): of the base origin, omega x v_O; of the base's rotation, (wy wz, -wx wz, wx wy)."""
+    if v.ndim == 1:                          # one state: in Python floats (the fast path)
+        vx, vy, vz, wx, wy, wz = v[:6].tolist()
+        return np.array([wy * vz - wz * vy, wz * vx - wx * vz, wx * vy - wy * vx,
+                         -wy * wz, wx * wz, -wx * wy])
+    vx, vy, vz, wx, wy, wz = (v[..., k] for k in range(6))
+    return np.stack([wy * vz - wz * vy, wz * vx - wx * vz, wx * vy - wy * vx,
+                     -wy * wz, wx * wz, -wx * wy], axis=-1)
 
 
 def _to_chain(v, a):
     """The instantaneous chain's qdd for the accelerations a = dv/dt."""
-    lin, ang = _velocity_products(v)
     out = np.array(a, dtype=float)
-    out[:, :3] += lin
-    out[:, 3:6] -= ang
+    out[..., :6] += _velocity_products(v)
     return out
 
 
 def _from_chain(v, qdd):
-    """a = dv/dt from the instantaneous chain's qdd (``_to_chain`` inverted)."""
-    lin, ang = _velocity_products(v)
-    qdd[:, :3] -= lin
-    qdd[:, 3:6] += ang
+    """a = dv/dt from the instantaneous chain's qdd (``_to_chain`` inverted), in place."""
+    qdd[..., :6] -= _velocity_products(v)
     return qdd
 
 

@@ -103,8 +103,8 @@ class Robot:
 
     # ------------------------------------------------------------- description
     dof = property(lambda self: self.model.dof)
-    nq = property(lambda self: self.model.dof, doc="the length of q (n + 7 on a floating base)")
-    nv = property(lambda self: self.model.dof, doc="the length of qd (n + 6 on a floating base)")
+    nq = property(lambda self: self.dof, doc="the length of q (n + 7 on a floating base)")
+    nv = property(lambda self: self.dof, doc="the length of qd (n + 6 on a floating base)")
     joint_names = property(lambda self: list(self.model.joint_names))
     joint_types = property(lambda self: list(self.model.joint_types))
     link_names = property(lambda self: list(self.model.link_names))

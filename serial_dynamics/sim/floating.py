@@ -13,15 +13,17 @@ with the chart of SO(3) x R^3):
 map, so the quaternion has unit length to round-off. The fixed-step methods re-center the
 chart at every step (RK4: the stages in the chart of the step's start); the adaptive solvers
 (scipy) integrate in one chart and are restarted in a new one, from the step size reached,
-when |dtheta| exceeds CHART_LIMIT (far from the chart's singularity at 2 pi).
+when |dtheta| exceeds CHART_LIMIT = 1 rad (far from the chart's singularity at 2 pi).
 
 Methods: the adaptive ones ("RK45", "DOP853", "Radau", "BDF", "LSODA"; the implicit ones
 with scipy's finite-difference Jacobian) and the fixed-step "semi_implicit_euler" (v, then
-the pose with the new v by the exponential map) and "rk4". Joint dissipation as for a fixed
+the pose with the new v: q(dt phi'(v_new)) in the chart at q) and "rk4". Joint dissipation as for a fixed
 base, with Coulomb friction smoothed (tanh) by every method (no stick-slip). Energies and
 works as for a fixed base: E(t) - E(0) = W_act + W_diss + W_ext.
 """
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -30,32 +32,45 @@ from .fixed_step import FixedStepIntegrator
 from .methods import ADAPTIVE, SimulationError, advice
 from .result import SolverStats, finish
 
-CHART_LIMIT = 0.5          # rad: an adaptive run moves to a new chart beyond this turn
+CHART_LIMIT = 1.0          # rad: an adaptive run moves to a new chart beyond this turn
 FLOATING_FIXED_STEP = ("semi_implicit_euler", "rk4")
 FLOATING_METHODS = ADAPTIVE + FLOATING_FIXED_STEP
+_ZERO_CHART = np.zeros(6)                 # phi's rotation part at the chart's centre
 
 
-def chart_point(robot, q_ref, phi):
+def chart_point(q_ref, phi):
     """q(phi): the pose in the chart around ``q_ref`` (module docstring); phi (n+6,)."""
-    step = np.concatenate([np.zeros(3), phi[3:6], np.zeros(robot.dof)])
-    q = robot.integrate(q_ref, step, 1.0)                 # quat_ref (x) Exp(dtheta)
+    x, y, z = phi[3:6].tolist()
+    t = math.sqrt(x * x + y * y + z * z)
+    k = 0.5 - t * t / 48.0 if t < 1e-4 else math.sin(0.5 * t) / t     # sin(t/2) / t
+    bx, by, bz, bw = k * x, k * y, k * z, math.cos(0.5 * t)            # Exp(dtheta), [x, y, z, w]
+    ax, ay, az, aw = q_ref[3:7].tolist()
+    quat = [aw * bx + bw * ax + ay * bz - az * by, aw * by + bw * ay + az * bx - ax * bz,
+            aw * bz + bw * az + ax * by - ay * bx, aw * bw - ax * bx - ay * by - az * bz]
+    nrm = math.sqrt(sum(c * c for c in quat))
+    q = np.empty(q_ref.shape[0])
     q[:3] = q_ref[:3] + phi[:3]
+    q[3:7] = [c / nrm for c in quat]
     q[7:] = phi[6:]
     return q
 
 
 def chart_rate(q, phi, v):
     """d phi/dt at q = q(phi) moving with v (module docstring)."""
-    x = phi[3:6]
-    t = np.linalg.norm(x)
-    k = 1.0 / 12.0 if t < 1e-4 else 1.0 / t**2 - (1.0 + np.cos(t)) / (2.0 * t * np.sin(t))
-    w = v[3:6]
-    xw = np.cross(x, w)
-    x_, y_, z_, s_ = q[3:7]
-    R = 2.0 * np.array([[0.5 - y_ * y_ - z_ * z_, x_ * y_ - z_ * s_, x_ * z_ + y_ * s_],
-                        [x_ * y_ + z_ * s_, 0.5 - x_ * x_ - z_ * z_, y_ * z_ - x_ * s_],
-                        [x_ * z_ - y_ * s_, y_ * z_ + x_ * s_, 0.5 - x_ * x_ - y_ * y_]])
-    return np.concatenate([R @ v[:3], w + 0.5 * xw + k * np.cross(x, xw), v[6:]])
+    x1, x2, x3 = phi[3:6].tolist()
+    t = math.sqrt(x1 * x1 + x2 * x2 + x3 * x3)
+    k = 1.0 / 12.0 if t < 1e-4 else 1.0 / t**2 - (1.0 + math.cos(t)) / (2.0 * t * math.sin(t))
+    u1, u2, u3, w1, w2, w3 = v[:6].tolist()
+    c1, c2, c3 = x2 * w3 - x3 * w2, x3 * w1 - x1 * w3, x1 * w2 - x2 * w1         # x x w
+    d1, d2, d3 = x2 * c3 - x3 * c2, x3 * c1 - x1 * c3, x1 * c2 - x2 * c1         # x x (x x w)
+    x, y, z, s = q[3:7].tolist()
+    out = np.empty(v.shape[0])
+    out[0] = (1 - 2 * (y * y + z * z)) * u1 + 2 * (x * y - z * s) * u2 + 2 * (x * z + y * s) * u3
+    out[1] = 2 * (x * y + z * s) * u1 + (1 - 2 * (x * x + z * z)) * u2 + 2 * (y * z - x * s) * u3
+    out[2] = 2 * (x * z - y * s) * u1 + 2 * (y * z + x * s) * u2 + (1 - 2 * (x * x + y * y)) * u3
+    out[3:6] = w1 + 0.5 * c1 + k * d1, w2 + 0.5 * c2 + k * d2, w3 + 0.5 * c3 + k * d3
+    out[6:] = v[6:]
+    return out
 
 
 class FloatingStepper:
@@ -118,7 +133,9 @@ class FloatingStepIntegrator(FixedStepIntegrator):
         if self.method == "semi_implicit_euler":    # v1 = v + a dt; q1 = q (+) v1 dt on SE(3)
             self.stages += 1
             v1 = v + a * dt
-            q1 = self.robot.integrate(q, v1, dt)
+            phi = dt * chart_rate(q, _ZERO_CHART, v1)
+            phi[6:] += q[7:]                        # the chart holds the joints themselves
+            q1 = chart_point(q, phi)
             dW = dt * np.array([tau @ v1[6:], delta @ v1[6:], p[2]])
         else:                                       # RK4 in the chart at q (RKMK)
             self.stages += 4
@@ -129,13 +146,13 @@ class FloatingStepIntegrator(FixedStepIntegrator):
             k4 = self._f(q, x0 + dt * k3, None, inputs, t + dt)
             x1 = x0 + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
             nv = self.robot.nv
-            q1, v1, dW = chart_point(self.robot, q, x1[:nv]), x1[nv:2 * nv], x1[2 * nv:]
+            q1, v1, dW = chart_point(q, x1[:nv]), x1[nv:2 * nv], x1[2 * nv:]
         rhs.check(t + dt, q1, v1)
         return q1, v1, (tau, delta, a, dW)
 
     def _f(self, q_ref, x, known, inputs, t):
         nv = self.robot.nv
-        q = chart_point(self.robot, q_ref, x[:nv])
+        q = chart_point(q_ref, x[:nv])
         v = x[nv:2 * nv]
         a, _, _, p = self.rhs.rates(t, q, v, inputs) if known is None else (*known[:1], 0, 0, known[1])
         return np.concatenate([chart_rate(q, x[:nv], v), a, p])
@@ -194,7 +211,7 @@ def _run_adaptive(robot, duration, q0, v0, inputs, method, rtol, atol, max_step,
             counter[0] += 1
             if not np.all(np.isfinite(x)):
                 return np.full_like(x, np.nan)              # the solver rejects the step
-            q = chart_point(robot, q_ref, x[:nv])
+            q = chart_point(q_ref, x[:nv])
             a, _, _, p = rhs.rates(t, q, x[nv:2 * nv], inputs)
             return np.concatenate([chart_rate(q, x[:nv], x[nv:2 * nv]), a, p])
         x0 = np.concatenate([np.zeros(6), q_ref[7:], v, W])
@@ -215,7 +232,7 @@ def _run_adaptive(robot, duration, q0, v0, inputs, method, rtol, atol, max_step,
                                   f"{advice(method)}", solver.t, None, "solver")
         steps += 1
         x = solver.y
-        q, v, W = chart_point(robot, q_ref, x[:nv]), x[nv:2 * nv], x[2 * nv:]
+        q, v, W = chart_point(q_ref, x[:nv]), x[nv:2 * nv], x[2 * nv:]
         rhs.check(solver.t, q, v)
         if grid is None:
             samples.append((solver.t, q, v.copy(), W.copy()))
@@ -223,7 +240,7 @@ def _run_adaptive(robot, duration, q0, v0, inputs, method, rtol, atol, max_step,
             dense = solver.dense_output() if gi < grid.size and grid[gi] < solver.t else None
             while gi < grid.size and grid[gi] <= solver.t + 1e-12 * max(1.0, duration):
                 xg = x if dense is None or grid[gi] >= solver.t else dense(grid[gi])
-                samples.append((grid[gi], chart_point(robot, q_ref, xg[:nv]),
+                samples.append((grid[gi], chart_point(q_ref, xg[:nv]),
                                 xg[nv:2 * nv].copy(), xg[2 * nv:].copy()))
                 gi += 1
         if steps % 20 == 0:

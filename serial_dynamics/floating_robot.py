@@ -10,15 +10,13 @@ takes joint torques (n,) (the base is free) or (n+6,). Poses and Jacobians are i
 frame, and a tip ``wrench`` is given in world coordinates. Gravity is the world's.
 
 Backends. ``"numpy"`` runs the reference (``algorithms/floating.py``). ``"numba"`` (the
-default) runs the fixed-base compiled kernels on the *instantaneous chain*: the base's six
-degrees of freedom as three prismatic joints along the base's x, y, z axes and three revolute
-joints about them, all at zero, the base's inertia on the last (``virtual_chain``). At that
-configuration the virtual joints' rates are v's base part, so the chain's mass matrix is M
-and its generalized forces are the base wrench in the base frame; only the accelerations
-differ, by the velocity products of the virtual joints (``_to_chain``, ``_from_chain``):
-qdd_p = a_lin + omega x v_O, qdd_r = alpha - (wy wz, -wx wz, wx wy). Gravity, R^T g per
-state, enters as the base's acceleration (layout.W_ACC), the tip wrench in base coordinates.
-The tests hold both backends to Pinocchio's free-flyer.
+default) runs ``core/floating.py``: the fixed-base compiled kernels on the *instantaneous
+chain* (``virtual_chain``): the base's six degrees of freedom as three prismatic joints
+along the base's x, y, z axes and three revolute joints about them, all at zero, the base's
+inertia on the last. There the virtual joints' rates are v's base part, so the chain's
+mass matrix is M and its generalized forces are the base wrench in the base frame; only
+the accelerations differ, by the velocity products of the virtual joints. The tests hold
+both backends to Pinocchio's free-flyer.
 
 Not available on a floating base yet: the Coriolis matrix, the regressor, the dynamics
 derivatives, a ``base_motion``.
@@ -34,14 +32,14 @@ from .algorithms.aba import CROSSOVER
 from .batches import kernel_rows, run_split
 from .core import K
 from .core import flags as F
-from .core.layout import B, W_ACC, W_ALL
 from .core.layout import pack as layout_pack
 from .model import Model
+from .algorithms.rnea import _wrench_batch as rnea_wrench_rows
 from .robot import PARALLEL_MIN, Robot, _into
 
 FD_METHODS = ("auto", "aba", "cholesky")
-_ZERO6 = np.zeros(6)
-_W_BAD = np.zeros(0)         # a w that no entry point accepts (status 2): the general path
+_ZEROS = object()            # a state not given (zeros)
+_GW_BAD = np.zeros(0)        # a gw that no entry point accepts (status 2): the general path
 
 
 class FloatingRobot(Robot):
@@ -57,6 +55,7 @@ class FloatingRobot(Robot):
         super().__init__(model, dissipation, backend, **kwargs)
         self._nq, self._nv = model.dof + 7, model.dof + 6
         self._chain = layout_pack(virtual_chain(model)) if self._compiled else None
+        self._gw = np.concatenate((np.zeros(6), model.gravity))   # core/floating.py's gw
 
     nq = property(lambda self: self._nq, doc="n + 7: [x, y, z, qx, qy, qz, qw, joints]")
     nv = property(lambda self: self._nv, doc="n + 6: [v_O, omega (base frame), joints]")
@@ -66,92 +65,71 @@ class FloatingRobot(Robot):
                 f"{self.base_link!r} -> {self.tip_link!r}, joints={self.joint_names})")
 
     # ------------------------------------------------------------- dynamics
+    # Compiled (core/floating.py): a single state of C-contiguous float64 vectors goes
+    # straight to the single-state entry point, which answers 3 for other argument types
+    # and 1 or 2 for a bad value or length; those calls, and batches, take the general
+    # path: validation with the reference's messages, then one batch kernel call.
     def inverse_dynamics(self, q, qd, qdd, wrench=None, base_motion=None, out=None):
         """tau (n+6,): [base force; base moment] (base frame) and joint torques for the
         accelerations qdd = dv/dt (n+6); ``wrench`` on the tip, world coordinates."""
         _no_base_motion(base_motion)
         if not self._compiled:
             return _into(out, fb.inverse_dynamics(self.model, q, qd, qdd, wrench))
-        if self._single(q, qd) and type(qdd) is np.ndarray and qdd.shape == (self.nv,):
-            qv, w, flags = self._single_inputs(q, wrench, F.QD | F.QDD)
-            o = np.empty(self._nv) if out is None else out
-            if K.rnea_wrench(self._chain, qv, qd, _to_chain(qd, qdd), w, flags,
-                             o) == 0:
-                return o
-        single, q, R, s = fb.as_batch(self.model, q, v=qd, a=qdd)
-        v, a = (np.zeros((q.shape[0], self.nv)) if s[k] is None else s[k] for k in ("v", "a"))
-        return _into(out, self._rnea(single, q, R, v, _to_chain(v, a), wrench, F.QD | F.QDD))
+        o = np.empty(self._nv) if out is None else out
+        gw, flags = self._gw_single(wrench, F.QD | F.QDD)
+        if K.floating_rnea(self._chain, q, qd, qdd, gw, flags, o) == 0:
+            return o
+        single, q, _, s = fb.as_batch(self.model, q, v=qd, a=qdd)
+        v, a = (_ZEROS if s[k] is None else kernel_rows(s[k]) for k in ("v", "a"))
+        gw, flags = self._gw_rows(wrench, q.shape[0], F.QD | F.QDD)
+        tau = np.empty((q.shape[0], self._nv))
+        run_split(K.floating_rnea_batch, self._chain, q.shape[0],
+                  (kernel_rows(q), _pad(v, self._nv), _pad(a, self._nv), gw), (flags,), (tau,),
+                  PARALLEL_MIN)
+        return _into(out, tau[0] if single else tau)
 
-    def _rnea(self, single, q, R, v, qdd_chain, wrench, flags):
-        qv, w, flags = self._chain_inputs(q, R, wrench, flags)
-        N = qv.shape[0]
-        tau = np.empty((N, self.nv))
-        run_split(K.rnea_batch, self._chain, N, (qv, kernel_rows(v), kernel_rows(qdd_chain), w),
-                  (flags,), (tau,), PARALLEL_MIN, B)
-        return tau[0] if single else tau
+    def _gw_single(self, wrench, flags):
+        """gw (core/floating.py) of a single call: [wrench (world); gravity (world)]."""
+        if wrench is None:
+            return self._gw, flags
+        if type(wrench) is not np.ndarray or wrench.shape != (6,):
+            return _GW_BAD, flags                    # the general path names it
+        return np.concatenate((wrench, self.model.gravity)), flags | F.WRENCH
 
-    def _single(self, q, v):
-        """q and v are one state of float64 vectors of the right lengths (the fast path)."""
-        return (type(q) is np.ndarray and type(v) is np.ndarray and q.shape == (self._nq,)
-                and v.shape == (self._nv,) and q.dtype == v.dtype == np.float64)
-
-    def _single_inputs(self, q, wrench, flags):
-        """``_chain_inputs`` of one state, in scalars (a zero quaternion or a bad wrench:
-        flags that no kernel accepts, so that the general path names the culprit)."""
-        x, y, z, s = q[3:7].tolist()
-        nrm = (x * x + y * y + z * z + s * s) ** 0.5
-        if not nrm > 1e-12 or (wrench is not None and np.shape(wrench) != (6,)):
-            return q, _W_BAD, flags
-        x, y, z, s = x / nrm, y / nrm, z / nrm, s / nrm
-        R = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * s), 2 * (x * z + y * s)],
-                      [2 * (x * y + z * s), 1 - 2 * (x * x + z * z), 2 * (y * z - x * s)],
-                      [2 * (x * z - y * s), 2 * (y * z + x * s), 1 - 2 * (x * x + y * y)]])
-        qv = np.concatenate((_ZERO6, q[7:]))
-        w = np.zeros(W_ALL)
-        w[W_ACC:W_ACC + 3] = -(self.model.gravity @ R)         # -R^T g
-        if wrench is not None:
-            wr = np.asarray(wrench, dtype=float)
-            w[:3], w[3:6] = wr[:3] @ R, wr[3:] @ R
-            flags |= F.WRENCH
-        return qv, w, flags | F.BASE
-
-    def _chain_inputs(self, q, R, wrench, flags):
-        """The instantaneous chain's q (zeros for the base), and its external vector w:
-        the tip wrench and gravity as the base's acceleration -R^T g, base coordinates."""
-        N = q.shape[0]
-        qv = np.zeros((N, self.nv))
-        qv[:, 6:] = q[:, 7:]
-        w = np.zeros((N, W_ALL))
-        w[:, W_ACC:W_ACC + 3] = -np.einsum("nji,j->ni", R, self.model.gravity)
-        if wrench is not None:
-            wr = np.broadcast_to(np.asarray(wrench, dtype=float), (N, 6))
-            if not np.all(np.isfinite(wr)):
-                raise ValueError("wrench has a NaN or Inf entry; give finite numbers")
-            w[:, :3] = np.einsum("nji,nj->ni", R, wr[:, :3])
-            w[:, 3:6] = np.einsum("nji,nj->ni", R, wr[:, 3:])
-            flags |= F.WRENCH
-        return qv, w, flags | F.BASE
+    def _gw_rows(self, wrench, N, flags):
+        if wrench is None:
+            return self._gw[None], flags
+        w = rnea_wrench_rows(wrench, N)              # raises naming a bad wrench
+        return np.concatenate([w, np.broadcast_to(self.model.gravity, (w.shape[0], 3))], axis=1), \
+            flags | F.WRENCH
 
     def mass_matrix(self, q, out=None):
         """M (n+6, n+6), in the order of v."""
         if not self._compiled:
             return _into(out, fb.mass_matrix(self.model, q))
+        o = np.empty((self._nv, self._nv)) if out is None else out
+        if K.floating_crba(self._chain, q, o) == 0:
+            return o
         single, q, _, _ = fb.as_batch(self.model, q)
-        qv = np.zeros((q.shape[0], self.nv))
-        qv[:, 6:] = q[:, 7:]
-        M = np.empty((q.shape[0], self.nv, self.nv))
-        run_split(K.crba_batch, self._chain, q.shape[0], (qv,), (), (M,), PARALLEL_MIN, B)
+        M = np.empty((q.shape[0], self._nv, self._nv))
+        run_split(K.floating_crba_batch, self._chain, q.shape[0], (kernel_rows(q),), (), (M,),
+                  PARALLEL_MIN)
         return _into(out, M[0] if single else M)
 
     def bias_torques(self, q, qd, wrench=None, base_motion=None, out=None):
         """b (n+6,) = inverse_dynamics(q, v, 0, wrench)."""
         _no_base_motion(base_motion)
-        return self.inverse_dynamics(q, qd, None, wrench, out=out)
+        if not self._compiled:
+            return _into(out, fb.bias(self.model, q, qd, wrench))
+        return self.inverse_dynamics(q, qd, np.zeros(self._nv), wrench, out=out)
 
     def gravity_torques(self, q, out=None):
         """g (n+6,): what holds the whole robot still against gravity (the base's part is
         the weight, carried by whatever holds the base)."""
-        return self.inverse_dynamics(q, None, None, out=out)
+        if not self._compiled:
+            return _into(out, fb.gravity_forces(self.model, q))
+        zero = np.zeros(self._nv)
+        return self.inverse_dynamics(q, zero, zero, out=out)
 
     def forward_dynamics(self, q, qd, tau, wrench=None, method="auto", base_motion=None,
                          out=None):
@@ -163,24 +141,19 @@ class FloatingRobot(Robot):
             raise ValueError(f"forward-dynamics method {method!r} unknown for a floating base; "
                              f"use one of {FD_METHODS}")
         if method == "auto":
-            method = "aba" if self.dof + 6 >= CROSSOVER else "cholesky"
+            method = "aba" if self._nv >= CROSSOVER else "cholesky"
         if not self._compiled:
             return _into(out, fb.forward_dynamics(self.model, q, qd, tau, wrench, method))
-        flags = F.QD | (F.ABA if method == "aba" else 0)
-        if self._single(q, qd) and type(tau) is np.ndarray and tau.shape in ((self._n,), (self._nv,)):
-            qv, w, flags = self._single_inputs(q, wrench, flags)
-            o = np.empty(self._nv) if out is None else out
-            if tau.shape[0] == self._n:
-                tau = np.concatenate((_ZERO6, tau))
-            if K.fd(self._chain, qv, qd, tau, w, flags, o) == 0:
-                return _from_chain(qd, o)
-        single, q, R, s = fb.as_batch(self.model, q, v=qd, tau=tau)
-        qv, w, flags = self._chain_inputs(q, R, wrench, F.QD | (F.ABA if method == "aba" else 0))
-        N = qv.shape[0]
-        qdd = np.empty((N, self.nv))
-        run_split(K.fd_batch, self._chain, N, (qv, kernel_rows(s["v"]), kernel_rows(s["tau"]), w),
-                  (flags,), (qdd,), PARALLEL_MIN, B)
-        a = _from_chain(np.broadcast_to(s["v"], (N, self.nv)), qdd)
+        o = np.empty(self._nv) if out is None else out
+        gw, flags = self._gw_single(wrench, F.ABA if method == "aba" else 0)
+        if K.floating_fd(self._chain, q, qd, tau, gw, flags, o) == 0:
+            return o
+        single, q, _, s = fb.as_batch(self.model, q, v=qd, tau=tau)
+        gw, flags = self._gw_rows(wrench, q.shape[0], flags)
+        a = np.empty((q.shape[0], self._nv))
+        run_split(K.floating_fd_batch, self._chain, q.shape[0],
+                  (kernel_rows(q), kernel_rows(s["v"]), kernel_rows(s["tau"]), gw), (flags,),
+                  (a,), PARALLEL_MIN)
         return _into(out, a[0] if single else a)
 
     def coriolis_matrix(self, q, qd):
@@ -303,29 +276,9 @@ def virtual_chain(model) -> Model:
         armature=np.r_[np.zeros(6), model.armature], check_mass_matrix=False)
 
 
-def _velocity_products(v):
-    """The instantaneous chain's velocity-product accelerations (module docstring), v (N, nv)
-    or (nv,): of the base origin, omega x v_O; of the base's rotation, (wy wz, -wx wz, wx wy)."""
-    if v.ndim == 1:                          # one state: in Python floats (the fast path)
-        vx, vy, vz, wx, wy, wz = v[:6].tolist()
-        return np.array([wy * vz - wz * vy, wz * vx - wx * vz, wx * vy - wy * vx,
-                         -wy * wz, wx * wz, -wx * wy])
-    vx, vy, vz, wx, wy, wz = (v[..., k] for k in range(6))
-    return np.stack([wy * vz - wz * vy, wz * vx - wx * vz, wx * vy - wy * vx,
-                     -wy * wz, wx * wz, -wx * wy], axis=-1)
-
-
-def _to_chain(v, a):
-    """The instantaneous chain's qdd for the accelerations a = dv/dt."""
-    out = np.array(a, dtype=float)
-    out[..., :6] += _velocity_products(v)
-    return out
-
-
-def _from_chain(v, qdd):
-    """a = dv/dt from the instantaneous chain's qdd (``_to_chain`` inverted), in place."""
-    qdd[..., :6] -= _velocity_products(v)
-    return qdd
+def _pad(rows, nv):
+    """Zero rows (a missing v or a) as one broadcast row of nv zeros."""
+    return np.zeros((1, nv)) if rows is _ZEROS else rows
 
 
 def _no_base_motion(base_motion):

@@ -30,7 +30,7 @@ from .algorithms import kinematics
 from .algorithms._batch import skew
 from .algorithms.aba import CROSSOVER
 from .batches import kernel_rows, run_split
-from .core import K
+from .core import ENTRY_POINTS, K
 from .core import flags as F
 from .core.layout import pack as layout_pack
 from .model import Model
@@ -38,6 +38,7 @@ from .algorithms.rnea import _wrench_batch as rnea_wrench_rows
 from .robot import PARALLEL_MIN, Robot, _into
 
 FD_METHODS = ("auto", "aba", "cholesky")
+FLOATING_KERNELS = tuple(k for k in ENTRY_POINTS if k.startswith("floating"))   # warmup()
 _ZEROS = object()            # a state not given (zeros)
 _GW_BAD = np.zeros(0)        # a gw that no entry point accepts (status 2): the general path
 
@@ -249,7 +250,15 @@ class FloatingRobot(Robot):
         return Js[0] if single else Js
 
     def warmup(self):
-        """Nothing to compile (the NumPy reference runs a floating base); returns self."""
+        """Compile or load the floating-base kernels (core/floating.py) and call each once,
+        single state and batch, so that the first real call is fast. Returns self."""
+        if self._compiled:
+            K.load_all(FLOATING_KERNELS)
+        for q, v in (self.random_state(0), self.random_state(0, batch=2)):
+            self.inverse_dynamics(q, v, v)
+            self.mass_matrix(q)
+            for method in ("aba", "cholesky"):
+                self.forward_dynamics(q, v, v, method=method)
         return self
 
 

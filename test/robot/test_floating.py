@@ -220,3 +220,19 @@ def test_the_compiled_backend_is_the_reference():
                        ref.forward_dynamics(q[0], v[0], tau[0], method="cholesky")),
                       (robot.kinetic_energy(q, v), ref.kinetic_energy(q, v))):
         assert rel_err(got, want) <= 1e-12
+
+
+def test_armature_payload_and_warmup_as_for_a_fixed_base():
+    robot, _ = load("ur5e")
+    rotors = sd.load_urdf(sd.builtin_path("ur5e"), floating_base=True,
+                          armature={"elbow_joint": 0.3}).warmup()
+    q, v = robot.random_state(13)
+    dM = rotors.mass_matrix(q) - robot.mass_matrix(q)
+    assert dM[8, 8] == pytest.approx(0.3, rel=1e-12) and np.sum(np.abs(dM)) == pytest.approx(0.3)
+    held = robot.with_payload(2.0, com=(0, 0, 0.05), inertia=(0.01, 0.01, 0.01, 0, 0, 0))
+    ref = sd.Robot(held.model, backend="numpy")
+    a = np.linspace(-1, 1, robot.nv)
+    assert type(held) is type(robot) and held.payload.mass == 2.0
+    assert rel_err(held.inverse_dynamics(q, v, a), ref.inverse_dynamics(q, v, a)) <= 1e-12
+    m_total = robot.model.base_mass + robot.model.mass.sum()
+    np.testing.assert_allclose(held.mass_matrix(q)[:3, :3], (m_total + 2.0) * np.eye(3), atol=1e-12)

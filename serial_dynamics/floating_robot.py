@@ -32,6 +32,7 @@ from .algorithms.aba import CROSSOVER
 from .batches import kernel_rows, run_split
 from .core import ENTRY_POINTS, K
 from .core import flags as F
+from .core.layout import B, W_ALL
 from .core.layout import pack as layout_pack
 from .model import Model
 from .algorithms.rnea import _wrench_batch as rnea_wrench_rows
@@ -39,7 +40,7 @@ from .robot import PARALLEL_MIN, Robot, _into
 
 FD_METHODS = ("auto", "aba", "cholesky")
 FLOATING_KERNELS = tuple(k for k in ENTRY_POINTS if k.startswith("floating"))   # warmup()
-_ZEROS = object()            # a state not given (zeros)
+_ZERO_ROW = np.zeros((1, 1))  # an input floating_rows does not read
 _GW_BAD = np.zeros(0)        # a gw that no entry point accepts (status 2): the general path
 
 
@@ -81,13 +82,21 @@ class FloatingRobot(Robot):
         if K.floating_rnea(self._chain, q, qd, qdd, gw, flags, o) == 0:
             return o
         single, q, _, s = fb.as_batch(self.model, q, v=qd, a=qdd)
-        v, a = (_ZEROS if s[k] is None else kernel_rows(s[k]) for k in ("v", "a"))
-        gw, flags = self._gw_rows(wrench, q.shape[0], F.QD | F.QDD)
-        tau = np.empty((q.shape[0], self._nv))
-        run_split(K.floating_rnea_batch, self._chain, q.shape[0],
-                  (kernel_rows(q), _pad(v, self._nv), _pad(a, self._nv), gw), (flags,), (tau,),
-                  PARALLEL_MIN)
+        N = q.shape[0]
+        v, a = (np.zeros((1, self._nv)) if s[k] is None else kernel_rows(s[k]) for k in ("v", "a"))
+        gw, flags = self._gw_rows(wrench, N, F.QD | F.QDD)
+        qv, qdd_chain, w = self._rows(q, v, a, gw, flags, N)
+        tau = np.empty((N, self._nv))
+        run_split(K.rnea_batch, self._chain, N, (qv, v, qdd_chain, w),
+                  ((flags & F.WRENCH) | F.QD | F.QDD | F.BASE,), (tau,), PARALLEL_MIN, B)
         return _into(out, tau[0] if single else tau)
+
+    def _rows(self, q, v, a, gw, flags, N, qdd=True):
+        """The instantaneous chain's rows of N states (core/floating.py floating_rows)."""
+        qv, w = np.empty((N, self._nv)), np.empty((N, W_ALL))
+        qdd_chain = np.empty((N if qdd else 0, self._nv))
+        K.floating_rows(kernel_rows(q), v, a, gw, flags, qv, qdd_chain, w)   # ~20 ns a state
+        return qv, qdd_chain, w
 
     def _gw_single(self, wrench, flags):
         """gw (core/floating.py) of a single call: [wrench (world); gravity (world)]."""
@@ -112,9 +121,10 @@ class FloatingRobot(Robot):
         if K.floating_crba(self._chain, q, o) == 0:
             return o
         single, q, _, _ = fb.as_batch(self.model, q)
-        M = np.empty((q.shape[0], self._nv, self._nv))
-        run_split(K.floating_crba_batch, self._chain, q.shape[0], (kernel_rows(q),), (), (M,),
-                  PARALLEL_MIN)
+        N = q.shape[0]
+        qv, _, _ = self._rows(q, _ZERO_ROW, _ZERO_ROW, self._gw[None], 0, N, qdd=False)
+        M = np.empty((N, self._nv, self._nv))
+        run_split(K.crba_batch, self._chain, N, (qv,), (), (M,), PARALLEL_MIN, B)
         return _into(out, M[0] if single else M)
 
     def bias_torques(self, q, qd, wrench=None, base_motion=None, out=None):
@@ -150,11 +160,14 @@ class FloatingRobot(Robot):
         if K.floating_fd(self._chain, q, qd, tau, gw, flags, o) == 0:
             return o
         single, q, _, s = fb.as_batch(self.model, q, v=qd, tau=tau)
-        gw, flags = self._gw_rows(wrench, q.shape[0], flags)
-        a = np.empty((q.shape[0], self._nv))
-        run_split(K.floating_fd_batch, self._chain, q.shape[0],
-                  (kernel_rows(q), kernel_rows(s["v"]), kernel_rows(s["tau"]), gw), (flags,),
-                  (a,), PARALLEL_MIN)
+        N = q.shape[0]
+        v = kernel_rows(s["v"])
+        gw, flags = self._gw_rows(wrench, N, flags)
+        qv, _, w = self._rows(q, v, v, gw, flags, N, qdd=False)
+        a = np.empty((N, self._nv))
+        run_split(K.fd_batch, self._chain, N, (qv, v, kernel_rows(s["tau"]), w),
+                  (flags | F.QD | F.BASE,), (a,), PARALLEL_MIN, B)
+        K.floating_accelerations(v, a)
         return _into(out, a[0] if single else a)
 
     def coriolis_matrix(self, q, qd):
@@ -283,11 +296,6 @@ def virtual_chain(model) -> Model:
         inertia=np.concatenate([np.zeros((5, 3, 3)), [model.base_inertia], model.inertia]),
         gravity=zero, tip_R=model.tip_R, tip_p=model.tip_p, frames=frames,
         armature=np.r_[np.zeros(6), model.armature], check_mass_matrix=False)
-
-
-def _pad(rows, nv):
-    """Zero rows (a missing v or a) as one broadcast row of nv zeros."""
-    return np.zeros((1, nv)) if rows is _ZEROS else rows
 
 
 def _no_base_motion(base_motion):

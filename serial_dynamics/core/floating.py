@@ -18,8 +18,10 @@ both to Pinocchio's free-flyer.
 Entry points (``ENTRY_POINTS``, in ``core.K``): q (n+7) = [x, y, z, qx, qy, qz, qw, joints],
 v, a (n+6); ``gw`` (9,) = [tip wrench [f; m] in the world (read with flag WRENCH); world
 gravity]; tau (n+6) or joint torques (n) for forward dynamics. Status: 0 ok, 1 a NaN/Inf or
-a quaternion of zero length, 2 a wrong length; batches take (N, .) rows (or one row, read
-for every state).
+a quaternion of zero length, 2 a wrong length. Batches: ``floating_rows`` converts N states
+to the instantaneous chain's rows, the fixed-base batch kernels (Newton-Euler in SIMD lanes,
+forward dynamics, composite bodies) run on them, ``floating_accelerations`` converts back:
+the same operations, in the same order, as the single-state entry points.
 """
 import math
 
@@ -28,12 +30,12 @@ from numba import njit
 
 from . import flags as F
 from .aba import aba_core
-from .crba import crba_core, crba_inline
+from .crba import crba_inline
 from .data import new_art, new_chol, new_kin
 from .forward import cholesky_core
 from .layout import W_ACC, W_ALL
 from .rnea import rnea_core, status
-from .signatures import In1, In2, Mat, Out2, Out3, Pm, Vec, i8
+from .signatures import In2, Mat, Out2, Pm, Vec, i8
 from .spatial import joint_transforms
 
 GW = 9            # length of gw: the tip wrench [f; m] (world), then the world's gravity
@@ -48,22 +50,29 @@ def _chain_inputs(q, gw, flags, qv, w):
     if not nrm > 1e-12 or not math.isfinite(nrm):
         return math.nan
     x, y, z, s = x / nrm, y / nrm, z / nrm, s / nrm
-    R = np.empty((3, 3))                                     # world <- base
-    R[0, 0], R[0, 1], R[0, 2] = 1 - 2 * (y * y + z * z), 2 * (x * y - z * s), 2 * (x * z + y * s)
-    R[1, 0], R[1, 1], R[1, 2] = 2 * (x * y + z * s), 1 - 2 * (x * x + z * z), 2 * (y * z - x * s)
-    R[2, 0], R[2, 1], R[2, 2] = 2 * (x * z - y * s), 2 * (y * z + x * s), 1 - 2 * (x * x + y * y)
+    r00, r01, r02 = 1 - 2 * (y * y + z * z), 2 * (x * y - z * s), 2 * (x * z + y * s)   # R:
+    r10, r11, r12 = 2 * (x * y + z * s), 1 - 2 * (x * x + z * z), 2 * (y * z - x * s)   # world
+    r20, r21, r22 = 2 * (x * z - y * s), 2 * (y * z + x * s), 1 - 2 * (x * x + y * y)   # <- base
     for i in range(6):
         qv[i] = 0.0
     for i in range(6, qv.shape[0]):
         qv[i] = q[i + 1]
     for i in range(W_ALL):
         w[i] = 0.0
-    for i in range(3):                                       # R^T (world vector)
-        w[W_ACC + i] = -(R[0, i] * gw[6] + R[1, i] * gw[7] + R[2, i] * gw[8])
-        if (flags & F.WRENCH) != 0:
-            w[i] = R[0, i] * gw[0] + R[1, i] * gw[1] + R[2, i] * gw[2]
-            w[3 + i] = R[0, i] * gw[3] + R[1, i] * gw[4] + R[2, i] * gw[5]
+    _rotate_back(r00, r01, r02, r10, r11, r12, r20, r21, r22, gw, 6, -1.0, w, W_ACC)   # -R^T g
+    if (flags & F.WRENCH) != 0:                                                       # R^T w
+        _rotate_back(r00, r01, r02, r10, r11, r12, r20, r21, r22, gw, 0, 1.0, w, 0)
+        _rotate_back(r00, r01, r02, r10, r11, r12, r20, r21, r22, gw, 3, 1.0, w, 3)
     return 0.0
+
+
+@njit(cache=True, inline="always")
+def _rotate_back(r00, r01, r02, r10, r11, r12, r20, r21, r22, x, i, sign, y, j):
+    """y[j:j+3] = sign R^T x[i:i+3]."""
+    a, b, c = x[i], x[i + 1], x[i + 2]
+    y[j] = sign * (r00 * a + r10 * b + r20 * c)
+    y[j + 1] = sign * (r01 * a + r11 * b + r21 * c)
+    y[j + 2] = sign * (r02 * a + r12 * b + r22 * c)
 
 
 @njit(cache=True, inline="always")
@@ -140,49 +149,33 @@ def floating_crba(P, q, out):
     return status(chk)
 
 
-def floating_rnea_batch(P, q, v, a, gw, flags, out):
-    """``floating_rnea`` over N states (rows of one broadcast). Returns 0, or 1."""
-    N, nv = out.shape[0], P.shape[0] - 1
-    d = new_kin(nv)
-    qv, w, qddv = np.empty(nv), np.empty(W_ALL), np.empty(nv)
+def floating_rows(q, v, a, gw, flags, qv, qdd, w):
+    """The instantaneous chain's inputs of N floating states, for the fixed-base batch
+    kernels (``rnea_batch`` in SIMD lanes, ``fd_batch``, ``crba_batch``): its q (``qv``),
+    its qdd (flag QDD: ``a`` plus the velocity products; else the products alone), its
+    external vectors ``w`` (N, W_ALL). Rows of one broadcast. Returns 0, or 1 (a NaN/Inf
+    or a quaternion of zero length)."""
+    N = qv.shape[0]
     bq, bv, ba, bg = q.shape[0] > 1, v.shape[0] > 1, a.shape[0] > 1, gw.shape[0] > 1
     bad = 0
     for k in range(N):
-        chk = _rnea_one(P, d, qv, w, qddv, q[k if bq else 0], v[k if bv else 0],
-                        a[k if ba else 0], gw[k if bg else 0], flags, out[k])
+        chk = _chain_inputs(q[k if bq else 0], gw[k if bg else 0], flags, qv[k], w[k])
+        if qdd.shape[0] == N:
+            ak, vk = a[k if ba else 0], v[k if bv else 0]
+            for i in range(qdd.shape[1]):
+                qdd[k, i] = ak[i] if (flags & F.QDD) != 0 else 0.0
+            _products(vk, 1.0, qdd[k])
         if chk != 0.0:
             bad = 1
     return bad
 
 
-def floating_fd_batch(P, q, v, tau, gw, flags, out):
-    """``floating_fd`` over N states (rows of one broadcast). Returns 0, or 1."""
-    N, nv = out.shape[0], P.shape[0] - 1
-    d, c, art = new_kin(nv), new_chol(nv), new_art(nv)
-    qv, w, tv = np.empty(nv), np.empty(W_ALL), np.empty(nv)
-    bq, bv, bt, bg = q.shape[0] > 1, v.shape[0] > 1, tau.shape[0] > 1, gw.shape[0] > 1
-    bad = 0
-    for k in range(N):
-        chk = _fd_one(P, d, c, art, qv, w, tv, q[k if bq else 0], v[k if bv else 0],
-                      tau[k if bt else 0], gw[k if bg else 0], flags | F.QD, out[k])
-        if chk != 0.0:
-            bad = 1
-    return bad
-
-
-def floating_crba_batch(P, q, out):
-    """``floating_crba`` over N configurations. Returns 0, or 1."""
-    N, nv = out.shape[0], P.shape[0] - 1
-    d = new_kin(nv)
-    qv, w, zero = np.empty(nv), np.empty(W_ALL), np.zeros(GW)
-    bad = 0
-    for k in range(N):
-        chk = _chain_inputs(q[k], zero, 0, qv, w)
-        chk += joint_transforms(P, d.sc, d.R, d.p, qv, nv)
-        crba_core(P, d.R, d.p, out[k])
-        if chk != 0.0:
-            bad = 1
-    return bad
+def floating_accelerations(v, qdd):
+    """a = dv/dt of N states from the instantaneous chain's qdd (N, n+6), in place."""
+    bv = v.shape[0] > 1
+    for k in range(qdd.shape[0]):
+        _products(v[k if bv else 0], -1.0, qdd[k])
+    return 0
 
 
 _FD_CALLS = ("aba_core", "rnea_core", "crba_core", "cholesky_solve", "cholesky_core")
@@ -190,9 +183,7 @@ ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core fu
     "floating_rnea": (floating_rnea, i8(Pm, Vec, Vec, Vec, Vec, i8, Vec), False, ("rnea_core",)),
     "floating_fd": (floating_fd, i8(Pm, Vec, Vec, Vec, Vec, i8, Vec), False, _FD_CALLS),
     "floating_crba": (floating_crba, i8(Pm, Vec, Mat), False, ()),
-    "floating_rnea_batch": (floating_rnea_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True,
-                            ("rnea_core",)),
-    "floating_fd_batch": (floating_fd_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True, _FD_CALLS),
-    "floating_crba_batch": (floating_crba_batch, i8(Pm, In2, Out3), True, ("crba_core",)),
+    "floating_rows": (floating_rows, i8(In2, In2, In2, In2, i8, Out2, Out2, Out2), True, ()),
+    "floating_accelerations": (floating_accelerations, i8(In2, Out2), True, ()),
 }
 SINGLE_STATE = ("floating_rnea", "floating_fd", "floating_crba")

@@ -28,7 +28,6 @@ import numpy as np
 from .algorithms import floating as fb
 from .algorithms import kinematics
 from .algorithms._batch import skew
-from .algorithms.aba import CROSSOVER
 from .batches import kernel_rows, run_split
 from .core import ENTRY_POINTS, K
 from .core import flags as F
@@ -39,6 +38,10 @@ from .algorithms.rnea import _wrench_batch as rnea_wrench_rows
 from .robot import PARALLEL_MIN, Robot, _into
 
 FD_METHODS = ("auto", "aba", "cholesky")
+# forward_dynamics(method="auto") on a floating base: articulated bodies from this many
+# joints on. Single compiled calls, bench/bench_floating.py (2026-11-24): Cholesky of M is
+# faster up to 30 joints (ABA / Cholesky 1.4 .. 2.3), ABA at 40 (0.81).
+FD_CROSSOVER = 36
 FLOATING_KERNELS = tuple(k for k in ENTRY_POINTS if k.startswith("floating"))   # warmup()
 _ZERO_ROW = np.zeros((1, 1))  # an input floating_rows does not read
 _GW_BAD = np.zeros(0)        # a gw that no entry point accepts (status 2): the general path
@@ -152,7 +155,7 @@ class FloatingRobot(Robot):
             raise ValueError(f"forward-dynamics method {method!r} unknown for a floating base; "
                              f"use one of {FD_METHODS}")
         if method == "auto":
-            method = "aba" if self._nv >= CROSSOVER else "cholesky"
+            method = "aba" if self._n >= FD_CROSSOVER else "cholesky"
         if not self._compiled:
             return _into(out, fb.forward_dynamics(self.model, q, qd, tau, wrench, method))
         o = np.empty(self._nv) if out is None else out

@@ -177,6 +177,12 @@ def test_bad_states_are_named():
         robot.inverse_dynamics(q[:12], v, v)
     with pytest.raises(ValueError, match=r"v has shape \(13,\); expected \(12,\)"):
         robot.forward_dynamics(q, q, np.zeros(6))
+    with pytest.raises(ValueError, match="v has a NaN"):
+        robot.forward_dynamics(q, np.r_[np.nan, v[1:]], np.zeros(6))
+    with pytest.raises(ValueError, match="wrench has shape"):
+        robot.inverse_dynamics(q, v, v, wrench=np.zeros(5))
+    with pytest.raises(ValueError, match="method 'qr' unknown for a floating base"):
+        robot.forward_dynamics(q, v, np.zeros(6), method="qr")
     with pytest.raises(ValueError, match="base_motion"):
         robot.inverse_dynamics(q, v, v, base_motion=sd.BaseMotion())
 

@@ -35,6 +35,10 @@ def test_a_driven_arm_keeps_the_total_momentum(satellite):
     assert drift(satellite.centroidal_momentum(res.q, res.qd)) <= 1e-9
     assert np.max(np.abs(np.linalg.norm(res.q[:, 3:7], axis=1) - 1.0)) <= 1e-15
     assert res.relative_energy_error() <= 1e-9                   # E - E0 = work of the motors
+    head, table = res.columns()
+    assert len(head) == table.shape[1] and head[1:9] == ["q_base_x", "q_base_y", "q_base_z",
+                                                         "q_base_qx", "q_base_qy", "q_base_qz",
+                                                         "q_base_qw", "q_joint1"]
 
 
 def test_a_free_tumble_keeps_kinetic_energy_and_momentum_across_charts(satellite):

@@ -42,6 +42,9 @@ FD_METHODS = ("auto", "aba", "cholesky")
 # joints on. Single compiled calls, bench/bench_floating.py (2026-11-24): Cholesky of M is
 # faster up to 30 joints (ABA / Cholesky 1.4 .. 2.3), ABA at 40 (0.81).
 FD_CROSSOVER = 36
+_FD_FLAGS = {"aba": F.ABA, "cholesky": 0}
+_QD_QDD = F.QD | F.QDD
+_empty = np.empty
 FLOATING_KERNELS = tuple(k for k in ENTRY_POINTS if k.startswith("floating"))   # warmup()
 _ZERO_ROW = np.zeros((1, 1))  # an input floating_rows does not read
 _GW_BAD = np.zeros(0)        # a gw that no entry point accepts (status 2): the general path
@@ -59,6 +62,8 @@ class FloatingRobot(Robot):
                              "floating_base=False, or make the mimic joints independent")
         super().__init__(model, dissipation, backend, **kwargs)
         self._nq, self._nv = model.dof + 7, model.dof + 6
+        self._nvnv = (self._nv, self._nv)
+        self._fd_auto = _FD_FLAGS["aba" if model.dof >= FD_CROSSOVER else "cholesky"]
         self._chain = layout_pack(virtual_chain(model)) if self._compiled else None
         self._gw = np.concatenate((np.zeros(6), model.gravity))   # core/floating.py's gw
 
@@ -77,13 +82,16 @@ class FloatingRobot(Robot):
     def inverse_dynamics(self, q, qd, qdd, wrench=None, base_motion=None, out=None):
         """tau (n+6,): [base force; base moment] (base frame) and joint torques for the
         accelerations qdd = dv/dt (n+6); ``wrench`` on the tip, world coordinates."""
+        if self._compiled and base_motion is None:        # the single-state fast path
+            o = _empty(self._nv) if out is None else out
+            if wrench is None:
+                if K.floating_rnea(self._chain, q, qd, qdd, self._gw, _QD_QDD, o) == 0:
+                    return o
+            elif K.floating_rnea(self._chain, q, qd, qdd, *self._gw_single(wrench, _QD_QDD), o) == 0:
+                return o
         _no_base_motion(base_motion)
         if not self._compiled:
             return _into(out, fb.inverse_dynamics(self.model, q, qd, qdd, wrench))
-        o = np.empty(self._nv) if out is None else out
-        gw, flags = self._gw_single(wrench, F.QD | F.QDD)
-        if K.floating_rnea(self._chain, q, qd, qdd, gw, flags, o) == 0:
-            return o
         single, q, _, s = fb.as_batch(self.model, q, v=qd, a=qdd)
         N = q.shape[0]
         v, a = (np.zeros((1, self._nv)) if s[k] is None else kernel_rows(s[k]) for k in ("v", "a"))
@@ -118,11 +126,12 @@ class FloatingRobot(Robot):
 
     def mass_matrix(self, q, out=None):
         """M (n+6, n+6), in the order of v."""
-        if not self._compiled:
+        if self._compiled:
+            o = _empty(self._nvnv) if out is None else out
+            if K.floating_crba(self._chain, q, o) == 0:
+                return o
+        else:
             return _into(out, fb.mass_matrix(self.model, q))
-        o = np.empty((self._nv, self._nv)) if out is None else out
-        if K.floating_crba(self._chain, q, o) == 0:
-            return o
         single, q, _, _ = fb.as_batch(self.model, q)
         N = q.shape[0]
         qv, _, _ = self._rows(q, _ZERO_ROW, _ZERO_ROW, self._gw[None], 0, N, qdd=False)
@@ -150,18 +159,21 @@ class FloatingRobot(Robot):
         """a = dv/dt (n+6,) for joint torques ``tau`` (n,) (the base free) or generalized
         forces (n+6,). ``method``: "auto", "aba" (articulated bodies through the floating
         root, FDfb) or "cholesky" (M a = tau - b)."""
+        flags = self._fd_auto if method == "auto" else _FD_FLAGS.get(method)
+        if self._compiled and base_motion is None and flags is not None:   # the fast path
+            o = _empty(self._nv) if out is None else out
+            if wrench is None:
+                if K.floating_fd(self._chain, q, qd, tau, self._gw, flags, o) == 0:
+                    return o
+            elif K.floating_fd(self._chain, q, qd, tau, *self._gw_single(wrench, flags), o) == 0:
+                return o
         _no_base_motion(base_motion)
-        if method not in FD_METHODS:
+        if flags is None:
             raise ValueError(f"forward-dynamics method {method!r} unknown for a floating base; "
                              f"use one of {FD_METHODS}")
-        if method == "auto":
-            method = "aba" if self._n >= FD_CROSSOVER else "cholesky"
         if not self._compiled:
+            method = "aba" if flags & F.ABA else "cholesky"
             return _into(out, fb.forward_dynamics(self.model, q, qd, tau, wrench, method))
-        o = np.empty(self._nv) if out is None else out
-        gw, flags = self._gw_single(wrench, F.ABA if method == "aba" else 0)
-        if K.floating_fd(self._chain, q, qd, tau, gw, flags, o) == 0:
-            return o
         single, q, _, s = fb.as_batch(self.model, q, v=qd, tau=tau)
         N = q.shape[0]
         v = kernel_rows(s["v"])

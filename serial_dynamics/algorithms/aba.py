@@ -57,10 +57,10 @@ def forward_dynamics(model, q, qd, tau, wrench=None, gravity=None, base_motion=N
 
 def _aba(model, q, qd, tau, g, w, base=None, root=None):
     """qdd (N, n); with ``root`` = (I_root (6, 6), v_root (N, 6), f_root (N, 6): the force
-    applied to it), a floating root (body -1;
-    Featherstone Table 9.6, FDfb): passes 1 and 2 run through it too, its acceleration is
-    a'_-1 = -IA_-1^-1 pA_-1, and (qdd, a'_-1) is returned (a'_-1 with gravity removed:
-    the root's spatial acceleration is a'_-1 + (0, g))."""
+    applied to it), a floating root (body -1; Featherstone 2008, Ch. 9, floating bases):
+    passes 1 and 2 run through it too, its acceleration is a'_-1 = -IA_-1^-1 pA_-1, and
+    (qdd, a'_-1) is returned (a'_-1 with gravity removed: the root's spatial acceleration
+    is a'_-1 + (0, g))."""
     N, n = q.shape
     R, p = joint_transforms(model, q)
     X = motion_transform(R, p)                                   # (N, n, 6, 6)

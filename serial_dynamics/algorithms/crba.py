@@ -9,7 +9,7 @@ S_i = e_z (angular for a revolute joint, linear for a prismatic one).
     F = IC_i S_i;  M_ii = S_i^T F;  F = Xup_j^T F, M_ij = S_j^T F   for j = i-1 .. 0
 
 with Xup_i the motion transform from joint frame i-1 to joint frame i. The armature
-(reflected rotor inertia) I_a,i adds to M_ii. A floating root (Featherstone Sec. 9.2, the
+(reflected rotor inertia) I_a,i adds to M_ii. A floating root (Featherstone 2008, Ch. 9, the
 base as body -1 with a 6-DoF joint) carries the recursion one step further: IC_-1 = I_-1 +
 Xup_0^T IC_0 Xup_0 is its block, F_i carried into the base its column (``crba``).
 """

@@ -8,7 +8,7 @@ is the base's spatial acceleration in its own frame). Generalized forces tau = [
 joint torques]: the force and moment on the base about its origin, base frame.
 
 The algorithms are those of the fixed base with the base as body -1, a 6-DoF root
-(Featherstone, *Rigid Body Dynamics Algorithms*, 2008, Sec. 9.2-9.3; Angeles,
+(Featherstone, *Rigid Body Dynamics Algorithms*, 2008, Ch. 9, floating bases; Angeles,
 *Fundamentals of Robotic Mechanical Systems*, Sec. 7.5.2): Newton-Euler started from the
 base's motion (``rnea._rnea``), composite bodies carried into the root (``crba.crba``),
 articulated bodies through the root (``aba._aba``, FDfb). Internally spatial vectors are

@@ -91,7 +91,8 @@ def single_rows(name, robot, pm, rounds):
          lambda: pin.crba(m, d, pq), "pinocchio.crba (upper triangle)"),
         ("forward dynamics (ABA, FDfb)", lambda: robot.forward_dynamics(q, v, tau_j, method="aba"),
          lambda: pin.aba(m, d, pq, pv, pt), "pinocchio.aba"),
-        ("forward dynamics (Cholesky)", lambda: robot.forward_dynamics(q, v, tau_j, method="cholesky"),
+        ("forward dynamics (Cholesky)",
+         lambda: robot.forward_dynamics(q, v, tau_j, method="cholesky"),
          lambda: pin.aba(m, d, pq, pv, pt), "pinocchio.aba"),
     ]:
         t_ours, t_pin = pair(ours, peer, 2000, rounds)

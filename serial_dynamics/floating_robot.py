@@ -87,7 +87,8 @@ class FloatingRobot(Robot):
             if wrench is None:
                 if K.floating_rnea(self._chain, q, qd, qdd, self._gw, _QD_QDD, o) == 0:
                     return o
-            elif K.floating_rnea(self._chain, q, qd, qdd, *self._gw_single(wrench, _QD_QDD), o) == 0:
+            elif K.floating_rnea(self._chain, q, qd, qdd, *self._gw_single(wrench, _QD_QDD),
+                                 o) == 0:
                 return o
         _no_base_motion(base_motion)
         if not self._compiled:

@@ -50,7 +50,8 @@ ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core fu
     **floating.ENTRY_POINTS,       # a free-floating base on the instantaneous chain
 }
 SINGLE_STATE = ("rnea", "rnea_wrench", "crba", "fd", "planar_rnea", "planar_rnea_wrench",
-                "planar_crba", "regressor", "rnea_derivatives", "fd_derivatives") + floating.SINGLE_STATE
+                "planar_crba", "regressor", "rnea_derivatives", "fd_derivatives")
+SINGLE_STATE += floating.SINGLE_STATE
 OTHER_TYPES = 3      # what a single-state entry point returns for arguments of other types
 
 

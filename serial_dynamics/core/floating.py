@@ -108,7 +108,8 @@ def _fd_one(P, d, c, art, qv, w, tv, q, v, tau, gw, flags, out):
         chk += aba_core(P, d.sc, d.R, d.p, art.IA, art.pA, art.U, art.c, art.Du, art.Y,
                         qv, v, tv, w, tv, flags | F.BASE, out)
     else:
-        chk += cholesky_core(P, d.sc, d.R, d.p, d.f, c.M, c.b, qv, v, tv, w, tv, flags | F.BASE, out)
+        chk += cholesky_core(P, d.sc, d.R, d.p, d.f, c.M, c.b, qv, v, tv, w, tv, flags | F.BASE,
+                             out)
     _products(v, -1.0, out)
     return chk
 

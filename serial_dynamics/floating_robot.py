@@ -39,9 +39,10 @@ from .robot import PARALLEL_MIN, Robot, _into
 
 FD_METHODS = ("auto", "aba", "cholesky")
 # forward_dynamics(method="auto") on a floating base: articulated bodies from this many
-# joints on. Single compiled calls, bench/bench_floating.py (2026-11-24): Cholesky of M is
-# faster up to 30 joints (ABA / Cholesky 1.4 .. 2.3), ABA at 40 (0.81).
-FD_CROSSOVER = 36
+# joints on. Single compiled calls, bench/bench_floating.py (2026-11-24, two runs on a
+# shared machine): Cholesky of M faster up to 30 joints (ABA / Cholesky 1.3 .. 2.3), even
+# or ABA faster at 40 (1.01, 0.81).
+FD_CROSSOVER = 40
 _FD_FLAGS = {"aba": F.ABA, "cholesky": 0}
 _QD_QDD = F.QD | F.QDD
 _empty = np.empty

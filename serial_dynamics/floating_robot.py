@@ -48,6 +48,7 @@ _QD_QDD = F.QD | F.QDD
 _empty = np.empty
 FLOATING_KERNELS = tuple(k for k in ENTRY_POINTS if k.startswith("floating"))   # warmup()
 _ZERO_ROW = np.zeros((1, 1))  # an input floating_rows does not read
+CHUNK = 1024                  # states per chunk of a batch (a whole number of SIMD blocks)
 _GW_BAD = np.zeros(0)        # a gw that no entry point accepts (status 2): the general path
 
 
@@ -94,22 +95,14 @@ class FloatingRobot(Robot):
         _no_base_motion(base_motion)
         if not self._compiled:
             return _into(out, fb.inverse_dynamics(self.model, q, qd, qdd, wrench))
-        single, q, _, s = fb.as_batch(self.model, q, v=qd, a=qdd)
+        single, q, _, s = fb.as_batch(self.model, q, False, v=qd, a=qdd)
         N = q.shape[0]
         v, a = (np.zeros((1, self._nv)) if s[k] is None else kernel_rows(s[k]) for k in ("v", "a"))
         gw, flags = self._gw_rows(wrench, N, F.QD | F.QDD)
-        qv, qdd_chain, w = self._rows(q, v, a, gw, flags, N)
         tau = np.empty((N, self._nv))
-        run_split(K.rnea_batch, self._chain, N, (qv, v, qdd_chain, w),
-                  ((flags & F.WRENCH) | F.QD | F.QDD | F.BASE,), (tau,), PARALLEL_MIN, B)
+        run_split(_on_chain, self._chain, N, (kernel_rows(q), v, a, _ZERO_ROW, gw),
+                  (flags, "rnea"), (tau,), PARALLEL_MIN, B)
         return _into(out, tau[0] if single else tau)
-
-    def _rows(self, q, v, a, gw, flags, N, qdd=True):
-        """The instantaneous chain's rows of N states (core/floating.py floating_rows)."""
-        qv, w = np.empty((N, self._nv)), np.empty((N, W_ALL))
-        qdd_chain = np.empty((N if qdd else 0, self._nv))
-        K.floating_rows(kernel_rows(q), v, a, gw, flags, qv, qdd_chain, w)   # ~20 ns a state
-        return qv, qdd_chain, w
 
     def _gw_single(self, wrench, flags):
         """gw (core/floating.py) of a single call: [wrench (world); gravity (world)]."""
@@ -134,11 +127,11 @@ class FloatingRobot(Robot):
                 return o
         else:
             return _into(out, fb.mass_matrix(self.model, q))
-        single, q, _, _ = fb.as_batch(self.model, q)
+        single, q, _, _ = fb.as_batch(self.model, q, False)
         N = q.shape[0]
-        qv, _, _ = self._rows(q, _ZERO_ROW, _ZERO_ROW, self._gw[None], 0, N, qdd=False)
         M = np.empty((N, self._nv, self._nv))
-        run_split(K.crba_batch, self._chain, N, (qv,), (), (M,), PARALLEL_MIN, B)
+        run_split(_on_chain, self._chain, N, (kernel_rows(q), _ZERO_ROW, _ZERO_ROW, _ZERO_ROW,
+                                              self._gw[None]), (0, "crba"), (M,), PARALLEL_MIN, B)
         return _into(out, M[0] if single else M)
 
     def bias_torques(self, q, qd, wrench=None, base_motion=None, out=None):
@@ -176,15 +169,13 @@ class FloatingRobot(Robot):
         if not self._compiled:
             method = "aba" if flags & F.ABA else "cholesky"
             return _into(out, fb.forward_dynamics(self.model, q, qd, tau, wrench, method))
-        single, q, _, s = fb.as_batch(self.model, q, v=qd, tau=tau)
+        single, q, _, s = fb.as_batch(self.model, q, False, v=qd, tau=tau)
         N = q.shape[0]
-        v = kernel_rows(s["v"])
         gw, flags = self._gw_rows(wrench, N, flags)
-        qv, _, w = self._rows(q, v, v, gw, flags, N, qdd=False)
         a = np.empty((N, self._nv))
-        run_split(K.fd_batch, self._chain, N, (qv, v, kernel_rows(s["tau"]), w),
-                  (flags | F.QD | F.BASE,), (a,), PARALLEL_MIN, B)
-        K.floating_accelerations(v, a)
+        run_split(_on_chain, self._chain, N, (kernel_rows(q), kernel_rows(s["v"]), _ZERO_ROW,
+                                              kernel_rows(s["tau"]), gw), (flags, "fd"), (a,),
+                  PARALLEL_MIN, B)
         return _into(out, a[0] if single else a)
 
     def coriolis_matrix(self, q, qd):
@@ -313,6 +304,36 @@ def virtual_chain(model) -> Model:
         inertia=np.concatenate([np.zeros((5, 3, 3)), [model.base_inertia], model.inertia]),
         gravity=zero, tip_R=model.tip_R, tip_p=model.tip_p, frames=frames,
         armature=np.r_[np.zeros(6), model.armature], check_mass_matrix=False)
+
+
+def _on_chain(P, q, v, a, tau, gw, flags, kind, out):
+    """N floating states through a fixed-base batch kernel of the instantaneous chain
+    (``kind``: "rnea" in SIMD lanes, "fd", "crba"), CHUNK states at a time: their rows
+    (core/floating.py floating_rows) in small buffers reused from chunk to chunk (no fresh
+    pages to fault in, in cache), then the kernel, then (forward dynamics) the accelerations
+    converted back. Every state as in one call (chunks are whole SIMD blocks). Returns the
+    largest status (run_split calls it once per thread)."""
+    N, nv = out.shape[0], P.shape[0] - 1
+    c = min(N, CHUNK)
+    qv, w = np.empty((c, nv)), np.empty((c, W_ALL))
+    qdd = np.empty((c if kind == "rnea" else 0, nv))
+    status = 0
+    for k in range(0, N, CHUNK):
+        e = min(N, k + CHUNK)
+        rows = lambda x: x if x.shape[0] == 1 else x[k:e]       # noqa: E731
+        m = e - k
+        status = max(status, K.floating_rows(rows(q), rows(v), rows(a), rows(gw), flags,
+                                             qv[:m], qdd[:m], w[:m]))
+        if kind == "rnea":
+            status = max(status, K.rnea_batch(P, qv[:m], rows(v), qdd[:m], w[:m],
+                                              (flags & F.WRENCH) | _QD_QDD | F.BASE, out[k:e]))
+        elif kind == "fd":
+            status = max(status, K.fd_batch(P, qv[:m], rows(v), rows(tau), w[:m],
+                                            flags | F.QD | F.BASE, out[k:e]))
+            K.floating_accelerations(rows(v), out[k:e])
+        else:
+            status = max(status, K.crba_batch(P, qv[:m], out[k:e]))
+    return status
 
 
 def _no_base_motion(base_motion):

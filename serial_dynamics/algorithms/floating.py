@@ -32,11 +32,11 @@ LIN, ANG = slice(0, 3), slice(3, 6)       # the base's parts of v and tau (linea
 
 
 # ------------------------------------------------------------------ states
-def as_batch(model, q=None, **named):
+def as_batch(model, q=None, rotation=True, **named):
     """(single, q, R, arrays): q (N, n+7) with a unit quaternion, R (N, 3, 3) the base's
-    rotation (world <- base), and each named state (N, n+6) (``tau`` may be (N, n): joint
-    torques on a free base). ValueError naming the argument and the fix on a bad shape, a
-    NaN/Inf or a quaternion of zero length."""
+    rotation (world <- base; None with ``rotation=False``), and each named state (N, n+6)
+    (``tau`` may be (N, n): joint torques on a free base). ValueError naming the argument
+    and the fix on a bad shape, a NaN/Inf or a quaternion of zero length."""
     n = model.dof
     single, out, N = True, {}, 1
     for name, x, width in [("q", q, n + 7)] + [(k, x, n + 6) for k, x in named.items()]:
@@ -69,6 +69,8 @@ def as_batch(model, q=None, **named):
         raise ValueError(f"q's quaternion (qx, qy, qz, qw) = {quat[np.argmin(norm)].tolist()} has "
                          "zero length; give the base's orientation as a unit quaternion, "
                          "e.g. [0, 0, 0, 1] for none")
+    if not rotation:                                      # (the compiled kernels normalize)
+        return single, q, None, out
     q = q.copy()
     q[:, 3:7] = quat / norm[:, None]                      # any length: the rotation it means
     return single, q, quaternion_matrix(q[:, 3:7]), out

@@ -103,7 +103,12 @@ def test_batches_give_the_single_results():
         np.testing.assert_array_equal(tau[k], robot.inverse_dynamics(q[k], v[k], a[k]))
         np.testing.assert_array_equal(M[k], robot.mass_matrix(q[k]))
     np.testing.assert_allclose(robot.forward_dynamics(q, v, tau), a, rtol=0, atol=1e-9)
-    assert robot.forward_dynamics(q, v, tau[:, 6:]).shape == (5, robot.nv)
+    w = np.array([1.0, -2.0, 3.0, 0.1, 0.2, -0.3])
+    for method in ("aba", "cholesky"):                   # same bits alone or in a batch
+        A = robot.forward_dynamics(q, v, tau[:, 6:], wrench=w, method=method)
+        for k in range(5):
+            np.testing.assert_array_equal(
+                A[k], robot.forward_dynamics(q[k], v[k], tau[k, 6:], wrench=w, method=method))
 
 
 def test_a_tip_wrench_in_the_world_is_minus_J_transpose_w():

@@ -20,7 +20,7 @@ __version__ = "0.1.0"
 
 
 def load_urdf(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
-              armature=None) -> Robot:
+              armature=None, floating_base=False) -> Robot:
     """Load the chain ``base_link`` -> ``tip_link`` of a URDF (file path or XML string).
 
     ``base_link`` defaults to the URDF root, ``tip_link`` to the end of the chain when the
@@ -29,6 +29,10 @@ def load_urdf(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
     inertia, kg m^2 (kg for a prismatic joint)}, which sets or overrides what the URDF's
     ``<transmission>`` elements give. Raises ``URDFError`` (the file cannot be read) or
     ``ModelError`` (the chain is not physical), both ``RobotDescriptionError``s.
+    ``floating_base=True`` (or a ``type="floating"`` joint at the URDF root) makes the base
+    link, with everything lumped into it, float: a ``FloatingRobot`` (gravity in the world
+    frame; docs/modelling.md).
     """
-    return Robot(load_model(source, base_link, tip_link, gravity, armature=armature))
+    return Robot(load_model(source, base_link, tip_link, gravity, armature=armature,
+                            floating_base=floating_base))
 

@@ -55,7 +55,12 @@ def forward_dynamics(model, q, qd, tau, wrench=None, gravity=None, base_motion=N
     return unbatch(single, _aba(model, q, qd, tau, g, w, base_motion))
 
 
-def _aba(model, q, qd, tau, g, w, base=None):
+def _aba(model, q, qd, tau, g, w, base=None, root=None):
+    """qdd (N, n); with ``root`` = (I_root (6, 6), v_root (N, 6), f_root (N, 6): the force
+    applied to it), a floating root (body -1; Featherstone 2008, Ch. 9, floating bases):
+    passes 1 and 2 run through it too, its acceleration is a'_-1 = -IA_-1^-1 pA_-1, and
+    (qdd, a'_-1) is returned (a'_-1 with gravity removed: the root's spatial acceleration
+    is a'_-1 + (0, g))."""
     N, n = q.shape
     R, p = joint_transforms(model, q)
     X = motion_transform(R, p)                                   # (N, n, 6, 6)
@@ -67,6 +72,10 @@ def _aba(model, q, qd, tau, g, w, base=None):
     v = np.zeros((N, 6))
     if base is not None:                                         # v_{-1} = (omega_0, 0)
         v[:, :3] = base.angular_velocity
+    if root is not None:                                         # the root's velocity
+        v = v + root[1]
+        IA_root = np.repeat(root[0][None], N, axis=0)            # IA_-1 = I_-1
+        pA_root = -mtv6(cross_motion(v), mv6(root[0], v)) - root[2]   # v x* I v - f_-1
     c = np.empty((N, n, 6))
     IA = np.empty((N, n, 6, 6))
     pA = np.empty((N, n, 6))
@@ -90,20 +99,24 @@ def _aba(model, q, qd, tau, g, w, base=None):
         U[:, i] = mv6(IA[:, i], S[i])                            # U_i = IA_i S_i
         D[:, i] = U[:, i] @ S[i] + model.armature[i]             # D_i = S_i^T U_i + I_a,i
         u[:, i] = tau[:, i] - pA[:, i] @ S[i]                    # u_i = tau_i - S_i^T pA_i
-        if i > 0:
+        if i > 0 or root is not None:
             Ia = IA[:, i] - U[:, i, :, None] * U[:, i, None, :] / D[:, i, None, None]
             pa = pA[:, i] + mv6(Ia, c[:, i]) + U[:, i] * (u[:, i] / D[:, i])[:, None]
             Xi = X[:, i]
-            IA[:, i - 1] += np.swapaxes(Xi, -1, -2) @ Ia @ Xi     # IA_{i-1} += X^T Ia X
-            pA[:, i - 1] += mtv6(Xi, pa)                         # pA_{i-1} += X^T pa
+            IA_parent, pA_parent = (IA[:, i - 1], pA[:, i - 1]) if i > 0 else (IA_root, pA_root)
+            IA_parent += np.swapaxes(Xi, -1, -2) @ Ia @ Xi       # IA_{i-1} += X^T Ia X
+            pA_parent += mtv6(Xi, pa)                            # pA_{i-1} += X^T pa
     # --- pass 3, outward
     a = np.zeros((N, 6))
     a[:, 3:] = -g                                                # a_{-1} = (0, -g)
     if base is not None:                                         # moving: (alpha_0, acc_0 - g)
         a[:, :3], a[:, 3:] = base.angular_acceleration, base.linear_acceleration - g
+    if root is not None:                                         # a'_-1 = -IA_-1^-1 pA_-1
+        a = -np.linalg.solve(IA_root, pA_root[..., None])[..., 0]
+        a_root = a
     qdd = np.empty((N, n))
     for i in range(n):
         a = mv6(X[:, i], a) + c[:, i]                            # a'_i = X_i a_{i-1} + c_i
         qdd[:, i] = (u[:, i] - np.einsum("nk,nk->n", U[:, i], a)) / D[:, i]
         a = a + qdd[:, i, None] * S[i]                           # a_i = a'_i + S_i qdd_i
-    return qdd
+    return qdd if root is None else (qdd, a_root)

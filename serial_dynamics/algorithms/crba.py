@@ -9,7 +9,9 @@ S_i = e_z (angular for a revolute joint, linear for a prismatic one).
     F = IC_i S_i;  M_ii = S_i^T F;  F = Xup_j^T F, M_ij = S_j^T F   for j = i-1 .. 0
 
 with Xup_i the motion transform from joint frame i-1 to joint frame i. The armature
-(reflected rotor inertia) I_a,i adds to M_ii.
+(reflected rotor inertia) I_a,i adds to M_ii. A floating root (Featherstone 2008, Ch. 9, the
+base as body -1 with a 6-DoF joint) carries the recursion one step further: IC_-1 = I_-1 +
+Xup_0^T IC_0 Xup_0 is its block, F_i carried into the base its column (``crba``).
 """
 import numpy as np
 
@@ -20,17 +22,31 @@ from .kinematics import joint_transforms
 def mass_matrix(model, q):
     """M(q), (n, n) or (N, n, n); symmetric positive definite for a valid model."""
     single, (q,) = as_batch(model, ("q", q))
+    return unbatch(single, crba(model, q)[0])
+
+
+def crba(model, q, I_root=None):
+    """(M (N, n, n), IC_-1 (N, 6, 6), F (N, 6, n)) for q (N, n). With ``I_root`` (6, 6), the
+    spatial inertia of a floating root (body -1), IC_-1 is the composite inertia of the root
+    and every body and F[:, :, i] = Xup_0^T .. Xup_i^T IC_i S_i, joint i's column of the
+    root's block rows (both in the base frame, angular first); otherwise both are None."""
     N, n = q.shape
     Xup = motion_transform(*joint_transforms(model, q))            # (N, n, 6, 6)
     S = motion_subspaces(model)                                     # (n, 6)
     IC = np.repeat(rigid_body_inertia(model.mass, model.h, model.I_O)[None], N, axis=0)
     M = np.empty((N, n, n))
+    root = I_root is not None
+    IC_root, F_root = None, (np.empty((N, 6, n)) if root else None)
     for i in range(n - 1, -1, -1):
         if i > 0:                                                   # IC_{i-1} += X^T IC_i X
             IC[:, i - 1] += np.swapaxes(Xup[:, i], -1, -2) @ IC[:, i] @ Xup[:, i]
+        elif root:                                                  # the root's: IC_-1
+            IC_root = I_root + np.swapaxes(Xup[:, 0], -1, -2) @ IC[:, 0] @ Xup[:, 0]
         F = IC[:, i] @ S[i]                                         # F = IC_i S_i
         M[:, i, i] = F @ S[i] + model.armature[i]                   # M_ii = S_i^T F + I_a,i
         for j in range(i - 1, -1, -1):
             F = np.einsum("nki,nk->ni", Xup[:, j + 1], F)           # F = Xup_{j+1}^T F
             M[:, i, j] = M[:, j, i] = F @ S[j]                      # M_ij = S_j^T F
-    return unbatch(single, M)
+        if root:                                                    # F = Xup_0^T F, the root's
+            F_root[:, :, i] = np.einsum("nki,nk->ni", Xup[:, 0], F)
+    return M, IC_root, F_root

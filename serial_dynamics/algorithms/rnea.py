@@ -44,7 +44,9 @@ def _wrench_batch(wrench, N):
     return np.broadcast_to(w, (N, 6))
 
 
-def _rnea(model, q, qd, qdd, g, w, base=None):
+def _rnea(model, q, qd, qdd, g, w, base=None, root=False):
+    """tau (N, n); with ``root``, also (f, n): the force and moment body 0 receives from the
+    base, in the base frame about its origin (a floating base: ``floating.py``)."""
     N, n = q.shape
     R, p = joint_transforms(model, q)
     omega = np.zeros((N, 3))            # angular velocity of body i-1
@@ -75,6 +77,9 @@ def _rnea(model, q, qd, qdd, g, w, base=None):
         f, nm = f + fB[:, i], nm + nB[:, i]
         # tau_i = S_i^T (n; f) + I_a,i qdd_i (the rotor's inertia, reflected through the gear)
         tau[:, i] = (f[:, 2] if model.kind[i] == PRISMATIC else nm[:, 2]) + model.armature[i] * qdd[:, i]
+    if root:                             # into the base frame: f' = R f, n' = R n + p x f'
+        f = mv(R[:, 0], f)
+        return tau, (f, mv(R[:, 0], nm) + np.cross(p[:, 0], f))
     return tau
 
 
@@ -97,7 +102,11 @@ def joint_rate(model, i, omega, alpha, acc, qd_i, qdd_i):
 def body_wrench(model, i, omega, alpha, acc):
     """Newton-Euler about the body origin: (f, n) = (m acc + alpha x h + w x (w x h),
     I_O alpha + w x I_O w + h x acc)."""
-    m, h, I_O = model.mass[i], model.h[i], model.I_O[i]
+    return rigid_wrench(model.mass[i], model.h[i], model.I_O[i], omega, alpha, acc)
+
+
+def rigid_wrench(m, h, I_O, omega, alpha, acc):
+    """``body_wrench`` of a body of mass m, first moment h, inertia I_O about its origin."""
     return (m * acc + np.cross(alpha, h) + np.cross(omega, np.cross(omega, h)),
             alpha @ I_O.T + np.cross(omega, omega @ I_O.T) + np.cross(h, acc))
 

@@ -29,7 +29,7 @@ inlined where (bitwise the same in every process, whatever the cache holds).
 from numba import njit
 
 from . import crba, derivatives, forward, planar, planar_lanes, regressor, rnea, rnea_lanes
-from . import energy
+from . import energy, floating
 from .signatures import In2, Mat, Out2, Out3, Pm, Vec, compile_internal, i8
 
 FD_CALLS = ("aba_core", "rnea_core", "crba_core", "cholesky_solve")   # the Cholesky route inlined
@@ -47,9 +47,11 @@ ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core fu
     **derivatives.ENTRY_POINTS,    # derivatives of inverse and forward dynamics
     **regressor.ENTRY_POINTS,      # the torque regressor
     **energy.ENTRY_POINTS,         # dT/dq and the symplectic Euler step
+    **floating.ENTRY_POINTS,       # a free-floating base on the instantaneous chain
 }
 SINGLE_STATE = ("rnea", "rnea_wrench", "crba", "fd", "planar_rnea", "planar_rnea_wrench",
                 "planar_crba", "regressor", "rnea_derivatives", "fd_derivatives")
+SINGLE_STATE += floating.SINGLE_STATE
 OTHER_TYPES = 3      # what a single-state entry point returns for arguments of other types
 
 

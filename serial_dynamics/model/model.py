@@ -53,6 +53,7 @@ import numpy as np
 
 from ..algorithms._batch import motion_transform, rigid_body_inertia
 from ..algorithms.crba import mass_matrix as _mass_matrix
+from ..algorithms.floating import mass_matrix_joints
 from ..algorithms.kinematics import joint_transforms
 from ..algorithms.planar import planar_pack
 from .errors import ModelError
@@ -115,6 +116,14 @@ class Model:
     Xtip_R: np.ndarray = None   # (3, 3)
     Xtip_p: np.ndarray = None   # (3,)
     jframes: MappingProxyType = None
+    # -- a free-floating base (docs/modelling.md): the base link's own inertia (everything
+    # lumped into it), base frame; gravity is then in the world frame
+    floating: bool = False
+    base_mass: float = 0.0
+    base_com: np.ndarray = None      # (3,)
+    base_inertia: np.ndarray = None  # (3, 3) about the center of mass
+    base_h: np.ndarray = None        # (3,) m c
+    base_I_O: np.ndarray = None      # (3, 3) about the base origin
 
     @property
     def dof(self) -> int:
@@ -155,8 +164,10 @@ class Model:
               tip_R=None, tip_p=None, lower=None, upper=None, velocity_limit=None,
               effort_limit=None, damping=None, friction=None, frames=None, armature=None,
               mimic_leader=None, mimic_multiplier=None, mimic_offset=None, source=None,
-              check_mass_matrix=True) -> "Model":
-        """Build and validate a model; every array argument is copied and frozen."""
+              check_mass_matrix=True, base_inertia=None) -> "Model":
+        """Build and validate a model; every array argument is copied and frozen.
+        ``base_inertia``: (mass, com, inertia about the com) of a free-floating base, in the
+        base frame (None: a fixed base); ``gravity`` is then in the world frame."""
         n = len(joint_names)
         if n == 0:
             raise ModelError(f"chain {base_link!r} -> {tip_link!r} has no movable joint")
@@ -191,6 +202,13 @@ class Model:
                                      for link, (b, R, p) in (frames or {}).items()}),
             source=source,
         )
+        if base_inertia is not None:
+            m0, c0, I0 = (np.asarray(x, dtype=float) for x in base_inertia)
+            _, _, h0, I_O0 = inertia_in_joint_frames(np.eye(3), m0, c0, I0)
+            for key, value in dict(floating=True, base_mass=float(m0), base_com=_frozen(c0, (3,)),
+                                   base_inertia=_frozen(I0, (3, 3)), base_h=_frozen(h0, (3,)),
+                                   base_I_O=_frozen(I_O0, (3, 3))).items():
+                object.__setattr__(model, key, value)
         _check_magnitudes(model)
         for key, value in _joint_frames(model).items():
             object.__setattr__(model, key, value)     # derived once, before anyone sees it
@@ -235,6 +253,9 @@ class Model:
         for i in np.flatnonzero(self.lower > self.upper):
             raise ModelError(f"joint {self.joint_names[i]!r}: lower limit {self.lower[i]} > "
                              f"upper limit {self.upper[i]}")
+        if self.floating:
+            check_inertia(self.base_link, self.base_mass, self.base_inertia,
+                          length=np.linalg.norm(self.base_com))
         if check_mass_matrix:
             self._check_mass_matrix()
 
@@ -266,6 +287,8 @@ class Model:
                     and np.all(pivot > PIVOT_RTOL * diag):
                 return
             return self._check_reduced_mass_matrix(qs)
+        if self.floating:
+            _check_floating_mass_matrix(self, qs)
         diag, pivot = _diagonal_and_pivots(self, qs)
         for q, M_ii, D in zip(qs, diag, pivot):
             scale = max(np.max(np.abs(M_ii)), 1e-300)
@@ -301,6 +324,19 @@ class Model:
                     f"singular {_at(q)} (eigenvalues {eig[0]:.3g} .. "
                     f"{eig[-1]:.3g}): two joints move the same mass the same way. "
                     "Check joint axes and link inertias.")
+
+
+def _check_floating_mass_matrix(model, qs) -> None:
+    """A floating chain moves as a whole: its (n+6) x (n+6) mass matrix must be positive
+    definite too (a base and chain with no mass, or no rotational inertia, is refused)."""
+    for q in qs:
+        eig = np.linalg.eigvalsh(mass_matrix_joints(model, q[None])[0])
+        if not eig[0] > 1e-15 * eig[-1]:
+            raise ModelError(
+                f"the floating chain {model.base_link!r} -> {model.tip_link!r} has a singular "
+                f"mass matrix {_at(q)} (eigenvalues {eig[0]:.3g} .. {eig[-1]:.3g}): the base "
+                "and the bodies it carries must have mass and rotational inertia about every "
+                "axis. Give the base link an <inertial>.")
 
 
 def _at(q) -> str:

@@ -1,10 +1,11 @@
 """The facade users call: ``Robot`` and its kinds, each overriding what it changes.
 
     facade.py       Robot: inputs checked, calls sent to the compiled core or the reference;
-                    its kinds (MimicRobot, PlanarRobot) and kind_of, the one place that
+                    its kinds (FloatingRobot, MimicRobot, PlanarRobot) and kind_of, the one place that
                     chooses the kind a model needs
     mimic.py        Mimic: what MimicRobot overrides (the reduced system of mimic joints)
     planar.py       Planar: what PlanarRobot overrides (the planar fast path)
+    floating.py     Floating: what FloatingRobot overrides (a free-floating base)
     common.py       what they share: kernel flags, forward-dynamics methods, out=
     base_motion.py  BaseMotion: a base with known motion (a per-call input)
     batches.py      what every batch call shares (kernel rows, the split over the cores)
@@ -12,6 +13,6 @@
     derivatives.py  Robot's dynamics derivatives: batching and kernels
 """
 from .base_motion import BaseMotion
-from .facade import MimicRobot, PlanarRobot, Robot, kind_of
+from .facade import FloatingRobot, MimicRobot, PlanarRobot, Robot, kind_of
 
-__all__ = ["Robot", "MimicRobot", "PlanarRobot", "BaseMotion", "kind_of"]
+__all__ = ["Robot", "FloatingRobot", "MimicRobot", "PlanarRobot", "BaseMotion", "kind_of"]

@@ -44,8 +44,9 @@ from ..core import flags as F
 from ..model.dissipation import Dissipation
 from ..model.model import Model
 from ..model.payload import Payload, attach
-from .common import FD_METHODS, QD, QD_QDD, QD_QDD_W, QD_W
+from .common import FD_METHODS, PARALLEL_MIN, QD, QD_QDD, QD_QDD_W, QD_W
 from .common import into as _into
+from .floating import Floating
 from .mimic import Mimic
 from .planar import Planar
 
@@ -55,9 +56,6 @@ _W0 = np.zeros(6)                          # and in single forward-dynamics call
 _QD_QDD, _QD, _QD_QDD_W, _QD_W = QD_QDD, QD, QD_QDD_W, QD_W     # module globals: one lookup
 BACKENDS = ("numba", "numpy")
 _FD_FLAGS = {"cholesky": F.QD, "aba": F.QD | F.ABA}
-# states; splitting a batch over 2 cores paid from about 2048 states for inverse dynamics,
-# 1500 for the mass matrix and 800 for forward dynamics (UR5e, measured 2026-11-23)
-PARALLEL_MIN = 2048
 SINGLE_KERNELS = ("rnea", "rnea_wrench", "crba", "fd")     # warmup(): one state a call
 BATCH_KERNELS = ("rnea_batch", "crba_batch", "fd_batch")    # warmup(batch=True): batches too
 ROBOT_KERNELS = SINGLE_KERNELS + BATCH_KERNELS
@@ -68,6 +66,7 @@ class Robot:
     """Dynamics of one serial chain. Build it with ``serial_dynamics.load_urdf``."""
 
     is_planar = False        # a planar chain on the planar fast path (PlanarRobot)
+    is_floating = False      # a free-floating base (FloatingRobot)
 
     def __new__(cls, model, *args, **kwargs):
         # Robot(model) builds the kind the model needs: kind_of(model), at the end of this
@@ -95,6 +94,8 @@ class Robot:
 
     # ------------------------------------------------------------- description
     dof = property(lambda self: self.model.dof)
+    nq = property(lambda self: self.dof, doc="the length of q (n + 7 on a floating base)")
+    nv = property(lambda self: self.dof, doc="the length of qd (n + 6 on a floating base)")
     joint_names = property(lambda self: list(self.model.joint_names))
     joint_types = property(lambda self: list(self.model.joint_types))
     link_names = property(lambda self: list(self.model.link_names))
@@ -397,6 +398,14 @@ class Robot:
                 self.forward_dynamics(x, x, x, method=method)
         return self
 
+    def neutral(self):
+        """q at rest: every joint at zero (a floating base also at the world origin)."""
+        return np.zeros(self.nq)
+
+    def integrate(self, q, qd, dt):
+        """q + qd dt (a floating base moves its pose on SE(3): FloatingRobot)."""
+        return np.asarray(q, dtype=float) + np.asarray(qd, dtype=float) * dt
+
     def random_state(self, rng=None, batch=None, speed=1.0):
         """(q, qd) drawn uniformly within the joint limits (+-pi where unlimited) and
         velocities in +-speed; handy for tests and benchmarks."""
@@ -432,6 +441,11 @@ def _parallel(kernel, P, N, arrays, extra, out):
 # ----------------------------------------------------------------- the kinds of robot
 # Each kind overrides what it changes (its module says how); nothing outside robot/ asks
 # which kind it holds.
+class FloatingRobot(Floating, Robot):
+    """A chain on a free-floating base: q on SE(3) x R^n, v = [base twist; joint rates]
+    (floating.py)."""
+
+
 class MimicRobot(Mimic, Robot):
     """A chain with mimic joints: the reduced system of its independent joints (mimic.py)."""
 
@@ -442,6 +456,8 @@ class PlanarRobot(Planar, Robot):
 
 def kind_of(model):
     """The facade class ``model`` needs: the first that fits, read top to bottom."""
+    if model.floating:                   # the base's six degrees of freedom join the joints'
+        return FloatingRobot             # (q: n + 7, v: n + 6); no mimic or planar path there
     if model.has_mimic_joints:           # coordinates are the independent joints; the
         return MimicRobot                # reduction runs the full chain's general algorithms
     if model.planar_layout is not None:  # every revolute axis parallel, prismatic ones in

@@ -94,3 +94,18 @@ def double_pendulum_urdf() -> str:
               '<axis xyz="0 1 0"/></joint>'
               '<joint name="j2" type="continuous"><parent link="l1"/><child link="l2"/>'
               '<origin xyz="0 0 -1"/><axis xyz="0 1 0"/></joint></robot>')
+
+
+def satellite_urdf(base_mass=400.0, side=1.5) -> str:
+    """A space manipulator: a cube satellite of ``base_mass`` kg and ``side`` m (uniform
+    density) joined to the world by a floating joint, carrying a 7-joint arm (26 kg, 2.3 m
+    reach; joint axes z, y, x, ...) on its face at x = side / 2."""
+    arm = chain_urdf(7, masses=(6.0, 6.0, 4.0, 4.0, 3.0, 2.0, 1.0),
+                     lengths=(0.2, 0.5, 0.5, 0.4, 0.3, 0.2, 0.2), radius=0.04, name="satellite")
+    I = np.eye(3) * base_mass * side**2 / 6.0
+    body = f'<link name="base_link">{_inertial(base_mass, (0, 0, 0), I)}</link>'
+    world = ('<link name="world"/><joint name="world_to_base" type="floating">'
+             '<parent link="world"/><child link="base_link"/></joint>')
+    arm = arm.replace('<link name="base_link"/>', world + body, 1)
+    return arm.replace('<child link="link1"/><origin xyz="0.0 0.0 0.0"',
+                       f'<child link="link1"/><origin xyz="{_f(side / 2)} 0.0 0.0"', 1)

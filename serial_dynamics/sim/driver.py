@@ -34,6 +34,7 @@ from ..robot.base_motion import BaseMotion
 from .adaptive import run_adaptive
 from .equations import Inputs
 from .fixed_step import run_compiled, run_fixed
+from .floating import FLOATING_FIXED_STEP, FLOATING_METHODS, run_floating
 from .jacobians import check_jacobian
 from .methods import DEFAULT_ATOL, DEFAULT_DT, DEFAULT_RTOL, FIXED_STEP, METHODS
 from .progress import Progress
@@ -160,14 +161,18 @@ def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853"
     if not (duration > 0 and np.isfinite(duration)):
         raise ValueError(f"duration = {duration}; give a positive, finite time in seconds")
     n = robot.dof
-    q0 = np.zeros(n) if q0 is None else np.array(q0, dtype=float).reshape(-1)
-    qd0 = np.zeros(n) if qd0 is None else np.array(qd0, dtype=float).reshape(-1)
-    for name, x in (("q0", q0), ("qd0", qd0)):
-        if x.shape != (n,):
-            raise ValueError(f"{name} has {x.size} values; give one per joint ({n}: "
-                             f"{robot.joint_names})")
+    q0 = robot.neutral() if q0 is None else np.array(q0, dtype=float).reshape(-1)
+    qd0 = np.zeros(robot.nv) if qd0 is None else np.array(qd0, dtype=float).reshape(-1)
+    for name, x, size, base in (("q0", q0, robot.nq, "pose [x, y, z, qx, qy, qz, qw]"),
+                                ("qd0", qd0, robot.nv, "velocity [v_O, omega]")):
+        if x.shape != (size,):
+            raise ValueError(f"{name} has {x.size} values; give "
+                             + (f"the base's {base} and " if size > n else "")
+                             + f"one per joint ({n}: {robot.joint_names})")
         if not np.all(np.isfinite(x)):
             raise ValueError(f"{name} has a NaN or Inf entry")
+    if robot.is_floating:           # the pose on SE(3): sim/floating.py
+        check_floating(method, position_limits, base_motion, dt, rtol, atol)
     outside = np.flatnonzero((q0 < robot.lower) | (q0 > robot.upper)) if position_limits else []
     if len(outside):
         j = outside[0]
@@ -184,7 +189,15 @@ def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853"
     bar = Progress(duration, progress)
     start = time.perf_counter()
     try:
-        if method in FIXED_STEP:
+        if robot.is_floating:
+            fixed = method in FLOATING_FIXED_STEP
+            out = run_floating(robot, duration, robot.integrate(q0, np.zeros(robot.nv), 0.0),
+                               qd0, inputs, method, dt=(DEFAULT_DT if dt is None else float(dt)),
+                               rtol=None if fixed else (DEFAULT_RTOL if rtol is None else rtol),
+                               atol=None if fixed else (DEFAULT_ATOL if atol is None else atol),
+                               max_step=max_step, first_step=first_step, dissipation=dissipation,
+                               output_dt=output_dt, check_energy=check_energy, bar=bar)
+        elif method in FIXED_STEP:
             if rtol is not None or atol is not None:
                 raise ValueError(f"{method!r} is a fixed-step method: give dt, not rtol/atol")
             dt = DEFAULT_DT if dt is None else float(dt)
@@ -213,3 +226,17 @@ def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853"
         bar.close()
     out.stats.wall_time = time.perf_counter() - start
     return out
+
+
+def check_floating(method, position_limits, base_motion, dt, rtol, atol):
+    """What a floating base cannot do, named (sim/floating.py)."""
+    if method not in FLOATING_METHODS:
+        raise ValueError(f"method {method!r} is not available for a floating base; use one of "
+                         f"{list(FLOATING_METHODS)}")
+    if position_limits or base_motion is not None:
+        raise ValueError("position_limits and base_motion are not available for a floating "
+                         "base (its base moves by its own dynamics)")
+    if method in FLOATING_FIXED_STEP and (rtol is not None or atol is not None):
+        raise ValueError(f"{method!r} is a fixed-step method: give dt, not rtol/atol")
+    if method not in FLOATING_FIXED_STEP and dt is not None:
+        raise ValueError(f"{method!r} is adaptive: give rtol/atol, not dt")

@@ -316,6 +316,7 @@ class EnergyGuard:
         excess = E - self.E0 - float(W[0]) - float(W[2])
         scale = self.T0 + self.static + self.wmax + 1e-9
         if excess > 0.5 * scale:
+            qd = qd[len(qd) - self.eq.n:]          # the joints' (a floating base: v's last n)
             j = int(np.argmax(np.abs(qd)))
             name = self.eq.names[j]
             raise SimulationError(

@@ -55,6 +55,12 @@ class FixedStepIntegrator:
     """
 
     METHODS = FIXED_STEP
+    _kinds = {}        # sim/floating.py registers the integrator of a floating base
+
+    def __new__(cls, robot, *args, **kwargs):
+        if cls is FixedStepIntegrator and robot.is_floating:
+            cls = FixedStepIntegrator._kinds["floating"]
+        return super().__new__(cls)
 
     def __init__(self, robot, method="semi_implicit_euler", dt=1e-3, dissipation=True, *,
                  position_limits=False, newton_tol=1e-10, max_newton=10,

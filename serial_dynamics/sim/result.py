@@ -86,7 +86,11 @@ class SimulationResult:
     def columns(self):
         """(header, table) with t, q_*, qd_*, tau_*, delta_*, energies and works."""
         names = self.joint_names or [f"j{i}" for i in range(self.q.shape[1])]
-        head = (["t"] + [f"q_{j}" for j in names] + [f"qd_{j}" for j in names]
+        base = self.q.shape[1] - len(names) == 7          # a floating base: its pose, twist
+        q_names = ["base_x", "base_y", "base_z", "base_qx", "base_qy", "base_qz", "base_qw"]
+        v_names = ["base_vx", "base_vy", "base_vz", "base_wx", "base_wy", "base_wz"]
+        head = (["t"] + [f"q_{j}" for j in (q_names if base else []) + names]
+                + [f"qd_{j}" for j in (v_names if base else []) + names]
                 + [f"tau_{j}" for j in names] + [f"delta_{j}" for j in names]
                 + ["kinetic", "potential", "energy", "work_actuators", "work_dissipation",
                    "work_external"])

@@ -118,9 +118,11 @@ def _origin(joint):
 
 
 def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
-               armature=None) -> Model:
+               armature=None, floating_base=False) -> Model:
     """Parse a URDF (path or XML string) and build the validated chain model.
-    ``armature``: {joint name: kg m^2}, set or override the transmissions' rotor inertia."""
+    ``armature``: {joint name: kg m^2}, set or override the transmissions' rotor inertia.
+    ``floating_base``: the base link (with everything lumped into it) floats; so does the
+    child of a ``type="floating"`` joint at the root, which is then the default base."""
     robot, xml = _parse(source)
     for kind, items in (("link", robot.links), ("joint", robot.joints)):
         seen = set()
@@ -151,6 +153,9 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
                         f"joint's child), found {len(roots)}: {roots}; join them by joints")
     root = roots[0]
     check_tree(root, links, children, parent_joint)
+    for joint in (j for j in children[root] if j.type == "floating"):   # world -> base
+        floating_base = True
+        base_link = joint.child if base_link in (None, root) else base_link
 
     base_link = root if base_link is None else base_link
     for role, name in (("base_link", base_link), ("tip_link", tip_link)):
@@ -183,7 +188,7 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
     bodies = []                                  # dicts per movable joint
     frames = {base_link: (-1, np.eye(3), np.zeros(3))}
     X_acc = np.eye(4)                            # next frame, in the current body
-    parts = {}                                   # inertia parts per body
+    parts = {-1: []}                             # inertia parts per body (-1: the base)
     held = []                                    # movable joints held (names, for the warning)
     for joint in chain:
         what = f"joint {joint.name!r}"
@@ -200,6 +205,11 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
             bodies.append(_body(joint, X))
             X_acc = np.eye(4)
             parts[len(bodies) - 1] = []
+        elif joint.type == "floating":
+            raise URDFError(f"{what} on the chain is floating, below the root {root!r}: a "
+                            "floating joint may only join the root (the world) to the base; "
+                            "make it fixed, or load the chain from its child with "
+                            "floating_base=True")
         else:
             raise URDFError(f"{what} on the chain is of type {joint.type!r}; only revolute, "
                             "continuous, prismatic and fixed joints can form a serial chain")
@@ -210,7 +220,7 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
     stack = [(name, frames[name][0], _pose(frames[name])) for name in chain_links]
     while stack:
         name, body, X_link = stack.pop()
-        if body >= 0:   # links fixed to the base are not in the model: neither used nor checked
+        if body >= 0 or floating_base:   # links fixed to a fixed base: neither used nor checked
             m, c, I = _link_inertia(links[name], [_origin(j)[:3, 3] for j in children[name]])
             R = X_link[:3, :3]
             parts[body].append((m, R @ c + X_link[:3, 3], R @ I @ R.T))
@@ -253,14 +263,16 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
         axis=[b["axis"] for b in bodies],
         mass=[p[0] for p in inertia], com=[p[1] for p in inertia],
         inertia=[p[2] for p in inertia],
-        gravity=R_base.T @ g_root,                # world gravity in base coordinates
+        gravity=g_root if floating_base else R_base.T @ g_root,   # a fixed base's coordinates
         tip_R=X_acc[:3, :3], tip_p=X_acc[:3, 3],
         lower=[b["lower"] for b in bodies], upper=[b["upper"] for b in bodies],
         velocity_limit=[b["velocity"] for b in bodies],
         effort_limit=[b["effort"] for b in bodies],
         damping=[b["damping"] for b in bodies], friction=[b["friction"] for b in bodies],
         frames=frames, armature=rotors, mimic_leader=leader, mimic_multiplier=multiplier,
-        mimic_offset=offset, source=_kept(source),
+        mimic_offset=offset, source=_kept(source), base_inertia=(
+            (combine_inertias(parts[-1]) if parts[-1] else (0.0, np.zeros(3), np.zeros((3, 3))))
+            if floating_base else None),
     )
 
 

@@ -1,0 +1,344 @@
+"""``Floating``: what ``FloatingRobot`` (``facade.py``) overrides: a chain on a free-floating base (a satellite, a drone, a
+walking body): ``sd.load_urdf(..., floating_base=True)`` or a URDF whose root joint is
+``type="floating"``.
+
+Coordinates (Pinocchio's free-flyer; docs/modelling.md): q = [x, y, z, qx, qy, qz, qw,
+joints] (``nq`` = n + 7), v = [base linear velocity, base angular velocity (both in the base
+frame), joint rates] (``nv`` = n + 6); ``dof`` = n joints. Generalized forces are [base
+force; base moment] (base frame, about the base origin) then joint torques; forward dynamics
+takes joint torques (n,) (the base is free) or (n+6,). Poses and Jacobians are in the WORLD
+frame, and a tip ``wrench`` is given in world coordinates. Gravity is the world's.
+
+Backends. ``"numpy"`` runs the reference (``algorithms/floating.py``). ``"numba"`` (the
+default) runs ``core/floating.py``: the fixed-base compiled kernels on the *instantaneous
+chain* (``virtual_chain``): the base's six degrees of freedom as three prismatic joints
+along the base's x, y, z axes and three revolute joints about them, all at zero, the base's
+inertia on the last. There the virtual joints' rates are v's base part, so the chain's
+mass matrix is M and its generalized forces are the base wrench in the base frame; only
+the accelerations differ, by the velocity products of the virtual joints. The tests hold
+both backends to Pinocchio's free-flyer.
+
+Not available on a floating base yet: the Coriolis matrix, the regressor, the dynamics
+derivatives, a ``base_motion``.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..algorithms import floating as fb
+from ..algorithms import kinematics
+from ..algorithms._batch import skew
+from ..algorithms.rnea import _wrench_batch as rnea_wrench_rows
+from ..core import ENTRY_POINTS, K
+from ..core import flags as F
+from ..core.layout import B, W_ALL
+from ..core.layout import pack as layout_pack
+from ..model import Model
+from .batches import kernel_rows, run_split
+from .common import PARALLEL_MIN
+from .common import into as _into
+
+FD_METHODS = ("auto", "aba", "cholesky")
+# forward_dynamics(method="auto") on a floating base: articulated bodies from this many
+# joints on. Single compiled calls, bench/bench_floating.py (2026-11-24, two runs on a
+# shared machine): Cholesky of M faster up to 30 joints (ABA / Cholesky 1.3 .. 2.3), even
+# or ABA faster at 40 (1.01, 0.81).
+FD_CROSSOVER = 40
+_FD_FLAGS = {"aba": F.ABA, "cholesky": 0}
+_QD_QDD = F.QD | F.QDD
+_empty = np.empty
+FLOATING_KERNELS = tuple(k for k in ENTRY_POINTS if k.startswith("floating"))   # warmup()
+_ZERO_ROW = np.zeros((1, 1))  # an input floating_rows does not read
+CHUNK = 1024                  # states per chunk of a batch (a whole number of SIMD blocks)
+_GW_BAD = np.zeros(0)        # a gw that no entry point accepts (status 2): the general path
+
+
+class Floating:
+    """What a free-floating base overrides (``is_floating``); see the module docstring."""
+
+    is_floating = True
+
+    def __init__(self, model, dissipation=None, backend=None, **kwargs):
+        if np.any(model.mimic_leader >= 0):
+            raise ValueError(f"chain {model.base_link!r} -> {model.tip_link!r} has mimic joints; "
+                             "a floating base with mimic joints is not supported: load it with "
+                             "floating_base=False, or make the mimic joints independent")
+        super().__init__(model, dissipation, backend, **kwargs)
+        self._nq, self._nv = model.dof + 7, model.dof + 6
+        self._nvnv = (self._nv, self._nv)
+        self._fd_auto = _FD_FLAGS["aba" if model.dof >= FD_CROSSOVER else "cholesky"]
+        self._chain = layout_pack(virtual_chain(model)) if self._compiled else None
+        self._gw = np.concatenate((np.zeros(6), model.gravity))   # core/floating.py's gw
+
+    nq = property(lambda self: self._nq, doc="n + 7: [x, y, z, qx, qy, qz, qw, joints]")
+    nv = property(lambda self: self._nv, doc="n + 6: [v_O, omega (base frame), joints]")
+
+    def __repr__(self):
+        return (f"FloatingRobot({self.model.name!r}, dof={self.dof}, floating base "
+                f"{self.base_link!r} -> {self.tip_link!r}, joints={self.joint_names})")
+
+    # ------------------------------------------------------------- dynamics
+    # Compiled (core/floating.py): a single state of C-contiguous float64 vectors goes
+    # straight to the single-state entry point, which answers 3 for other argument types
+    # and 1 or 2 for a bad value or length; those calls, and batches, take the general
+    # path: validation with the reference's messages, then one batch kernel call.
+    def inverse_dynamics(self, q, qd, qdd, wrench=None, base_motion=None, out=None):
+        """tau (n+6,): [base force; base moment] (base frame) and joint torques for the
+        accelerations qdd = dv/dt (n+6); ``wrench`` on the tip, world coordinates."""
+        if self._compiled and base_motion is None:        # the single-state fast path
+            o = _empty(self._nv) if out is None else out
+            if wrench is None:
+                if K.floating_rnea(self._chain, q, qd, qdd, self._gw, _QD_QDD, o) == 0:
+                    return o
+            elif K.floating_rnea(self._chain, q, qd, qdd, *self._gw_single(wrench, _QD_QDD),
+                                 o) == 0:
+                return o
+        _no_base_motion(base_motion)
+        if not self._compiled:
+            return _into(out, fb.inverse_dynamics(self.model, q, qd, qdd, wrench))
+        single, q, _, s = fb.as_batch(self.model, q, False, v=qd, a=qdd)
+        N = q.shape[0]
+        v, a = (np.zeros((1, self._nv)) if s[k] is None else kernel_rows(s[k]) for k in ("v", "a"))
+        gw, flags = self._gw_rows(wrench, N, F.QD | F.QDD)
+        tau = np.empty((N, self._nv))
+        run_split(_on_chain, self._chain, N, (kernel_rows(q), v, a, _ZERO_ROW, gw),
+                  (flags, "rnea"), (tau,), PARALLEL_MIN, B)
+        return _into(out, tau[0] if single else tau)
+
+    def _gw_single(self, wrench, flags):
+        """gw (core/floating.py) of a single call: [wrench (world); gravity (world)]."""
+        if wrench is None:
+            return self._gw, flags
+        if type(wrench) is not np.ndarray or wrench.shape != (6,):
+            return _GW_BAD, flags                    # the general path names it
+        return np.concatenate((wrench, self.model.gravity)), flags | F.WRENCH
+
+    def _gw_rows(self, wrench, N, flags):
+        if wrench is None:
+            return self._gw[None], flags
+        w = rnea_wrench_rows(wrench, N)              # raises naming a bad wrench
+        return np.concatenate([w, np.broadcast_to(self.model.gravity, (w.shape[0], 3))], axis=1), \
+            flags | F.WRENCH
+
+    def mass_matrix(self, q, out=None):
+        """M (n+6, n+6), in the order of v."""
+        if self._compiled:
+            o = _empty(self._nvnv) if out is None else out
+            if K.floating_crba(self._chain, q, o) == 0:
+                return o
+        else:
+            return _into(out, fb.mass_matrix(self.model, q))
+        single, q, _, _ = fb.as_batch(self.model, q, False)
+        N = q.shape[0]
+        M = np.empty((N, self._nv, self._nv))
+        run_split(_on_chain, self._chain, N, (kernel_rows(q), _ZERO_ROW, _ZERO_ROW, _ZERO_ROW,
+                                              self._gw[None]), (0, "crba"), (M,), PARALLEL_MIN, B)
+        return _into(out, M[0] if single else M)
+
+    def bias_torques(self, q, qd, wrench=None, base_motion=None, out=None):
+        """b (n+6,) = inverse_dynamics(q, v, 0, wrench)."""
+        _no_base_motion(base_motion)
+        if not self._compiled:
+            return _into(out, fb.bias(self.model, q, qd, wrench))
+        return self.inverse_dynamics(q, qd, np.zeros(self._nv), wrench, out=out)
+
+    def gravity_torques(self, q, out=None):
+        """g (n+6,): what holds the whole robot still against gravity (the base's part is
+        the weight, carried by whatever holds the base)."""
+        if not self._compiled:
+            return _into(out, fb.gravity_forces(self.model, q))
+        zero = np.zeros(self._nv)
+        return self.inverse_dynamics(q, zero, zero, out=out)
+
+    def forward_dynamics(self, q, qd, tau, wrench=None, method="auto", base_motion=None,
+                         out=None):
+        """a = dv/dt (n+6,) for joint torques ``tau`` (n,) (the base free) or generalized
+        forces (n+6,). ``method``: "auto", "aba" (articulated bodies through the floating
+        root, FDfb) or "cholesky" (M a = tau - b)."""
+        flags = self._fd_auto if method == "auto" else _FD_FLAGS.get(method)
+        if self._compiled and base_motion is None and flags is not None:   # the fast path
+            o = _empty(self._nv) if out is None else out
+            if wrench is None:
+                if K.floating_fd(self._chain, q, qd, tau, self._gw, flags, o) == 0:
+                    return o
+            elif K.floating_fd(self._chain, q, qd, tau, *self._gw_single(wrench, flags), o) == 0:
+                return o
+        _no_base_motion(base_motion)
+        if flags is None:
+            raise ValueError(f"forward-dynamics method {method!r} unknown for a floating base; "
+                             f"use one of {FD_METHODS}")
+        if not self._compiled:
+            method = "aba" if flags & F.ABA else "cholesky"
+            return _into(out, fb.forward_dynamics(self.model, q, qd, tau, wrench, method))
+        single, q, _, s = fb.as_batch(self.model, q, False, v=qd, tau=tau)
+        N = q.shape[0]
+        gw, flags = self._gw_rows(wrench, N, flags)
+        a = np.empty((N, self._nv))
+        run_split(_on_chain, self._chain, N, (kernel_rows(q), kernel_rows(s["v"]), _ZERO_ROW,
+                                              kernel_rows(s["tau"]), gw), (flags, "fd"), (a,),
+                  PARALLEL_MIN, B)
+        return _into(out, a[0] if single else a)
+
+    def coriolis_matrix(self, q, qd):
+        raise NotImplementedError("the Coriolis matrix of a floating base is not available; "
+                                  "use bias_torques(q, v) for C v + g")
+
+    def regressor(self, *args, **kwargs):
+        raise NotImplementedError("the regressor of a floating base is not available")
+
+    def inertial_parameters(self, *args, **kwargs):
+        raise NotImplementedError("the regressor of a floating base is not available")
+
+    def inverse_dynamics_derivatives(self, *args, **kwargs):
+        raise NotImplementedError("dynamics derivatives of a floating base are not available")
+
+    def forward_dynamics_derivatives(self, *args, **kwargs):
+        raise NotImplementedError("dynamics derivatives of a floating base are not available")
+
+    # ------------------------------------------------------------- kinematics, energy, momentum
+    def forward_kinematics(self, q, link=None):
+        """4x4 pose of ``link`` (default: the tip) in the world."""
+        single, q, R, _ = fb.as_batch(self.model, q)
+        X = kinematics.forward_kinematics(self.model, q[:, 7:], link)
+        B = np.zeros_like(X)
+        B[:, :3, :3], B[:, :3, 3], B[:, 3, 3] = R, q[:, :3], 1.0
+        return (B @ X)[0] if single else B @ X
+
+    def jacobian(self, q, link=None):
+        """6 x (n+6) Jacobian of ``link``'s origin, [linear; angular] velocity in world axes,
+        times v: the base's columns [R, -R [r]x; 0, R] (r: the link origin in the base
+        frame), the joints' columns R J_fixed."""
+        single, q, R, _ = fb.as_batch(self.model, q)
+        N = q.shape[0]
+        r = kinematics.forward_kinematics(self.model, q[:, 7:], link)[:, :3, 3]
+        J = np.zeros((N, 6, self.nv))
+        J[:, :3, :3] = R
+        J[:, :3, 3:6] = -R @ skew(r)
+        J[:, 3:, 3:6] = R
+        Jj = kinematics.jacobian(self.model, q[:, 7:], link)
+        J[:, :3, 6:], J[:, 3:, 6:] = R @ Jj[:, :3], R @ Jj[:, 3:]
+        return J[0] if single else J
+
+    def kinetic_energy(self, q, qd):
+        """T = 1/2 v^T M v (J)."""
+        if not self._compiled:
+            return fb.kinetic_energy(self.model, q, qd)
+        M = self.mass_matrix(q)
+        v = np.broadcast_to(np.asarray(qd, dtype=float), M.shape[:-1])
+        return 0.5 * np.einsum("...i,...ij,...j->...", v, M, v)
+
+    def potential_energy(self, q):
+        return fb.potential_energy(self.model, q)
+
+    def center_of_mass(self, q):
+        """(3,): the center of mass of the base and the chain, world frame."""
+        return fb.center_of_mass(self.model, q)
+
+    def centroidal_momentum(self, q, qd):
+        """(6,): [linear momentum; angular momentum about the center of mass], world axes."""
+        return fb.centroidal_momentum(self.model, q, qd)
+
+    def integrate(self, q, qd, dt):
+        """q moved by v dt: the base pose on SE(3) (exponential map), the joints by qd dt."""
+        return fb.integrate(self.model, q, qd, dt)
+
+    def random_state(self, rng=None, batch=None, speed=1.0):
+        """(q, v): the base within 1 m of the origin with a uniformly random unit quaternion,
+        joints within their limits (+-pi where unlimited), velocities in +-speed."""
+        return fb.random_state(self.model, rng, batch, speed)
+
+    def neutral(self):
+        """q (n+7,) with the base at the origin, unrotated, and every joint at zero."""
+        return np.concatenate([np.zeros(6), [1.0], np.zeros(self.dof)])
+
+    # ------------------------------------------------------------- space robotics
+    def base_reaction(self, q, qd_joints):
+        """v_base (6,) or (N, 6) = -M_bb^-1 M_bj qd: the base's motion [v_O; omega] (base
+        frame) that a joint motion causes when the total momentum is zero (no external
+        force; Umetani & Yoshida 1989)."""
+        single, q, _, _ = fb.as_batch(self.model, q)
+        M = fb.mass_matrix_joints(self.model, q[:, 7:])
+        qdj = np.broadcast_to(np.asarray(qd_joints, dtype=float), (q.shape[0], self.dof))
+        vb = -np.linalg.solve(M[:, :6, :6], np.einsum("nij,nj->ni", M[:, :6, 6:], qdj)[..., None])
+        return vb[:, :, 0][0] if single else vb[:, :, 0]
+
+    def generalized_jacobian(self, q, link=None):
+        """J* (6, n): ``link``'s twist [linear; angular] (world axes) from the joint rates
+        alone at zero total momentum, J* = J_j - J_b M_bb^-1 M_bj (Umetani & Yoshida 1989)."""
+        single, q, _, _ = fb.as_batch(self.model, q)
+        M = fb.mass_matrix_joints(self.model, q[:, 7:])
+        J = self.jacobian(q, link)
+        Js = J[:, :, 6:] - J[:, :, :6] @ np.linalg.solve(M[:, :6, :6], M[:, :6, 6:])
+        return Js[0] if single else Js
+
+    def warmup(self):
+        """Compile or load the floating-base kernels (core/floating.py) and call each once,
+        single state and batch, so that the first real call is fast. Returns self."""
+        if self._compiled:
+            K.load_all(FLOATING_KERNELS)
+        for q, v in (self.random_state(0), self.random_state(0, batch=2)):
+            self.inverse_dynamics(q, v, v)
+            self.mass_matrix(q)
+            for method in ("aba", "cholesky"):
+                self.forward_dynamics(q, v, v, method=method)
+        return self
+
+
+def virtual_chain(model) -> Model:
+    """The instantaneous chain of a floating ``model`` (module docstring): prismatic joints
+    along the base's x, y, z, revolute joints about them (massless, the last carrying the
+    base's inertia), then the chain; no gravity (it comes with each call)."""
+    n = model.dof
+    eye, zero = np.eye(3), np.zeros(3)
+    names = [f"_base_{k}" for k in ("x", "y", "z", "rx", "ry", "rz")]
+    frames = {link: (b + 6 if b >= 0 else 5, R, p) for link, (b, R, p) in model.frames.items()}
+    return Model.build(
+        name=model.name, joint_names=names + list(model.joint_names),
+        joint_types=["prismatic"] * 3 + ["revolute"] * 3 + list(model.joint_types),
+        link_names=names[:5] + [model.base_link] + list(model.link_names),
+        base_link="_world", tip_link=model.tip_link,
+        R_parent=np.concatenate([np.broadcast_to(eye, (6, 3, 3)), model.R_parent]),
+        p_parent=np.concatenate([np.zeros((6, 3)), model.p_parent]),
+        axis=np.concatenate([eye, eye, model.axis]),
+        mass=np.r_[np.zeros(5), model.base_mass, model.mass],
+        com=np.concatenate([np.zeros((5, 3)), [model.base_com], model.com]),
+        inertia=np.concatenate([np.zeros((5, 3, 3)), [model.base_inertia], model.inertia]),
+        gravity=zero, tip_R=model.tip_R, tip_p=model.tip_p, frames=frames,
+        armature=np.r_[np.zeros(6), model.armature], check_mass_matrix=False)
+
+
+def _on_chain(P, q, v, a, tau, gw, flags, kind, out):
+    """N floating states through a fixed-base batch kernel of the instantaneous chain
+    (``kind``: "rnea" in SIMD lanes, "fd", "crba"), CHUNK states at a time: their rows
+    (core/floating.py floating_rows) in small buffers reused from chunk to chunk (no fresh
+    pages to fault in, in cache), then the kernel, then (forward dynamics) the accelerations
+    converted back. Every state as in one call (chunks are whole SIMD blocks). Returns the
+    largest status (run_split calls it once per thread)."""
+    N, nv = out.shape[0], P.shape[0] - 1
+    c = min(N, CHUNK)
+    qv, w = np.empty((c, nv)), np.empty((c, W_ALL))
+    qdd = np.empty((c if kind == "rnea" else 0, nv))
+    status = 0
+    for k in range(0, N, CHUNK):
+        e = min(N, k + CHUNK)
+        rows = lambda x: x if x.shape[0] == 1 else x[k:e]       # noqa: E731
+        m = e - k
+        status = max(status, K.floating_rows(rows(q), rows(v), rows(a), rows(gw), flags,
+                                             qv[:m], qdd[:m], w[:m]))
+        if kind == "rnea":
+            status = max(status, K.rnea_batch(P, qv[:m], rows(v), qdd[:m], w[:m],
+                                              (flags & F.WRENCH) | _QD_QDD | F.BASE, out[k:e]))
+        elif kind == "fd":
+            status = max(status, K.fd_batch(P, qv[:m], rows(v), rows(tau), w[:m],
+                                            flags | F.QD | F.BASE, out[k:e]))
+            K.floating_accelerations(rows(v), out[k:e])
+        else:
+            status = max(status, K.crba_batch(P, qv[:m], out[k:e]))
+    return status
+
+
+def _no_base_motion(base_motion):
+    if base_motion is not None:
+        raise ValueError("base_motion prescribes a fixed base's motion; a floating base moves "
+                         "by its own dynamics (give its velocity in v)")
+

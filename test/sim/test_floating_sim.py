@@ -1,0 +1,75 @@
+"""Simulation of a floating base (sim/floating.py): conservation laws in zero gravity, unit
+quaternions, the node's integrator, refused options."""
+import numpy as np
+import pytest
+
+import serial_dynamics as sd
+from serial_dynamics.robots.synthetic import satellite_urdf
+from serial_dynamics.sim.fixed_step import FixedStepIntegrator
+
+
+@pytest.fixture(scope="module")
+def satellite():
+    return sd.load_urdf(satellite_urdf(), gravity=(0, 0, 0))
+
+
+def pd_torque(robot):
+    """A PD controller sweeping the joints (0.8 rad, 0.5 rad/s): the arm driven."""
+    D = np.diag(robot.mass_matrix(robot.neutral()))[6:]
+
+    def torque(t, q, v):
+        return 4.0 * D * (0.8 * np.sin(0.5 * t + np.arange(robot.dof)) - q[7:]) - 2.8 * D * v[6:]
+    return torque
+
+
+def drift(x):
+    return np.max(np.abs(x - x[0])) / np.max(np.abs(x[0]))
+
+
+def test_a_driven_arm_keeps_the_total_momentum(satellite):
+    v0 = np.r_[0.01, 0.0, -0.02, 0.01, -0.02, 0.015, np.full(7, 0.1)]
+    res = sd.simulate(satellite, 10.0, satellite.neutral(), v0, torque=pd_torque(satellite),
+                      method="DOP853", rtol=1e-12, atol=1e-12, dissipation=False)
+    assert res.q.shape[1] == satellite.nq and res.qd.shape[1] == satellite.nv
+    assert res.tau.shape[1] == satellite.dof and np.ptp(res.q[:, 7]) > 1.0   # it swept
+    assert drift(satellite.centroidal_momentum(res.q, res.qd)) <= 1e-9
+    assert np.max(np.abs(np.linalg.norm(res.q[:, 3:7], axis=1) - 1.0)) <= 1e-15
+    assert res.relative_energy_error() <= 1e-9                   # E - E0 = work of the motors
+    head, table = res.columns()
+    assert len(head) == table.shape[1] and head[1:9] == ["q_base_x", "q_base_y", "q_base_z",
+                                                         "q_base_qx", "q_base_qy", "q_base_qz",
+                                                         "q_base_qw", "q_joint1"]
+
+
+def test_a_free_tumble_keeps_kinetic_energy_and_momentum_across_charts(satellite):
+    v0 = np.r_[0.1, -0.2, 0.05, 0.3, -0.5, 0.8, np.linspace(-0.5, 0.5, 7)]
+    res = sd.simulate(satellite, 10.0, satellite.neutral(), v0, method="DOP853", rtol=1e-12,
+                      atol=1e-12, dissipation=False)
+    assert "charts of SE(3)" in res.stats.message and int(res.stats.message.split()[1]) >= 5
+    assert drift(res.kinetic) <= 1e-9
+    assert drift(satellite.centroidal_momentum(res.q, res.qd)) <= 1e-9
+
+
+def test_the_fixed_step_methods_and_the_node_integrator(satellite):
+    v0 = np.r_[np.zeros(3), 0.3, -0.5, 0.8, np.full(7, 0.2)]
+    tau = 0.5 * np.diag(satellite.mass_matrix(satellite.neutral()))[6:] * np.linspace(1.0, -1.0, 7)
+    for method, dt, tol in (("rk4", 1e-2, 1e-5), ("semi_implicit_euler", 1e-3, 1e-2)):
+        res = sd.simulate(satellite, 2.0, satellite.neutral(), v0, torque=tau, method=method,
+                          dt=dt, dissipation=False)
+        assert drift(satellite.centroidal_momentum(res.q, res.qd)) <= tol
+        assert np.max(np.abs(np.linalg.norm(res.q[:, 3:7], axis=1) - 1.0)) <= 1e-15
+        integ = FixedStepIntegrator(satellite, method, dt, dissipation=False)
+        q, v = satellite.neutral(), v0
+        for k in range(3):
+            q, v = integ.step(q, v, tau)
+            np.testing.assert_array_equal(q, res.q[k + 1])
+            np.testing.assert_array_equal(v, res.qd[k + 1])
+
+
+def test_what_a_floating_base_cannot_simulate_is_named(satellite):
+    with pytest.raises(ValueError, match="not available for a floating base"):
+        sd.simulate(satellite, 1.0, method="symplectic_euler", dt=1e-3)
+    with pytest.raises(ValueError, match=r"q0 has 7 values; give the base's pose"):
+        sd.simulate(satellite, 1.0, np.zeros(7))
+    with pytest.raises(ValueError, match="quaternion .* zero length"):
+        sd.simulate(satellite, 1.0, np.zeros(satellite.nq))

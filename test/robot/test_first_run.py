@@ -9,9 +9,7 @@ import time
 
 import serial_dynamics as sd
 from serial_dynamics import precompile
-
-robot_module = sys.modules[sd.Robot.__module__]   # where Robot lives (the layout is moving)
-SINGLE_KERNELS, BATCH_KERNELS = robot_module.SINGLE_KERNELS, robot_module.BATCH_KERNELS
+from serial_dynamics.robot import BATCH_KERNELS, SINGLE_KERNELS
 
 
 def loaded_after(code):

@@ -16,3 +16,4 @@ PY=${PYTHON:-.venv/bin/python}
 "$PY" bench/bench_derivatives.py
 "$PY" bench/bench_servo.py
 "$PY" bench/bench_observer.py
+"$PY" bench/bench_first_run.py              # empty caches of its own

@@ -24,7 +24,8 @@ METHODS = ("ols", "wls", "physical")
 MAX_CONDITION = 1e7
 # evaluations of the physically consistent fit that replaces an OLS/WLS fit which is not
 # physical, started from that fit: the torque residual is then within 1 % of the plain fit's
-# (UR5e, 20 s, 0.05 N m noise: 0.1 .. 0.6 % above per joint after 50 evaluations)
+# (UR5e, 20 s, 0.05 N m noise: RMS per joint -0.1 .. +0.5 % of the WLS fit's after 200
+# evaluations, -0.1 .. +0.6 % after 50; the unlimited fit stops at its limit, 2000)
 CONSISTENT_NFEV = 200
 
 

@@ -1,13 +1,15 @@
-"""A controller that holds under load (issue 20 item 3): the xArm7 of example-robot-data,
-stretched upright (q = 0, where the first and third axes line up and the effective inertia
-of each is 1/14 of M_ii), the gains of docs/ros.md's example (kp 900, kd 60), joint_states
-at 1 kHz, the controller starved -- pinned to one core with a busy process and stopped
-(SIGSTOP) for 30 ms in every 100 ms -- and the tip pushed with 17 N for 0.2 s, in every
-mode. Before the fix pd_gravity diverged here (joint speeds of several rad/s, the
-simulator clamping at the effort limits; 18 rad/s in a trial here), intermittently.
-Asserted: bounded joint speed during and after the push; in computed_torque and
-pd_gravity the arm comes to rest near the held pose; in gravity_compensation (which holds nothing) the controller adds no energy: the arm
-ends slower than it was at the end of the push. No timing is asserted.
+"""A controller that holds under load (issue 20 item 3): the xArm7 of example-robot-data at
+q = 0 (where its first and third axes line up: each one's effective inertia is 1/13 of
+M_ii), the gains of docs/ros.md's example (kp 900, kd 60), joint_states at 1 kHz, the
+controller starved -- pinned to one core with a busy process and stopped (SIGSTOP) 30 ms in
+every 100 ms -- and the tip pushed with 17 N for 0.2 s, in every mode. Asserted: in
+computed_torque and pd_gravity bounded joint speeds and the arm at rest near the held pose
+(within the friction band); in gravity_compensation (which holds nothing) a kinetic energy
+that does not grow after the push. No timing is asserted.
+
+The old controller (M_ii(0) gains, a queue of 10 states) passed this too in the trials
+here: the URDF's joint damping (10 N m s/rad) steadies the plant. The issue's divergence
+was not reproduced by this test; the fix rests on the bound (test_pd_bound.py).
 """
 import os
 import signal

@@ -24,12 +24,15 @@ import numpy as np
 import scipy.linalg
 
 
+def _inverse_mass_matrix(robot, q) -> np.ndarray:
+    M = robot.mass_matrix(q)
+    return scipy.linalg.cho_solve(scipy.linalg.cho_factor(M), np.eye(len(M)))
+
+
 def effective_inertia(robot, q) -> np.ndarray:
     """m_i = 1 / (M(q)^-1)_ii for every joint (kg m^2; kg): the inertia joint i's torque
     meets with the other joints free."""
-    M = robot.mass_matrix(q)
-    Minv = scipy.linalg.cho_solve(scipy.linalg.cho_factor(M), np.eye(len(M)))
-    return 1.0 / np.diag(Minv)
+    return 1.0 / np.diag(_inverse_mass_matrix(robot, q))
 
 
 def default_gains(robot, q, kp, kd):
@@ -40,8 +43,7 @@ def default_gains(robot, q, kp, kd):
     M x'' = -Kp' x - Kd' x' then has modes x'' + mu kd x' + mu kp x = 0 with 0 < mu <= 1
     (Kp', Kd' are both proportional to D), so the bound kp h^2 + 2 kd h < 4 holds for every
     mode at every pose whenever it holds for kp, kd."""
-    M = robot.mass_matrix(q)
-    Minv = scipy.linalg.cho_solve(scipy.linalg.cho_factor(M), np.eye(len(M)))
+    Minv = _inverse_mass_matrix(robot, q)
     m = 1.0 / np.diag(Minv)
     s = np.sqrt(m)
     lam = np.linalg.eigvalsh(s[:, None] * Minv * s[None, :])[-1]

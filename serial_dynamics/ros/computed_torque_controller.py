@@ -50,9 +50,11 @@ PARAMETERS = {
     "kp": ("double[]", [400.0], "position gains (1/s^2), one or one per joint"),
     "kd": ("double[]", [40.0], "velocity gains (1/s), one or one per joint"),
     "pd.kp": ("double[]", None, "pd_gravity position gains (N m/rad), one or one per joint "
-              "([] = kp times the effective inertia 1/(M(q)^-1)_ii at the state used)"),
+              "([] = kp times the effective inertia 1/(M(q)^-1)_ii at the state used, over "
+              "the joints' coupling: docs/ros.md)"),
     "pd.kd": ("double[]", None, "pd_gravity velocity gains (N m s/rad), one or one per joint "
-              "([] = kd times the effective inertia 1/(M(q)^-1)_ii at the state used)"),
+              "([] = kd times the effective inertia 1/(M(q)^-1)_ii at the state used, over "
+              "the joints' coupling: docs/ros.md)"),
     "compensate_dissipation": ("bool", False, "add the torque that overcomes the joint "
                                "dissipation (friction) at the measured velocity"),
     **parameters.PAYLOAD_PARAMETERS,

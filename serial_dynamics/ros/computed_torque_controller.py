@@ -50,9 +50,11 @@ PARAMETERS = {
     "kp": ("double[]", [400.0], "position gains (1/s^2), one or one per joint"),
     "kd": ("double[]", [40.0], "velocity gains (1/s), one or one per joint"),
     "pd.kp": ("double[]", None, "pd_gravity position gains (N m/rad), one or one per joint "
-              "([] = kp times the effective inertia 1/(M(q)^-1)_ii at the state used)"),
+              "([] = kp times the effective inertia 1/(M(q)^-1)_ii at the state used, over "
+              "the joints' coupling: docs/ros.md)"),
     "pd.kd": ("double[]", None, "pd_gravity velocity gains (N m s/rad), one or one per joint "
-              "([] = kd times the effective inertia 1/(M(q)^-1)_ii at the state used)"),
+              "([] = kd times the effective inertia 1/(M(q)^-1)_ii at the state used, over "
+              "the joints' coupling: docs/ros.md)"),
     "compensate_dissipation": ("bool", False, "add the torque that overcomes the joint "
                                "dissipation (friction) at the measured velocity"),
     **parameters.PAYLOAD_PARAMETERS,
@@ -211,14 +213,15 @@ class ComputedTorqueController(Node):
         self.saturated.update(np.flatnonzero(np.abs(tau) > robot.effort_limit).tolist())
 
     def pd_gains(self, robot, q):
-        """pd_gravity's gains at q: pd.kp, pd.kd as given, or kp, kd times the effective
-        inertia m_i = 1/(M(q)^-1)_ii (pd_bound): each joint then meets e'' + kd e' + kp e = 0
-        at every pose (its own inertia m_i), within the bound whenever kp, kd are."""
+        """pd_gravity's gains at q: pd.kp, pd.kd as given, or kp, kd scaled by the effective
+        inertias at q and the joints' coupling (pd_bound.default_gains): every mode of the
+        arm held at q is then no faster than e'' + kd e' + kp e = 0, within the bound
+        whenever kp, kd are."""
         if self.pd_kp is not None and self.pd_kd is not None:
             return self.pd_kp, self.pd_kd
-        m = pd_bound.effective_inertia(robot, q)
-        return (self.kp * m if self.pd_kp is None else self.pd_kp,
-                self.kd * m if self.pd_kd is None else self.pd_kd)
+        kp, kd = pd_bound.default_gains(robot, q, self.kp, self.kd)
+        return (kp if self.pd_kp is None else self.pd_kp,
+                kd if self.pd_kd is None else self.pd_kd)
 
     def check_bound(self):
         """Warn (once per joint) when pd_gravity's gains are beyond the explicit-PD stability

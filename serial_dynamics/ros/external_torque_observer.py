@@ -49,7 +49,7 @@ class ExternalTorqueObserver(Node):
 
     def __init__(self, **kwargs):
         super().__init__(self.NAME, **kwargs)
-        p = parameters.declare(self, PARAMETERS)
+        p = parameters.declare(self, PARAMETERS, {"collision_release": (0.0, 1.0)})
         # payload.* may be set while running: the observer restarts on the new model
         robot = self.robot = parameters.with_payload_parameters(
             self, parameters.load_robot(self, p), p, self._set_model)
@@ -60,8 +60,6 @@ class ExternalTorqueObserver(Node):
         for bad, text in (
                 (not np.all((thr > 0) & np.isfinite(thr)),
                  f"'collision_thresholds' must be > 0 and finite, got {thr.tolist()}"),
-                (not 0 <= self.release <= 1,
-                 f"'collision_release' must be in [0, 1], got {self.release}"),
                 (not 0 < self.max_gap < np.inf,
                  f"'max_sample_gap' must be > 0 (s), got {self.max_gap}"),
                 (not 0 < gain < np.inf, f"'gain' must be > 0 (1/s), got {gain}")):

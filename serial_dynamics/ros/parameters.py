@@ -9,7 +9,8 @@ import time
 import warnings
 
 import numpy as np
-from rcl_interfaces.msg import ParameterDescriptor, ParameterType, SetParametersResult
+from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
+                                ParameterType, SetParametersResult)
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import String
@@ -118,10 +119,12 @@ USE_SIM_TIME_TEXT = ("run on /clock (simulated time) instead of the system clock
                      "read-only: give it at start-up (-p use_sim_time:=true)")
 
 
-def declare(node, spec: dict) -> dict:
+def declare(node, spec: dict, ranges: dict | None = None) -> dict:
     """Declare every parameter of ``spec`` (with its description; read-only unless in
-    ``WRITABLE``) and return their values, checked and converted. Raises StartupError
-    naming the parameter. Also makes rclpy's own ``use_sim_time`` read-only (set while
+    ``WRITABLE``; ``ranges``: name -> (lowest, highest), inclusive, in its descriptor) and
+    return their values, checked and converted. Raises StartupError naming the parameter.
+    rclpy enforces a descriptor's range on a double (and an integer on an integer); a
+    number of the other kind (``-p real_time_factor:=-1``) is checked here. Also makes rclpy's own ``use_sim_time`` read-only (set while
     running, a node without /clock would stop): give it at start-up."""
     node.set_descriptor(USE_SIM_TIME, ParameterDescriptor(
         description=USE_SIM_TIME_TEXT, read_only=True, type=ParameterType.PARAMETER_BOOL))
@@ -129,8 +132,16 @@ def declare(node, spec: dict) -> dict:
     for name, (kind, default, text) in spec.items():
         descriptor = ParameterDescriptor(description=text, dynamic_typing=True,
                                          read_only=name not in WRITABLE)
+        lo, hi = (ranges or {}).get(name, (None, None))
+        if kind == "double" and lo is not None:
+            descriptor.floating_point_range = [FloatingPointRange(from_value=lo, to_value=hi)]
+        elif kind == "int" and lo is not None:
+            descriptor.integer_range = [IntegerRange(from_value=lo, to_value=hi, step=1)]
         node.declare_parameter(name, default, descriptor)
         values[name] = _coerce(name, kind, node.get_parameter(name).value)
+        if lo is not None and not lo <= values[name] <= hi:
+            raise StartupError(f"parameter {name!r} = {values[name]} is out of its range "
+                               f"[{lo:g}, {hi:g}]")
     # given (-p, --params-file) but not a parameter of this node: a typo or the wrong node.
     unknown = sorted(x for x in _overrides(node) if not node.has_parameter(x))
     if unknown:

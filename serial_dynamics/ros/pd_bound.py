@@ -24,12 +24,30 @@ import numpy as np
 import scipy.linalg
 
 
+def _inverse_mass_matrix(robot, q) -> np.ndarray:
+    M = robot.mass_matrix(q)
+    return scipy.linalg.cho_solve(scipy.linalg.cho_factor(M), np.eye(len(M)))
+
+
 def effective_inertia(robot, q) -> np.ndarray:
     """m_i = 1 / (M(q)^-1)_ii for every joint (kg m^2; kg): the inertia joint i's torque
     meets with the other joints free."""
-    M = robot.mass_matrix(q)
-    Minv = scipy.linalg.cho_solve(scipy.linalg.cho_factor(M), np.eye(len(M)))
-    return 1.0 / np.diag(Minv)
+    return 1.0 / np.diag(_inverse_mass_matrix(robot, q))
+
+
+def default_gains(robot, q, kp, kd):
+    """pd_gravity's gains at q from the bandwidth gains kp (1/s^2) and kd (1/s):
+    Kp' = kp m / lam, Kd' = kd m / lam, m the effective inertias and lam the largest
+    eigenvalue of D^1/2 M^-1 D^1/2 (D = diag(m); unit diagonal, lam >= 1: the coupling of
+    the joints; about 2 on the xArm7). Linearized at rest with gravity compensated, the arm
+    M x'' = -Kp' x - Kd' x' then has modes x'' + mu kd x' + mu kp x = 0 with 0 < mu <= 1
+    (Kp', Kd' are both proportional to D), so the bound kp h^2 + 2 kd h < 4 holds for every
+    mode at every pose whenever it holds for kp, kd."""
+    Minv = _inverse_mass_matrix(robot, q)
+    m = 1.0 / np.diag(Minv)
+    s = np.sqrt(m)
+    lam = np.linalg.eigvalsh(s[:, None] * Minv * s[None, :])[-1]
+    return kp * m / lam, kd * m / lam
 
 
 def smallest_inertia(kp, kd, h) -> np.ndarray:

@@ -33,10 +33,11 @@ from std_srvs.srv import SetBool, Trigger
 
 from serial_dynamics.sim.fixed_step import SERVO_METHODS, FixedStepIntegrator
 from serial_dynamics.model.errors import SimulationError
-from serial_dynamics.sim.servo import servo
 
 from . import common, parameters, simulator_inputs
+from .command_hold import CommandHold
 from .common import Rejected
+from .pacing import Pacer
 from .parameters import StartupError
 
 PARAMETERS = {
@@ -70,6 +71,9 @@ PARAMETERS = {
                  "joint, for joint_commands with position and/or velocity targets"),
     **parameters.PAYLOAD_PARAMETERS,
 }
+# parameter ranges (ParameterDescriptor; inclusive, so only those that include their ends)
+RANGES = {"real_time_factor": (0.0, 1e6), "command_timeout": (0.0, 1e9),
+          "external_wrench_timeout": (0.0, 1e9), "step_count": (1, 10 ** 9)}
 MAX_LAG = 0.1   # s of wall time behind schedule before the pacing re-anchors
 COARSE_DT = 0.01   # s; a larger sim_dt is warned about (an arm needs steps of about 1 ms)
 
@@ -79,7 +83,7 @@ class Simulator(Node):
 
     def __init__(self, **kwargs):
         super().__init__(self.NAME, **kwargs)
-        p = parameters.declare(self, PARAMETERS)
+        p = parameters.declare(self, PARAMETERS, RANGES)
         # payload.* may be set while running: a new plant, swapped in between two steps
         self.robot = robot = parameters.with_payload_parameters(self, parameters.load_robot(self, p), p,
                                                             self._set_plant)
@@ -103,11 +107,6 @@ class Simulator(Node):
         for name in ("sim_dt", "publish_rate", "clock_rate"):
             if not 0 < p[name] < np.inf:
                 raise StartupError(f"parameter {name!r} must be > 0, got {p[name]}")
-        for name in ("real_time_factor", "command_timeout", "external_wrench_timeout"):
-            if not 0 <= p[name] < np.inf:
-                raise StartupError(f"parameter {name!r} must be >= 0 (and finite), got {p[name]}")
-        if p["step_count"] < 1:
-            raise StartupError(f"parameter 'step_count' must be >= 1, got {p['step_count']}")
         self.kp, self.kd = (parameters.per_joint(f"servo.{x}", p[f"servo.{x}"], robot, None,
                                                  positive=True) for x in ("kp", "kd"))
         if not (np.all(np.isfinite(self.kp)) and np.all(np.isfinite(self.kd))):
@@ -130,19 +129,18 @@ class Simulator(Node):
         dt = self.integrator.dt
         self.publish_every = max(1, round(1.0 / (p["publish_rate"] * dt)))
         self.clock_every = max(1, round(1.0 / (p["clock_rate"] * dt)))
-        self.timeout_steps = round(p["command_timeout"] / dt) if p["command_timeout"] > 0 else 0
-        self.wrench_timeout_steps = round(p["external_wrench_timeout"] / dt)
+        self.hold = CommandHold(n, self.kp, self.kd, round(p["command_timeout"] / dt),
+                                round(p["external_wrench_timeout"] / dt))
         self.rtf, self.publish_clock = p["real_time_factor"], p["publish_clock"]
+        self.pacer = Pacer(dt, self.rtf, MAX_LAG)
         robot.warmup()
         self.integrator.step(self.q0, np.zeros(n), np.zeros(n))   # compile the step too
 
         self.lock = threading.Lock()
         self.paused = p["start_paused"]
         self.k = 0                                   # steps since start (simulated time)
-        self.wrench, self.wrench_step = None, 0      # the push on the tip: (6,) or None
         self.pending = None                          # ~/set_state: (idx, q or None, qd)
-        self.late_steps = self.divergences = 0
-        self._rtf_mark = (time.monotonic(), self.k)
+        self.divergences = 0
         self._reset_state()
         self.reject = common.Rejections(self, hardware_id=robot.model.name)
         self.reject.watch(self._diagnostics)
@@ -162,11 +160,8 @@ class Simulator(Node):
 
     # ------------------------------------------------------------ commands and services
     def _reset_state(self):
-        n = self.robot.dof
-        self.q, self.qd = self.q0.copy(), np.zeros(n)
-        self.tau, self.cmd_step, self.timed_out = np.zeros(n), self.k, True   # nothing to time out
-        self.q_target, self.qd_target = np.full(n, np.nan), np.full(n, np.nan)   # NaN: none
-        self.servo, self.tau_servo = None, np.zeros(n)   # the servo, its torque of the last step
+        self.q, self.qd = self.q0.copy(), np.zeros(self.robot.dof)
+        self.hold.clear(self.k)
         self.pending = None
 
     def _command(self, idx, effort, position=None, velocity=None):
@@ -179,16 +174,7 @@ class Simulator(Node):
                              f"{effort[idx == j][0]:.4g}, beyond its limit {self.limit[j]:.4g}; "
                              "clamped to the limit (logged once)")
         with self.lock:
-            tau, qt, vt = self.tau.copy(), self.q_target.copy(), self.qd_target.copy()
-            tau[idx] = clamped
-            qt[idx] = np.nan if position is None else position
-            vt[idx] = np.nan if velocity is None else velocity
-            self.tau, self.cmd_step, self.timed_out = tau, self.k, False
-            self.q_target, self.qd_target = qt, vt
-            self.servo = (servo(self.kp, self.kd, qt, vt) if np.any(~np.isnan(qt) | ~np.isnan(vt))
-                          else None)
-            if self.servo is None:
-                self.tau_servo = np.zeros(self.robot.dof)
+            self.hold.command(self.k, idx, clamped, position, velocity)
 
     def on_effort(self, msg):
         try:
@@ -216,7 +202,7 @@ class Simulator(Node):
         except Rejected as exc:
             return self.reject("external_wrench", exc, "; the wrench in force stays")
         with self.lock:
-            self.wrench, self.wrench_step = w, self.k
+            self.hold.push(self.k, w)
 
     def on_set_state(self, msg):
         try:
@@ -269,30 +255,24 @@ class Simulator(Node):
 
     # ------------------------------------------------------------ simulation loop
     def _loop(self):
-        wall0, k0, lag_warned = time.monotonic(), self.k, False
-        start_wall, start_k = wall0, self.k
+        start_wall, start_k, pacer, lag_warned = time.monotonic(), self.k, self.pacer, False
+        pacer.anchor(self.k)
         try:
             while not self._stop.is_set():
                 if self.paused:
                     self._publish()
                     self._stop.wait(self.publish_every * self.integrator.dt)
-                    wall0, k0 = time.monotonic(), self.k
+                    pacer.anchor(self.k)
                     continue
-                if self.rtf > 0:
-                    due = wall0 + (self.k - k0) * self.integrator.dt / self.rtf
-                    now = time.monotonic()
-                    if due > now:
-                        time.sleep(min(due - now, 0.05))
-                        continue
-                    if now - due > self.integrator.dt / self.rtf:
-                        self.late_steps += 1      # started more than one step period late
-                    if now - due > MAX_LAG:
-                        wall0, k0 = now, self.k
-                        if not lag_warned:
-                            lag_warned = True
-                            self.get_logger().warning(
-                                f"cannot keep up with real_time_factor {self.rtf}: the "
-                                "simulation runs slower (logged once)")
+                wait = pacer.wait(self.k)
+                if wait > 0:
+                    self._stop.wait(min(wait, 0.05))
+                    continue
+                if pacer.reanchors and not lag_warned:
+                    lag_warned = True
+                    self.get_logger().warning(
+                        f"cannot keep up with real_time_factor {self.rtf}: the "
+                        "simulation runs slower (logged once)")
                 self._step()
         except Exception as exc:  # noqa: BLE001 -- a dead thread would hang silently
             if self.context.ok():
@@ -311,18 +291,13 @@ class Simulator(Node):
         with self.lock:
             if self.paused and not force:
                 return True
-            integrator = self.integrator     # the plant of this step (swapped under the lock)
-            n = self.robot.dof
-            if self.timeout_steps and not self.timed_out and self.k - self.cmd_step > self.timeout_steps:
-                self.timed_out, self.tau = True, np.zeros(n)
-                self.q_target, self.qd_target = np.full(n, np.nan), np.full(n, np.nan)
-                self.servo, self.tau_servo = None, np.zeros(n)
-                self.get_logger().warning(f"no command for {self.timeout_steps * integrator.dt}"
+            integrator, hold = self.integrator, self.hold   # the plant of this step (swapped
+            events = hold.expire(self.k)                      # under the lock)
+            if "command" in events:
+                self.get_logger().warning(f"no command for {hold.timeout_steps * integrator.dt}"
                                           " s (command_timeout): applied effort back to zero, "
                                           "servo targets cleared")
-            if (self.wrench is not None and self.wrench_timeout_steps
-                    and self.k - self.wrench_step >= self.wrench_timeout_steps):
-                self.wrench = None
+            if "wrench" in events:
                 self.get_logger().info("external_wrench_timeout: the external wrench is dropped")
             if self.pending is not None:      # ~/set_state, applied at this step
                 idx, q_set, qd_set = self.pending
@@ -331,8 +306,8 @@ class Simulator(Node):
                     self.q[idx] = q_set
                 self.qd[idx] = qd_set
             try:
-                q, qd = integrator.step(self.q, self.qd, self.tau, self.wrench,
-                                        t=self.k * integrator.dt, servo=self.servo)
+                q, qd = integrator.step(self.q, self.qd, hold.tau, hold.wrench,
+                                        t=self.k * integrator.dt, servo=hold.servo)
                 if not (np.all(np.isfinite(q)) and np.all(np.isfinite(qd))):
                     raise SimulationError("the state is no longer finite")
             except (SimulationError, ValueError) as exc:
@@ -341,8 +316,8 @@ class Simulator(Node):
                 self.get_logger().error(f"{exc} -- paused at the last good state "
                                         f"(t = {self.k * integrator.dt:.3f} s); call ~/reset, then ~/pause false")
                 return False
-            if self.servo is not None:
-                self.tau_servo = integrator.servo_torque
+            if hold.servo is not None:
+                hold.tau_servo = integrator.servo_torque
             self.q, self.qd, self.k = q, qd, self.k + 1
         if self.clock_pub is not None and self.k % self.clock_every == 0:
             self.clock_pub.publish(Clock(clock=Time(nanoseconds=self.k * self.dt_ns).to_msg()))
@@ -352,7 +327,7 @@ class Simulator(Node):
 
     def _publish(self):
         with self.lock:
-            q, qd, tau, k = self.q, self.qd, self.tau + self.tau_servo, self.k
+            q, qd, tau, k = self.q, self.qd, self.hold.tau + self.hold.tau_servo, self.k
         robot = self.robot               # every joint, mimic joints too (robot_state_publisher)
         effort = np.zeros(len(robot.all_joint_names))
         effort[robot.model.independent] = tau      # a mimic joint has no actuator: 0
@@ -367,18 +342,17 @@ class Simulator(Node):
         """The real-time factor achieved since the last report (simulated s per wall s; WARN
         below 90 % of real_time_factor while running), late steps (started more than one
         step period behind the schedule), divergence events (pauses after a failed step)."""
-        now, k = time.monotonic(), self.k
-        wall0, k0 = self._rtf_mark
-        self._rtf_mark = (now, k)
-        rtf = (k - k0) * self.integrator.dt / (now - wall0) if now > wall0 else 0.0
+        k, k0, hold = self.k, self.pacer.mark[1], self.hold   # (wall, k) of the last report
+        rtf = self.pacer.achieved(k, self.integrator.dt)
         running = not self.paused and k > k0
         slow = running and self.rtf > 0 and rtf < 0.9 * self.rtf
+        wrench, servo = hold.wrench, hold.servo
         return [("real-time factor", f"{rtf:.3f}" if running else "paused", slow),
-                ("late steps", self.late_steps), ("divergence events", self.divergences),
-                ("external wrench", "none" if self.wrench is None else
-                 " ".join(f"{x:.4g}" for x in self.wrench)),
-                ("servoed joints", 0 if self.servo is None else
-                 int(np.count_nonzero((self.servo.kp > 0) | (self.servo.kd > 0))))]
+                ("late steps", self.pacer.late_steps), ("divergence events", self.divergences),
+                ("external wrench", "none" if wrench is None else
+                 " ".join(f"{x:.4g}" for x in wrench)),
+                ("servoed joints", 0 if servo is None else
+                 int(np.count_nonzero((servo.kp > 0) | (servo.kd > 0))))]
 
     def close(self):
         self._stop.set()

@@ -1,13 +1,15 @@
-"""A controller that holds under load (issue 20 item 3): the xArm7 of example-robot-data,
-stretched upright (q = 0, where the first and third axes line up and the effective inertia
-of each is 1/14 of M_ii), the gains of docs/ros.md's example (kp 900, kd 60), joint_states
-at 1 kHz, the controller starved -- pinned to one core with a busy process and stopped
-(SIGSTOP) for 30 ms in every 100 ms -- and the tip pushed with 17 N for 0.2 s, in every
-mode. Before the fix pd_gravity diverged here (joint speeds of several rad/s, the
-simulator clamping at the effort limits; 18 rad/s in a trial here), intermittently.
-Asserted: bounded joint speed during and after the push; in computed_torque and
-pd_gravity the arm comes to rest near the held pose; in gravity_compensation (which holds nothing) the controller adds no energy: the arm
-ends slower than it was at the end of the push. No timing is asserted.
+"""A controller that holds under load (issue 20 item 3): the xArm7 of example-robot-data at
+q = 0 (where its first and third axes line up: each one's effective inertia is 1/13 of
+M_ii), the gains of docs/ros.md's example (kp 900, kd 60), joint_states at 1 kHz, the
+controller starved -- pinned to one core with a busy process and stopped (SIGSTOP) 30 ms in
+every 100 ms -- and the tip pushed with 17 N for 0.2 s, in every mode. Asserted: in
+computed_torque and pd_gravity bounded joint speeds and the arm at rest near the held pose
+(within the friction band); in gravity_compensation (which holds nothing) a kinetic energy
+that does not grow after the push. No timing is asserted.
+
+The old controller (M_ii(0) gains, a queue of 10 states) passed this too in the trials
+here: the URDF's joint damping (10 N m s/rad) steadies the plant. The issue's divergence
+was not reproduced by this test; the fix rests on the bound (test_pd_bound.py).
 """
 import os
 import signal
@@ -15,6 +17,7 @@ import subprocess
 import sys
 import threading
 import time
+import warnings
 
 import numpy as np
 import pytest
@@ -23,6 +26,9 @@ from rcl_interfaces.srv import SetParameters
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+import serial_dynamics as sd
 
 from conftest import Latest, wait_for_log
 from pin_reference import erd
@@ -30,24 +36,34 @@ from pin_reference import erd
 NS = "/load"
 PUSH = 17.0          # N along the base y axis, on the tip (it turns joints 1, 3 and 5)
 PUSH_TIME = 0.2      # s (simulated; external_wrench_timeout)
+STOP = 0.03         # s the controller is stopped in every 0.1 s
+ROBOT = None          # the xArm7 model, for the kinetic energy
 BUSY = "import time\nwhile True:\n    time.time()\n"
 
 
-def starve(pid, stop_event):
-    """SIGSTOP the process 30 ms in every 100 ms until ``stop_event``; leave it running."""
-    while not stop_event.is_set():
-        os.kill(pid, signal.SIGSTOP)
-        time.sleep(0.03)
-        os.kill(pid, signal.SIGCONT)
-        time.sleep(0.07)
-
-
-@pytest.fixture(scope="module")
-def arm(ros):
+def _xarm7():
     try:
         path = erd("xarm_description/urdf/xarm7.urdf")
     except Exception as exc:   # noqa: BLE001 -- example-robot-data missing
         pytest.skip(str(exc))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return path, sd.load_urdf(path, "link_base", "link7")
+
+
+def starve(pid, stop_event):
+    """SIGSTOP the process STOP s in every 0.1 s until ``stop_event``; leave it running."""
+    while not stop_event.is_set():
+        os.kill(pid, signal.SIGSTOP)
+        time.sleep(STOP)
+        os.kill(pid, signal.SIGCONT)
+        time.sleep(0.1 - STOP)
+
+
+@pytest.fixture(scope="module")
+def arm(ros):
+    global ROBOT
+    path, ROBOT = _xarm7()
     robot = {"urdf_path": path, "base_link": "link_base", "tip_link": "link7"}
     sim = ros.start("simulator", {**robot, "publish_rate": 1000.0,
                                   "external_wrench_timeout": PUSH_TIME},
@@ -64,9 +80,10 @@ def test_the_controller_holds_a_pushed_arm_while_starved(ros, arm):
     sim, ctl = arm
     states = Latest(ros, JointState, f"{NS}/joint_states", depth=1000)
     push = ros.node.create_publisher(WrenchStamped, f"{NS}/external_wrench", 10)
+    hold = ros.node.create_publisher(JointTrajectory, f"{NS}/desired_trajectory", 10)
     params = ros.node.create_client(SetParameters, f"{NS}/computed_torque_controller/set_parameters")
     reset = ros.node.create_client(Trigger, f"{NS}/simulator/reset")
-    ros.wait_matched(push, what="the simulator")
+    ros.wait_matched(push, hold, what="the simulator and the controller")
     states.wait(lambda m: True, what="joint_states")
     cpu = sorted(os.sched_getaffinity(0))[0]
     busy = subprocess.Popen([sys.executable, "-c", BUSY])
@@ -80,6 +97,10 @@ def test_the_controller_holds_a_pushed_arm_while_starved(ros, arm):
             req = SetParameters.Request(parameters=[Parameter("mode", value=mode).to_parameter_msg()])
             assert ros.call(params, req).results[0].successful
             assert ros.call(reset, Trigger.Request()).success     # q = 0, at rest
+            if mode != "gravity_compensation":        # hold q = 0 (not the pose where the
+                hold.publish(JointTrajectory(             # controller first saw the arm)
+                    joint_names=ROBOT.joint_names,
+                    points=[JointTrajectoryPoint(positions=[0.0] * ROBOT.dof)]))
             ros.spin_for(1.0)
             states.clear()
             w = WrenchStamped()
@@ -95,14 +116,18 @@ def test_the_controller_holds_a_pushed_arm_while_starved(ros, arm):
             t_end = t[moving[0]] + PUSH_TIME          # the push's end (its start: first motion)
             after = t > t_end
             peak, last = np.max(speed), speed[-1]
-            print(f"{mode}: peak speed {peak:.3f} rad/s, end speed {last:.2e} rad/s, "
+            print(f"{mode}: peak speed {peak:.3f} rad/s (joint {np.argmax(np.max(np.abs(qd), 0)) + 1}), "
+                  f"end speed {last:.2e} rad/s, "
                   f"max |q| {np.max(np.abs(q)):.3f} rad, end |q| {np.max(np.abs(q[-1])):.2e}")
-            assert peak < 1.5, f"{mode}: joint speeds up to {peak:.3g} rad/s"
-            if mode == "gravity_compensation":         # nothing holds: it must not gain speed
-                assert last <= speed[after][0] + 1e-3, (mode, last, speed[after][0])
-            else:   # held: at rest near q = 0 (within the plant's Coulomb friction, 1 N m,
-                    # over the stiffness: up to 1/(900 m_i) = 0.14 rad on joint 3)
-                assert last < 0.02 and np.max(np.abs(q[-1])) < 0.2, (mode, last, q[-1])
+            if mode == "gravity_compensation":   # nothing holds the arm: the controller
+                ke = ROBOT.kinetic_energy(q, qd)  # must not feed its motion
+                assert ke[-1] <= 1.2 * ke[after][0], (mode, ke[after][0], ke[-1])
+            else:
+                assert peak < 5.0, f"{mode}: joint speeds up to {peak:.3g} rad/s"
+                # held: at rest near q = 0, within the friction band (the plant's Coulomb
+                # friction, 1 N m, over the default stiffness: 3.6 N m/rad at joint 3)
+                assert last < 0.3 and np.max(np.abs(q[-1])) < 0.3, (mode, last, q[-1],
+                                                                    sim.output()[-3000:])
     finally:
         stop.set()
         starver.join()

@@ -204,7 +204,7 @@ def test_diagnostics_report_the_largest_torque_against_its_threshold(ros, run):
 
 
 @pytest.mark.parametrize("params, text", [
-    ({"collision_release": 2.0}, "'collision_release' must be in [0, 1], got 2.0"),
+    ({"collision_release": 2.0}, "Parameter collision_release out of range Min: 0.0, Max: 1.0"),
     ({"collision_thresholds": [1.0, 2.0]}, "'collision_thresholds' has 2 values"),
     ({"gain": 0.0}, "'gain' must be > 0"),
 ])
@@ -214,7 +214,8 @@ def test_bad_parameters_stop_the_node_with_one_line(ros, params, text):
     ros.spin_until(lambda: not proc.running(), 60.0, "the node to exit")
     assert proc.proc.returncode == 2
     out = proc.output()
-    assert "external_torque_observer: cannot start: parameter " + text in out, out
+    line, = [x for x in out.splitlines() if "external_torque_observer: cannot start: " in x]
+    assert text in line, out
     assert "Traceback" not in out
 
 

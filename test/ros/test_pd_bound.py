@@ -60,10 +60,18 @@ def test_effective_inertia_and_the_xarm7_at_rest_upright(xarm):
     kp, kd = 900 * np.diag(M), 60 * np.diag(M)
     assert len(pd_bound.beyond(kp, kd, m, h)) == 0
     assert np.max(pd_bound.smallest_inertia(kp, kd, h) / m) > 0.25
-    # times the effective inertia (the controller's default): far inside, at every pose
+    # the controller's default (pd_bound.default_gains): every mode of the arm held at q,
+    # M x'' = -Kp' x - Kd' x', is x'' + mu kd x' + mu kp x = 0 with 0 < mu <= 1 (= 1 for
+    # one), so within the bound whenever kp h^2 + 2 kd h < 4 (0.24 here), at every pose
     for q in np.random.default_rng(1).uniform(-1, 1, (20, xarm.dof)):
         m = pd_bound.effective_inertia(xarm, q)
-        assert np.max(pd_bound.smallest_inertia(900 * m, 60 * m, h) / m) < 0.07
+        kp, kd = pd_bound.default_gains(xarm, q, 900.0, 60.0)
+        assert len(pd_bound.beyond(kp, kd, m, h)) == 0
+        M = xarm.mass_matrix(q)
+        mu = np.linalg.eigvals(np.linalg.solve(M, np.diag(kp))).real / 900.0
+        assert np.isclose(mu.max(), 1.0, rtol=1e-9) and mu.min() > 0, mu
+        mu_d = np.linalg.eigvals(np.linalg.solve(M, np.diag(kd))).real / 60.0
+        assert np.allclose(np.sort(mu_d), np.sort(mu), rtol=1e-9)
     # twenty times too stiff at the first joint: flagged, and explained by name
     m = pd_bound.effective_inertia(xarm, np.zeros(xarm.dof))
     kp = 900 * m

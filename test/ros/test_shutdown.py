@@ -10,7 +10,6 @@ that hangs in its spin.
 import signal
 import time
 
-import pytest
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
@@ -29,41 +28,53 @@ def _request():
                            points=[JointTrajectoryPoint(positions=HOME)])
 
 
-@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
-def test_every_node_stops_cleanly_on_a_signal(ros, sig):
-    ns = f"/shutdown_{sig.name.lower()}"
+def test_every_node_stops_cleanly_on_a_signal(ros):
+    """Two sets of the four nodes, started together; SIGINT to one set, SIGTERM to the
+    other, at once."""
     params = {"simulator": {"publish_rate": 1000.0, "initial_positions": HOME},
               "computed_torque_controller": {"control_rate": 1000.0},
               "inverse_dynamics": {}, "external_torque_observer": {}}
-    procs = {name: ros.start(name, params[name], ros_args=["-r", f"__ns:={ns}"])
-             for name in NODES}
-    for p in procs.values():
-        wait_for_log(ros, p, "ready", timeout=150)
+    sets = {sig: {name: ros.start(name, params[name],
+                                  ros_args=["-r", f"__ns:=/shutdown_{sig.name.lower()}"])
+                  for name in NODES} for sig in (signal.SIGINT, signal.SIGTERM)}
+    for procs in sets.values():
+        for p in procs.values():
+            wait_for_log(ros, p, "ready", timeout=150)
     # every node busy: the controller commanding, the observer estimating, requests answered
-    commands = Latest(ros, Float64MultiArray, f"{ns}/effort_commands")
-    estimates = Latest(ros, JointState, f"{ns}/estimated_external_torques")
-    answers = Latest(ros, JointTrajectory, f"{ns}/inverse_dynamics/response")
-    requests = ros.node.create_publisher(JointTrajectory, f"{ns}/inverse_dynamics/request", 100)
-    ros.spin_until(lambda: (requests.publish(_request()) or True) and answers.msgs
-                   and len(commands.msgs) > 100 and len(estimates.msgs) > 100, 60,
-                   "commands, estimates and answers")
-    for p in procs.values():
-        p.stopped = True                         # from here on an exit is expected
-        p.proc.send_signal(sig)
+    watched, requests = [], []
+    for sig in sets:
+        ns = f"/shutdown_{sig.name.lower()}"
+        commands = Latest(ros, Float64MultiArray, f"{ns}/effort_commands")
+        estimates = Latest(ros, JointState, f"{ns}/estimated_external_torques")
+        answers = Latest(ros, JointTrajectory, f"{ns}/inverse_dynamics/response")
+        watched += [commands, estimates, answers]
+        requests.append(ros.node.create_publisher(JointTrajectory,
+                                                  f"{ns}/inverse_dynamics/request", 100))
+        busy = (lambda c, e, a: lambda: a.msgs and len(c.msgs) > 100 and len(e.msgs) > 100)(
+            commands, estimates, answers)
+        ros.spin_until(lambda: [r.publish(_request()) for r in requests] and busy(), 60,
+                       f"commands, estimates and answers in {ns}")
+    for sig, procs in sets.items():
+        for p in procs.values():
+            p.stopped = True                     # from here on an exit is expected
+            p.proc.send_signal(sig)
     start, exited = time.monotonic(), {}
-    while len(exited) < len(procs) and time.monotonic() - start < 10.0:
-        requests.publish(_request())
-        for name, p in procs.items():
-            if name not in exited and not p.running():
-                exited[name] = time.monotonic() - start
+    everyone = [(sig, name, p) for sig, procs in sets.items() for name, p in procs.items()]
+    while len(exited) < len(everyone) and time.monotonic() - start < 10.0:
+        for r in requests:
+            r.publish(_request())
+        for sig, name, p in everyone:
+            if (sig, name) not in exited and not p.running():
+                exited[sig, name] = time.monotonic() - start
         ros.spin_for(0.005)
-    for x in (commands, estimates, answers):
+    for x in watched:
         x.destroy()
-    ros.node.destroy_publisher(requests)
-    for name, p in procs.items():
+    for r in requests:
+        ros.node.destroy_publisher(r)
+    for sig, name, p in everyone:
         code = p.stop(timeout=0.1)               # kills what is still running
         out = p.output()
-        assert name in exited and exited[name] < BOUND, (
+        assert (sig, name) in exited and exited[sig, name] < BOUND, (
             f"{name} still running {BOUND} s after {sig.name}:\n{out}")
         assert code == 0, f"{name} exited with {code} on {sig.name}:\n{out}"
         for bad in ("Traceback", "internal error", "Error", "context is invalid"):

@@ -25,8 +25,12 @@ def cases(tmp):
     limited.write_text(LIMITED)
     assert LIMITED.count('lower="0.5"') == 1
     return [   # (node, parameters, text the message must contain[, text it must not])
-        ("simulator", {"real_time_factor": -1.0}, "'real_time_factor' must be >= 0",
-         "command_timeout"),
+        # ranges in the parameter descriptors: rclpy's check (a double), ours (an integer)
+        ("simulator", {"real_time_factor": -1.0}, "Parameter real_time_factor out of range "
+         "Min: 0.0, Max: 1000000.0, value: -1.0", "command_timeout"),
+        ("simulator", {"real_time_factor": -1}, "parameter 'real_time_factor' = -1.0 is out "
+         "of its range [0, 1e+06]"),
+        ("simulator", {"step_count": 0}, "Parameter step_count out of range"),
         ("simulator", {"urdf_path": str(limited)},    # the fix, with numbers that work
          "joint2 = 0.0 is outside its limits [0.5, 2.0]; give positions within the limits, "
          "e.g. the middle of each range: -p initial_positions:=[0.0000, 1.2500, 0.0000]"),

@@ -17,8 +17,13 @@ def test_the_laws():
     # tau = M (qdd + kp e + kd ed) + b: the closed loop's error obeys e'' + kd e' + kp e = 0
     np.testing.assert_allclose(ct, robot.mass_matrix(q) @ (qdd + kp * e + kd * ed)
                                + robot.bias_torques(q, qd), rtol=1e-10, atol=1e-10)
-    pkp, pkd = control.pd_gains(robot, kp, kd)
-    np.testing.assert_array_equal(pkp, kp * np.diag(robot.mass_matrix(np.zeros(6))))
+    pkp, pkd = control.pd_gains(robot, q, kp, kd)
+    Minv = np.linalg.inv(robot.mass_matrix(q))
+    m = 1.0 / np.diag(Minv)                                   # effective inertias at q
+    lam = np.linalg.eigvalsh(np.sqrt(m)[:, None] * Minv * np.sqrt(m)[None, :])[-1]
+    assert lam >= 1.0                                         # unit diagonal: the coupling
+    np.testing.assert_allclose(pkp, kp * m / lam, rtol=1e-10)    # Kp' = kp m / lam
+    np.testing.assert_allclose(pkd, kd * m / lam, rtol=1e-10)
     pd = control.torque(robot, "pd_gravity", q, qd, e, ed, qdd, pkp, pkd)
     np.testing.assert_allclose(pd, pkp * e + pkd * ed + robot.gravity_torques(q), rtol=1e-13)
     g = control.torque(robot, "gravity_compensation", q, qd, e, ed, qdd, kp, kd, True)

@@ -36,7 +36,8 @@ from trajectory_msgs.msg import JointTrajectory
 
 from serial_dynamics.trajectory import Waypoints
 
-from . import common, parameters, pd_bound
+from .. import control
+from . import common, parameters
 from .common import Rejected
 from .parameters import StartupError
 
@@ -104,7 +105,7 @@ class ComputedTorqueController(Node):
         self.reject.watch(self.diagnostics)
         # joints whose gains are beyond the stability bound: computed_torque's (the loop
         # it makes has unit inertia), pd_gravity's at the latest state (check_bound)
-        self.beyond_ct = set(pd_bound.beyond(self.kp, self.kd, np.ones(robot.dof),
+        self.beyond_ct = set(control.beyond(self.kp, self.kd, np.ones(robot.dof),
                                              self.period).tolist())
         self.beyond_pd = set()
         for j in sorted(self.beyond_ct):
@@ -192,15 +193,8 @@ class ComputedTorqueController(Node):
         ed, robot, mode = qd_ref - qd, self.robot, self.mode
         try:
             with np.errstate(over="ignore", invalid="ignore"):    # checked below
-                if mode == "computed_torque":
-                    tau = robot.inverse_dynamics(q, qd, qdd_ff + self.kp * e + self.kd * ed)
-                elif mode == "pd_gravity":
-                    kp, kd = self.pd_gains(robot, q)
-                    tau = kp * e + kd * ed + robot.gravity_torques(q)
-                else:                                              # gravity_compensation
-                    tau = robot.gravity_torques(q)
-            if self.compensate:
-                tau = tau - robot.dissipation_torques(qd)
+                kp, kd = self.pd_gains(robot, q) if mode == "pd_gravity" else (self.kp, self.kd)
+                tau = control.torque(robot, mode, q, qd, e, ed, qdd_ff, kp, kd, self.compensate)
             if not np.all(np.isfinite(tau)):
                 raise ValueError("the torque came out non-finite")
         except (ValueError, ArithmeticError) as exc:   # e.g. gains times error overflow
@@ -214,12 +208,12 @@ class ComputedTorqueController(Node):
 
     def pd_gains(self, robot, q):
         """pd_gravity's gains at q: pd.kp, pd.kd as given, or kp, kd scaled by the effective
-        inertias at q and the joints' coupling (pd_bound.default_gains): every mode of the
+        inertias at q and the joints' coupling (control.pd_gains): every mode of the
         arm held at q is then no faster than e'' + kd e' + kp e = 0, within the bound
         whenever kp, kd are."""
         if self.pd_kp is not None and self.pd_kd is not None:
             return self.pd_kp, self.pd_kd
-        kp, kd = pd_bound.default_gains(robot, q, self.kp, self.kd)
+        kp, kd = control.pd_gains(robot, q, self.kp, self.kd)
         return (kp if self.pd_kp is None else self.pd_kp,
                 kd if self.pd_kd is None else self.pd_kd)
 
@@ -229,14 +223,14 @@ class ComputedTorqueController(Node):
         if self.state is None:
             return
         robot, q = self.robot, self.state[1]
-        m = pd_bound.effective_inertia(robot, q)
+        m = control.effective_inertia(robot, q)
         kp, kd = self.pd_gains(robot, q)
-        self.beyond_pd = set(pd_bound.beyond(kp, kd, m, self.period).tolist())
+        self.beyond_pd = set(control.beyond(kp, kd, m, self.period).tolist())
         for j in sorted(self.beyond_pd):
             self.warn_bound(j, kp[j], kd[j], m[j], "pd.kp, pd.kd (pd_gravity)")
 
     def warn_bound(self, j, kp, kd, m, what):
-        self.reject.once(("bound", what, j), pd_bound.explain(
+        self.reject.once(("bound", what, j), control.explain(
             self.robot.joint_names[j], kp, kd, m, self.period, what))
 
     def validate_mode(self, params):

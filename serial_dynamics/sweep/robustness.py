@@ -116,8 +116,6 @@ class Study:
         self.nominal, self.law = robot, law
         self.kp = np.broadcast_to(np.asarray(kp, dtype=float), (robot.dof,)).copy()
         self.kd = np.broadcast_to(np.asarray(kd, dtype=float), (robot.dof,)).copy()
-        if law == "pd_gravity":
-            self.kp, self.kd = control.pd_gains(robot, self.kp, self.kd)
         self.waypoints = pick_and_place(robot) if waypoints is None else waypoints
         if not isinstance(self.waypoints, Waypoints):
             raise ValueError("waypoints must be a serial_dynamics.trajectory.Waypoints")
@@ -148,8 +146,10 @@ class Study:
 
         def controller(t, q, qd):
             k = min(int(round(t / dt)), last)
+            kp, kd = (control.pd_gains(nominal, q, self.kp, self.kd)  # as the node's default
+                      if self.law == "pd_gravity" else (self.kp, self.kd))
             tau = control.torque(nominal, self.law, q, qd, q_d[k] - q, qd_d[k] - qd, qdd_d[k],
-                                 self.kp, self.kd) - friction[k]
+                                 kp, kd) - friction[k]
             commanded[k] = tau
             return np.clip(tau, -limit, limit)
 

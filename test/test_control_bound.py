@@ -1,4 +1,4 @@
-"""The explicit-PD stability bound of ``serial_dynamics.ros.pd_bound`` (plain Python, no
+"""The explicit-PD stability bound of ``serial_dynamics.control`` (plain Python, no
 rclpy): the closed form against the spectral radius of the step matrix, the effective
 inertia against the inverse mass matrix, and the xArm7 case of issue 20."""
 import warnings
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import serial_dynamics as sd
-from serial_dynamics.ros import pd_bound
+from serial_dynamics import control
 
 from pin_reference import erd
 
@@ -30,10 +30,10 @@ def test_the_closed_form_is_the_spectral_radius_bound():
         inside = wh < 2.0 * (np.sqrt(zeta ** 2 + 1.0) - zeta)      # docs/simulation.md
         if abs(wh - 2.0 * (np.sqrt(zeta ** 2 + 1.0) - zeta)) < 1e-3:
             continue                                              # on the edge: either
-        assert stable == inside == (len(pd_bound.beyond([kp], [kd], [m], h)) == 0), (wh, zeta)
+        assert stable == inside == (len(control.beyond([kp], [kd], [m], h)) == 0), (wh, zeta)
     # Kp = 0 (damping only): Kd h < 2 m
-    assert len(pd_bound.beyond([0.0], [1.9 * m / h], [m], h)) == 0
-    assert len(pd_bound.beyond([0.0], [2.1 * m / h], [m], h)) == 1
+    assert len(control.beyond([0.0], [1.9 * m / h], [m], h)) == 0
+    assert len(control.beyond([0.0], [2.1 * m / h], [m], h)) == 1
 
 
 @pytest.fixture(scope="module")
@@ -50,7 +50,7 @@ def xarm():
 def test_effective_inertia_and_the_xarm7_at_rest_upright(xarm):
     q = np.zeros(xarm.dof)
     M = xarm.mass_matrix(q)
-    m = pd_bound.effective_inertia(xarm, q)
+    m = control.effective_inertia(xarm, q)
     assert np.allclose(m, 1.0 / np.diag(np.linalg.inv(M)), rtol=1e-10)
     assert np.all(m <= np.diag(M) * (1 + 1e-12))
     ratio = np.diag(M) / m
@@ -58,24 +58,24 @@ def test_effective_inertia_and_the_xarm7_at_rest_upright(xarm):
     h = 1 / 500
     # docs/ros.md's example gains times M_ii(0): inside the bound, but only just
     kp, kd = 900 * np.diag(M), 60 * np.diag(M)
-    assert len(pd_bound.beyond(kp, kd, m, h)) == 0
-    assert np.max(pd_bound.smallest_inertia(kp, kd, h) / m) > 0.25
-    # the controller's default (pd_bound.default_gains): every mode of the arm held at q,
+    assert len(control.beyond(kp, kd, m, h)) == 0
+    assert np.max(control.smallest_inertia(kp, kd, h) / m) > 0.25
+    # the controller's default (control.pd_gains): every mode of the arm held at q,
     # M x'' = -Kp' x - Kd' x', is x'' + mu kd x' + mu kp x = 0 with 0 < mu <= 1 (= 1 for
     # one), so within the bound whenever kp h^2 + 2 kd h < 4 (0.24 here), at every pose
     for q in np.random.default_rng(1).uniform(-1, 1, (20, xarm.dof)):
-        m = pd_bound.effective_inertia(xarm, q)
-        kp, kd = pd_bound.default_gains(xarm, q, 900.0, 60.0)
-        assert len(pd_bound.beyond(kp, kd, m, h)) == 0
+        m = control.effective_inertia(xarm, q)
+        kp, kd = control.pd_gains(xarm, q, 900.0, 60.0)
+        assert len(control.beyond(kp, kd, m, h)) == 0
         M = xarm.mass_matrix(q)
         mu = np.linalg.eigvals(np.linalg.solve(M, np.diag(kp))).real / 900.0
         assert np.isclose(mu.max(), 1.0, rtol=1e-9) and mu.min() > 0, mu
         mu_d = np.linalg.eigvals(np.linalg.solve(M, np.diag(kd))).real / 60.0
         assert np.allclose(np.sort(mu_d), np.sort(mu), rtol=1e-9)
     # twenty times too stiff at the first joint: flagged, and explained by name
-    m = pd_bound.effective_inertia(xarm, np.zeros(xarm.dof))
+    m = control.effective_inertia(xarm, np.zeros(xarm.dof))
     kp = 900 * m
     kp[0] *= 20 * 400
-    assert pd_bound.beyond(kp, 60 * m, m, h).tolist() == [0]
-    text = pd_bound.explain("joint1", kp[0], 60 * m[0], m[0], h)
+    assert control.beyond(kp, 60 * m, m, h).tolist() == [0]
+    text = control.explain("joint1", kp[0], 60 * m[0], m[0], h)
     assert "joint1" in text and "500 Hz" in text and "raise control_rate" in text, text

@@ -11,7 +11,8 @@ the same ``CASES`` cases for every row:
 - in this process (``client="serial"``): the reference, no Dask;
 - on a ``LocalCluster`` of 1 and of 2 worker processes (one thread each), started and
   warmed (kernels loaded, one sweep run) before the clock starts; ``sweep.run``'s default
-  tasks. Speed-up = rate(2) / rate(1).
+  tasks. ``ROUNDS`` rounds, the three interleaved in each (a change of load hits all
+  three), the median wall time of each. Speed-up = rate(2) / rate(1).
 
 Scheduler overhead: a function that does nothing, ``TRIVIAL`` cases, one case per task
 (``chunk_size=1``) on the 2-worker cluster: wall time per task is what Dask costs a task
@@ -38,7 +39,8 @@ from serial_dynamics.sweep.robustness import Study                  # noqa: E402
 from serial_dynamics.sweep.run import TASKS_PER_SLOT, chunks        # noqa: E402
 from _report import stamp, write_section                           # noqa: E402
 
-CASES = 160
+CASES = 120
+ROUNDS = 3
 TRIVIAL = 2000
 
 
@@ -86,40 +88,49 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--quick", action="store_true")
     args = ap.parse_args()
-    n_cases, n_trivial = (40, 400) if args.quick else (CASES, TRIVIAL)
+    n_cases, n_trivial, rounds = (40, 400, 1) if args.quick else (CASES, TRIVIAL, ROUNDS)
     load = os.getloadavg()[0]
     study = Study(None, None, "computed_torque", 400.0, 40.0, True, (0.0, 0.0, 0.05), 0.5,
                   0.002, 1.0)
     cases = sweep.draw(study.nominal, n_cases, 0, (0.0, 3.0), (0.9, 1.1), (0.5, 2.0), 0.05)
     study(cases.iloc[0].to_dict())                                   # kernels loaded here
-    t_serial, reference = timed(study, cases, "serial")
-    print(f"in-process: {n_cases / t_serial:.2f} cases/s", flush=True)
-    rates, same, overhead = {}, True, None
-    for workers in (1, 2):
-        with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                          host="127.0.0.1", dashboard_address=":0") as cluster, \
-                Client(cluster) as client:
-            timed(study, cases.iloc[:4 * workers], client)             # warm the workers
-            wall, table = timed(study, cases, client)
-            same &= table.equals(reference) and all(
-                table[c].to_numpy().tobytes() == reference[c].to_numpy().tobytes()
-                for c in table.columns if table[c].dtype == float)
-            tasks = len(chunks(n_cases, workers))
-            rates[workers] = (wall, n_cases / wall, tasks)
-            print(f"{workers} worker(s): {n_cases / wall:.2f} cases/s", flush=True)
-            if workers == 2:
-                timed(nothing, [{"k": k} for k in range(50)], client)
-                t = time.perf_counter()
-                sweep.run(nothing, [{"k": k} for k in range(n_trivial)], client=client,
-                          progress=False, chunk_size=1)
-                overhead = (time.perf_counter() - t) / n_trivial
-                print(f"per task: {overhead * 1e3:.2f} ms", flush=True)
+    clusters = {w: LocalCluster(n_workers=w, threads_per_worker=1, processes=True,
+                                host="127.0.0.1", dashboard_address=":0") for w in (1, 2)}
+    clients = {w: Client(c) for w, c in clusters.items()}
+    try:
+        for w, client in clients.items():
+            timed(study, cases.iloc[:4 * w], client)                 # warm the workers
+        walls = {"serial": [], 1: [], 2: []}
+        same, reference = True, None
+        for r in range(rounds):          # interleaved, so that a change of load hits all
+            for where in ("serial", 1, 2):
+                wall, table = timed(study, cases, clients.get(where, where))
+                walls[where].append(wall)
+                reference = table if reference is None else reference
+                same &= table.equals(reference) and all(
+                    table[c].to_numpy().tobytes() == reference[c].to_numpy().tobytes()
+                    for c in table.columns if table[c].dtype == float)
+                print(f"round {r}, {where}: {n_cases / wall:.2f} cases/s", flush=True)
+        client = clients[2]
+        timed(nothing, [{"k": k} for k in range(50)], client)
+        t = time.perf_counter()
+        sweep.run(nothing, [{"k": k} for k in range(n_trivial)], client=client,
+                  progress=False, chunk_size=1)
+        overhead = (time.perf_counter() - t) / n_trivial
+        print(f"per task: {overhead * 1e3:.2f} ms", flush=True)
+    finally:
+        for w in clients:
+            clients[w].close()
+            clusters[w].close()
+    t_serial = float(np.median(walls["serial"]))
+    rates = {w: (float(np.median(walls[w])), n_cases / float(np.median(walls[w])),
+                 len(chunks(n_cases, w))) for w in (1, 2)}
     rows = pickling()
     row_bytes = reference.memory_usage(deep=True).sum() / n_cases
-    report(n_cases, t_serial, rates, overhead, same, rows, load, n_trivial, row_bytes)
+    report(n_cases, t_serial, rates, overhead, same, rows, load, n_trivial, row_bytes, rounds)
 
 
-def report(n, t_serial, rates, overhead, same, rows, load, n_trivial, row_bytes):
+def report(n, t_serial, rates, overhead, same, rows, load, n_trivial, row_bytes, rounds):
     per_case = t_serial / n
     w1, w2 = rates[1], rates[2]
     speedup = w2[1] / w1[1]
@@ -131,7 +142,8 @@ def report(n, t_serial, rates, overhead, same, rows, load, n_trivial, row_bytes)
         "worker processes, one thread each, started and warmed before timing). Workload: "
         f"{n} cases of `sweep.monte_carlo` (UR5e, computed torque on the nominal model, the "
         "pick-and-place, 5.3 s at 2 ms: 2650 steps of a Python controller and the simulator "
-        "each), the same cases on every row.", "",
+        f"each), the same cases on every row; {rounds} rounds, the three rows interleaved "
+        "in each, the median wall time.", "",
         "| where | wall time | cases / s | tasks | speed-up vs 1 worker | same table, bit for bit |",
         "| --- | ---: | ---: | ---: | ---: | --- |",
         f"| in this process (no Dask) | {t_serial:.1f} s | {n / t_serial:.2f} | - | - | reference |",

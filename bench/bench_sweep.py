@@ -36,7 +36,7 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 import serial_dynamics as sd                                        # noqa: E402
 from serial_dynamics import sweep                                   # noqa: E402
 from serial_dynamics.sweep.robustness import Study                  # noqa: E402
-from serial_dynamics.sweep.run import TASKS_PER_SLOT, chunks        # noqa: E402
+from serial_dynamics.sweep.run import chunks                        # noqa: E402
 from _report import stamp, write_section                           # noqa: E402
 
 CASES = 120
@@ -127,10 +127,13 @@ def main():
                  len(chunks(n_cases, w))) for w in (1, 2)}
     rows = pickling()
     row_bytes = reference.memory_usage(deep=True).sum() / n_cases
-    report(n_cases, t_serial, rates, overhead, same, rows, load, n_trivial, row_bytes, rounds)
+    spread = {w: [n_cases / x for x in walls[w]] for w in walls}
+    report(n_cases, t_serial, rates, overhead, same, rows, load, n_trivial, row_bytes, rounds,
+           spread)
 
 
-def report(n, t_serial, rates, overhead, same, rows, load, n_trivial, row_bytes, rounds):
+def report(n, t_serial, rates, overhead, same, rows, load, n_trivial, row_bytes, rounds,
+           spread):
     per_case = t_serial / n
     w1, w2 = rates[1], rates[2]
     speedup = w2[1] / w1[1]
@@ -152,7 +155,14 @@ def report(n, t_serial, rates, overhead, same, rows, load, n_trivial, row_bytes,
         "",
         f"**Speed-up with 2 workers: {speedup:.2f}x** (target >= 1.8x"
         + ("; met)." if speedup >= 1.8 else f"; missed by {1.8 - speedup:.2f}).")
-        + f" One case costs {per_case * 1e3:.0f} ms in this process.", "",
+        + f" One case costs {per_case * 1e3:.0f} ms in this process. The rounds, cases/s "
+        "(in this process; 1 worker; 2 workers): "
+        + "; ".join(", ".join(f"{x:.2f}" for x in spread[w]) for w in ("serial", 1, 2))
+        + ". On this shared machine a round's rate moves by up to 2x with the other load, "
+        "so the speed-up is known to that precision only. Why the 1-worker rate is below "
+        "the in-process one was not settled: timed inside a worker process, 30 cases took "
+        "5.5 s against 5.2 s in the client process at one moment, 12.6 s against 7.0 s at a "
+        "busier one (2026-11-24, same machine).", "",
         f"**Scheduler overhead**: {n_trivial} cases of a function that does nothing, one case "
         f"a task, on the 2 workers: **{overhead * 1e3:.2f} ms per task** (submit, schedule, "
         "run, return, gather). A sweep's overhead is its tasks times that: the 2-worker run "
@@ -167,39 +177,40 @@ def report(n, t_serial, rates, overhead, same, rows, load, n_trivial, row_bytes,
               for name, kind, size, t in rows]
     machines, cores = 100, 32
     slots = machines * cores
-    cases_total = 1_000_000
-    task_s = 60.0
-    per_task = max(1, int(task_s / per_case))
-    tasks = -(-cases_total // per_task)
-    rate = slots / per_case
-    sched_rate = 1.0 / overhead
-    default_s = cases_total / (TASKS_PER_SLOT * slots) * per_case
+    sched_rate = 1.0 / overhead                  # tasks/s, taking the whole cost as its own
+    task_s = 4 * slots * overhead                # tasks that keep the scheduler <= 25 % busy
+    per_task = max(1, int(round(task_s / per_case)))
     lines += [
         "", f"**Paper plan: {machines} machines** (assumed {cores} cores each, one worker "
         f"process per core: {slots} workers; cores as fast as these). From the numbers above:",
         "",
-        f"- Work: {cases_total:,} such cases = {cases_total * per_case / 3600:.0f} core-hours; "
-        f"{slots} workers finish it in ~{cases_total * per_case / slots / 60:.1f} min "
-        f"({rate:,.0f} cases/s) if nothing else limits.",
-        f"- Task size: the scheduler handles at most ~{sched_rate:,.0f} tasks/s (the measured "
-        f"cost per task, {overhead * 1e3:.2f} ms, taken as all its own: a bound). {slots} workers on "
-        f"tasks of T seconds ask {slots}/T tasks/s, so T must be well above "
-        f"{slots / sched_rate:.1f} s; with T = {task_s:.0f} s ({per_task} cases a task, "
-        f"`chunk_size={per_task}`) the scheduler is {100 * slots / task_s / sched_rate:.1f} % "
-        f"busy, {tasks:,} tasks in all, and a worker lost costs at most {task_s:.0f} s of rework.",
-        f"- Expected throughput: {slots} / ({per_case * 1e3:.0f} ms + {overhead * 1e3:.2f} ms / "
-        f"{per_task}) = ~{slots / (per_case + overhead / per_task):,.0f} cases/s; the run "
-        f"~{cases_total * per_case / slots / 60 + task_s / 60:.0f} min (the last minute: the "
-        "tail of the last tasks).",
-        f"- What limits it: the cores (the work is compute-bound, the cases independent); then "
-        f"the scheduler, one process, if tasks are short: `sweep.run`'s default "
-        f"({TASKS_PER_SLOT} tasks per worker: {TASKS_PER_SLOT * slots:,} tasks of "
-        f"~{default_s:.0f} s for a million cases) asks {slots / default_s:,.0f} tasks/s, "
-        f"{100 * slots / default_s / sched_rate:.0f} % of what the scheduler can do: give "
-        f"`chunk_size={per_task}`. The results flow back to the client ({row_bytes:.0f} bytes a "
-        f"case in memory: {cases_total * row_bytes / 1e6:,.0f} MB for a million, fine); each "
-        "worker loads the numba cache once at start (a few seconds; ship the cache with the "
-        "image, or let the first task fill it).",
+        f"- The scheduler is one process: at {overhead * 1e3:.2f} ms a task (taken as all "
+        f"its own, a bound) it serves ~{sched_rate:,.0f} tasks/s. {slots} workers on tasks "
+        f"of T seconds ask {slots}/T tasks/s, so T must be well above "
+        f"{slots * overhead:.1f} s: **tasks of ~{task_s:.0f} s** ({per_task} of these cases, "
+        f"`chunk_size={per_task}`) keep it at most 25 % busy. `sweep.run`'s default (4 tasks "
+        "per worker) gives such tasks only for a large enough sweep: pass `chunk_size`.",
+    ]
+    lines += ["", "| cases | work | per worker | tasks | wall time (work + a task's tail + 10 s start-up) "
+              "| throughput |", "| ---: | ---: | ---: | ---: | ---: | ---: |"]
+    for total in (1_000_000, 10_000_000, 100_000_000):
+        w = total * per_case / slots
+        tasks = -(-total // per_task)
+        wall = w + task_s + 10.0                 # + the last task's tail, + start-up
+        lines.append(f"| {total:,} | {total * per_case / 3600:,.0f} core-h | {w:,.0f} s | "
+                     f"{tasks:,} | {wall / 60:,.1f} min | {total / wall:,.0f} cases/s |")
+    lines += [
+        "",
+        f"- Expected throughput: {slots} / {per_case * 1e3:.0f} ms = {slots / per_case:,.0f} "
+        "cases/s at best; a sweep shorter than a few tasks per worker (a million cases here: "
+        f"{1e6 * per_case / slots:.0f} s per worker) is dominated by the tail and the start-up "
+        "(each worker loads the numba cache once, a few seconds: ship the cache with the "
+        "image, or let the first task fill it). 100 machines pay off from ~10 million cases.",
+        "- What limits it: the cores (the work is compute-bound, the cases independent); then "
+        "the scheduler if tasks are short (above); the results flowing back to the client "
+        f"({row_bytes:.0f} bytes a case in memory: {1e7 * row_bytes / 1e9:.1f} GB for 10 "
+        "million, so write them per block, e.g. one `sweep.run` per million cases, each to "
+        "its Parquet file); a lost worker costs at most one task of rework.",
     ]
     write_section("sweep", "\n".join(lines))
 

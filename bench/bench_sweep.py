@@ -77,10 +77,20 @@ def pickling():
     return rows
 
 
-def timed(fn, cases, client):
-    t = time.perf_counter()
+def cpu_seconds(client):
+    """CPU time (user + system) of the processes that run the cases."""
+    if isinstance(client, str):
+        return time.process_time()
+    return sum(client.run(time.process_time).values())
+
+
+def timed(fn, cases, client, cpu=None):
+    c0, t = cpu_seconds(client), time.perf_counter()
     table = sweep.run(fn, cases, client=client, progress=False)
-    return time.perf_counter() - t, table
+    wall = time.perf_counter() - t
+    if cpu is not None:
+        cpu.append(cpu_seconds(client) - c0)
+    return wall, table
 
 
 def main():
@@ -100,11 +110,11 @@ def main():
     try:
         for w, client in clients.items():
             timed(study, cases.iloc[:4 * w], client)                 # warm the workers
-        walls = {"serial": [], 1: [], 2: []}
+        walls, cpus = {"serial": [], 1: [], 2: []}, {"serial": [], 1: [], 2: []}
         same, reference = True, None
         for r in range(rounds):          # interleaved, so that a change of load hits all
             for where in ("serial", 1, 2):
-                wall, table = timed(study, cases, clients.get(where, where))
+                wall, table = timed(study, cases, clients.get(where, where), cpus[where])
                 walls[where].append(wall)
                 reference = table if reference is None else reference
                 same &= table.equals(reference) and all(
@@ -128,6 +138,9 @@ def main():
     rows = pickling()
     row_bytes = reference.memory_usage(deep=True).sum() / n_cases
     spread = {w: [n_cases / x for x in walls[w]] for w in walls}
+    spread["cpu"] = {w: (float(np.median(cpus[w])) / n_cases,
+                         float(np.median([c / x for c, x in zip(cpus[w], walls[w])])))
+                     for w in cpus}
     report(n_cases, t_serial, rates, overhead, same, rows, load, n_trivial, row_bytes, rounds,
            spread)
 
@@ -135,6 +148,7 @@ def main():
 def report(n, t_serial, rates, overhead, same, rows, load, n_trivial, row_bytes, rounds,
            spread):
     per_case = t_serial / n
+    cpu = spread["cpu"]
     w1, w2 = rates[1], rates[2]
     speedup = w2[1] / w1[1]
     lines = [
@@ -147,22 +161,31 @@ def report(n, t_serial, rates, overhead, same, rows, load, n_trivial, row_bytes,
         "pick-and-place, 5.3 s at 2 ms: 2650 steps of a Python controller and the simulator "
         f"each), the same cases on every row; {rounds} rounds, the three rows interleaved "
         "in each, the median wall time.", "",
-        "| where | wall time | cases / s | tasks | speed-up vs 1 worker | same table, bit for bit |",
-        "| --- | ---: | ---: | ---: | ---: | --- |",
-        f"| in this process (no Dask) | {t_serial:.1f} s | {n / t_serial:.2f} | - | - | reference |",
-        f"| 1 worker process | {w1[0]:.1f} s | {w1[1]:.2f} | {w1[2]} | 1.00 | {same} |",
-        f"| 2 worker processes | {w2[0]:.1f} s | {w2[1]:.2f} | {w2[2]} | {speedup:.2f} | {same} |",
+        "| where | wall time | cases / s | tasks | speed-up vs 1 worker | CPU s per case | "
+        "cores used (CPU / wall) | same table, bit for bit |",
+        "| --- | ---: | ---: | ---: | ---: | ---: | ---: | --- |",
+        f"| in this process (no Dask) | {t_serial:.1f} s | {n / t_serial:.2f} | - | - | "
+        f"{cpu['serial'][0] * 1e3:.0f} ms | {cpu['serial'][1]:.2f} | reference |",
+        f"| 1 worker process | {w1[0]:.1f} s | {w1[1]:.2f} | {w1[2]} | 1.00 | "
+        f"{cpu[1][0] * 1e3:.0f} ms | {cpu[1][1]:.2f} | {same} |",
+        f"| 2 worker processes | {w2[0]:.1f} s | {w2[1]:.2f} | {w2[2]} | {speedup:.2f} | "
+        f"{cpu[2][0] * 1e3:.0f} ms | {cpu[2][1]:.2f} | {same} |",
+        "", "CPU s per case: the CPU time of the processes that ran the cases (the workers' "
+        "includes Dask's own work in them), over the cases. Cores used: that CPU time over "
+        "the wall time, i.e. how much of the machine the run got; the speed-up is bounded "
+        "by its ratio between the two rows.",
         "",
         f"**Speed-up with 2 workers: {speedup:.2f}x** (target >= 1.8x"
         + ("; met)." if speedup >= 1.8 else f"; missed by {1.8 - speedup:.2f}).")
         + f" One case costs {per_case * 1e3:.0f} ms in this process. The rounds, cases/s "
         "(in this process; 1 worker; 2 workers): "
         + "; ".join(", ".join(f"{x:.2f}" for x in spread[w]) for w in ("serial", 1, 2))
-        + ". On this shared machine a round's rate moves by up to 2x with the other load, "
-        "so the speed-up is known to that precision only. Why the 1-worker rate is below "
-        "the in-process one was not settled: timed inside a worker process, 30 cases took "
-        "5.5 s against 5.2 s in the client process at one moment, 12.6 s against 7.0 s at a "
-        "busier one (2026-11-24, same machine).", "",
+        + ". On this shared machine a round's rate moves with the other load, so the "
+        "speed-up is known to that precision only; the CPU columns say what the run got: "
+        f"{cpu[2][1]:.2f} cores with 2 workers against {cpu[1][1]:.2f} with one "
+        f"(speed-up bound {cpu[2][1] / cpu[1][1]:.2f}x). Per case a worker spends "
+        f"{100 * (cpu[1][0] / cpu['serial'][0] - 1):.0f} % more CPU than this process "
+        "(Dask's own work in the worker process).", "",
         f"**Scheduler overhead**: {n_trivial} cases of a function that does nothing, one case "
         f"a task, on the 2 workers: **{overhead * 1e3:.2f} ms per task** (submit, schedule, "
         "run, return, gather). A sweep's overhead is its tasks times that: the 2-worker run "

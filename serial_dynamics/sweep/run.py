@@ -21,8 +21,8 @@ import pandas as pd
 ERROR = "error"             # the column that says why a case did not run ("" when it ran)
 TASKS_PER_SLOT = 4          # tasks per worker thread: balances uneven cases, bounds a rerun
 MIN_TASKS = 100             # and at least this many: the progress bar moves by 1 %, a dead
-                            # worker's rerun is short; at ~2 ms of scheduling per task
-                            # (bench/bench_sweep.py) 100 tasks cost ~0.2 s in all
+                            # worker's rerun is short; at 2-4 ms of Dask per task (measured,
+                            # bench/bench_sweep.py) 100 tasks cost under 0.5 s in all
 
 
 def run(fn, cases, client=None, progress=True, *, workers=None, chunk_size=None):

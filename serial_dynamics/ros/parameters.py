@@ -201,7 +201,8 @@ def load_robot(node, p: dict, gravity=None):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            robot = sd.load_urdf(source, base, tip, tuple(g))
+            robot = sd.load_urdf(source, base, tip, tuple(g),
+                                 floating_base=bool(p.get("floating_base", False)))
         except (ValueError, OSError) as exc:   # URDFError and ModelError are ValueErrors
             raise StartupError(f"cannot load the robot from {where}: {exc}") from None
     for w in caught:

@@ -15,6 +15,10 @@ Inputs (checked in ``simulator_inputs``): efforts and servo targets on ``joint_c
 (``external_wrench``), a state to jump to (``~/set_state``), steps while paused
 (``~/step``). /diagnostics adds the real-time factor achieved, late steps and divergence
 events to the message counts.
+
+``floating_base``: the chain's base floats free (``FloatingRobot``); the base pose goes out
+on ``odom`` (nav_msgs/Odometry) beside ``joint_states`` and comes in on
+``~/set_base_state`` (``floating_state``).
 """
 from __future__ import annotations
 
@@ -74,7 +78,8 @@ PARAMETERS = {
                       "base pose on odom (nav_msgs/Odometry), ~/set_base_state; no joint "
                       "servo, no position_limits"),
     "initial_base_pose": ("double[]", floating_state.IDENTITY, "floating_base: the base pose "
-                          "at start and after ~/reset, [x, y, z, qx, qy, qz, qw] in odom_frame"),
+                          "at start and after ~/reset, [x, y, z, qx, qy, qz, qw] in odom_frame "
+                          "(the quaternion is normalized)"),
     "odom_frame": ("string", "odom", "floating_base: header.frame_id of odom (the world)"),
 }
 MAX_LAG = 0.1   # s of wall time behind schedule before the pacing re-anchors

@@ -192,7 +192,7 @@ def test_bad_messages_on_every_new_topic_are_rejected_once_and_the_node_serves_o
     for cases in BAD.values():
         for text in cases:
             assert log.count(text) == 1, text           # throttled: once per cause
-    sim.ros.spin_until(lambda: sim.diag.of(f"{NS}/simulator").get("refused set_state") == "15",
+    sim.ros.spin_until(lambda: sim.diag.of(f"{NS}/simulator").get("refused ~/set_state") == "15",
                        30, "the refused counts on /diagnostics")
     diag = sim.diag.of(f"{NS}/simulator")
     assert diag["refused external_wrench"] == "9" and diag["refused joint_commands"] == "9"

@@ -132,10 +132,7 @@ class Simulator(Node):
                                           self.q0))
             except ValueError as exc:
                 raise StartupError(str(exc)) from None
-            if p["position_limits"]:
-                self.get_logger().info("floating base: no hard stops at the joint limits "
-                                       "(position_limits is not available on a floating base)")
-            p["position_limits"] = False
+            stops_dropped, p["position_limits"] = p["position_limits"], False
             self.frames = (p["odom_frame"], robot.base_link)   # odom's frame_id, child_frame_id
         self.step_count = p["step_count"]
         if p["sim_dt"] > COARSE_DT:
@@ -151,6 +148,9 @@ class Simulator(Node):
             self.integrator = self._integrator_for(robot)
         except ValueError as exc:
             raise StartupError(str(exc)) from None
+        if robot.is_floating and stops_dropped:
+            self.get_logger().info("floating base: no hard stops at the joint limits "
+                                   "(position_limits is not available on a floating base)")
         dt = self.integrator.dt
         self.publish_every = max(1, round(1.0 / (p["publish_rate"] * dt)))
         self.clock_every = max(1, round(1.0 / (p["clock_rate"] * dt)))

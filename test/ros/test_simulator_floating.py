@@ -5,11 +5,13 @@ effort, with /clock so that every stamp counts integration steps exactly.
 The base pose published on ``odom`` (and the joints on ``joint_states``) after the steps is
 the library's own ``sd.simulate`` of the same commands (the node's method and dt): a node
 that let the base stand still, published the twist in the world frame, or mixed the
-quaternion order would be far off. ``~/set_base_state`` and ``~/reset`` move the base.
+quaternion order would be far off. ``~/set_base_state`` and ``~/reset`` move the base; a
+push on the tip (``external_wrench``) is in world coordinates; servo targets are refused.
 """
 import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import WrenchStamped
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
@@ -28,6 +30,7 @@ _QUAT = np.array([0.1, -0.2, 0.3, 0.9]) / np.linalg.norm([0.1, -0.2, 0.3, 0.9])
 POSE0 = [0.5, -0.25, 1.0, *_QUAT.tolist()]                  # initial_base_pose
 POSE1 = np.array([-1.0, 2.0, 0.5, 0.0, 0.0, np.sin(0.4), np.cos(0.4)])   # ~/set_base_state
 TWIST1 = np.array([0.1, -0.2, 0.05, 0.3, -0.1, 0.2])
+WRENCH = np.array([0.5, 0.0, -0.3, 0.0, 0.05, 0.0])        # on the tip, world coordinates
 ROBOT = sd.load_urdf(sd.builtin_path(), gravity=(0.0, 0.0, 0.0), floating_base=True)
 
 
@@ -35,9 +38,10 @@ def ns(msg):
     return msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
 
 
-def library(q, v, effort, steps):
+def library(q, v, effort, steps, wrench=None):
     """The library's run of ``steps`` steps of the node's method and dt from (q, v)."""
-    res = sd.simulate(ROBOT, steps * DT, q, v, effort, method="semi_implicit_euler", dt=DT)
+    res = sd.simulate(ROBOT, steps * DT, q, v, effort, method="semi_implicit_euler", dt=DT,
+                      wrench=wrench)
     assert res.t.size == steps + 1
     return res.q[-1], res.qd[-1]
 
@@ -71,13 +75,15 @@ def sim(ros):
     s.states = Latest(ros, JointState, f"{NS}/joint_states", depth=100)
     s.effort = ros.node.create_publisher(Float64MultiArray, f"{NS}/effort_commands", 10)
     s.set_base = ros.node.create_publisher(Odometry, f"{NS}/simulator/set_base_state", 10)
+    s.wrench = ros.node.create_publisher(WrenchStamped, f"{NS}/external_wrench", 10)
+    s.joint = ros.node.create_publisher(JointState, f"{NS}/joint_commands", 10)
     s.step = ros.node.create_client(Trigger, f"{NS}/simulator/step")
     s.reset = ros.node.create_client(Trigger, f"{NS}/simulator/reset")
     s.diag_sub = ros.node.create_subscription(
         DiagnosticArray, "/diagnostics",
         lambda m: s.diag.update({st.name: {v.key: v.value for v in st.values}
                                  for st in m.status}), 10)
-    ros.wait_matched(s.effort, s.set_base, also=lambda: s.odom.msgs and s.states.msgs,
+    ros.wait_matched(s.effort, s.set_base, s.wrench, s.joint, also=lambda: s.odom.msgs and s.states.msgs,
                      what="the floating simulator")
     yield s
     s.odom.destroy()
@@ -129,6 +135,21 @@ def test_odom_is_the_library_run_then_set_base_state_and_reset(sim):
     q, v = library(q, v, EFFORT, STEPS)
     assert_state(odom, joints, q, v)
     assert sim.diag[f"{NS}/simulator"]["refused ~/set_base_state"] == "1"
+
+    # a push on the tip in world coordinates (odom); servo targets are refused (no servo on
+    # a floating base) and leave the effort in force
+    push = WrenchStamped()
+    push.header.frame_id = "odom"
+    push.wrench.force.x, push.wrench.force.z, push.wrench.torque.y = WRENCH[[0, 2, 4]].tolist()
+    sim.wrench.publish(push)
+    sim.joint.publish(JointState(name=ROBOT.joint_names, position=HOME))
+    received(sim, "external_wrench", 1)
+    received(sim, "joint_commands", 1)
+    odom, joints = step(sim)
+    q, v = library(q, v, EFFORT, STEPS, WRENCH)
+    assert_state(odom, joints, q, v)
+    assert sim.diag[f"{NS}/simulator"]["refused joint_commands"] == "1"
+    assert "the joint servo is not available on a floating base" in sim.proc.output()
 
     # ~/reset: back to initial_base_pose and initial_positions, at rest
     assert sim.ros.call(sim.reset, Trigger.Request()).success

@@ -16,7 +16,8 @@ from nav_msgs.msg import Odometry
 from .common import MAX_VALUE, finite_vector
 
 IDENTITY = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0]     # [x, y, z, qx, qy, qz, qw]
-QUAT_TOLERANCE = 1e-3   # |1 - |quaternion|| accepted (and normalized) in a message: 4 digits typed by hand
+# |1 - |quaternion|| accepted (and normalized) in a message: 4 digits typed by hand pass
+QUAT_TOLERANCE = 1e-3
 
 
 class BaseStateError(ValueError):

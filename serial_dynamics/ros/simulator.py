@@ -181,7 +181,8 @@ class Simulator(Node):
         self.odom_pub = None
         if robot.is_floating:
             self.odom_pub = self.create_publisher(Odometry, "odom", common.QOS_DEPTH)
-            common.subscribe(self, self.reject, Odometry, "~/set_base_state", self.on_set_base_state)
+            common.subscribe(self, self.reject, Odometry, "~/set_base_state",
+                             self.on_set_base_state)
         self.create_service(Trigger, "~/reset", self.on_reset)
         self.create_service(SetBool, "~/pause", self.on_pause)
         self.create_service(Trigger, "~/step", self.on_step)

@@ -83,8 +83,8 @@ def sim(ros):
         DiagnosticArray, "/diagnostics",
         lambda m: s.diag.update({st.name: {v.key: v.value for v in st.values}
                                  for st in m.status}), 10)
-    ros.wait_matched(s.effort, s.set_base, s.wrench, s.joint, also=lambda: s.odom.msgs and s.states.msgs,
-                     what="the floating simulator")
+    ros.wait_matched(s.effort, s.set_base, s.wrench, s.joint,
+                     also=lambda: s.odom.msgs and s.states.msgs, what="the floating simulator")
     yield s
     s.odom.destroy()
     s.states.destroy()

@@ -212,14 +212,16 @@ def load_robot(node, p: dict, gravity=None):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            robot = sd.load_urdf(source, base, tip, tuple(g))
+            robot = sd.load_urdf(source, base, tip, tuple(g),
+                                 floating_base=bool(p.get("floating_base", False)))
         except (ValueError, OSError) as exc:   # URDFError and ModelError are ValueErrors
             raise StartupError(f"cannot load the robot from {where}: {exc}") from None
     for w in caught:
         node.get_logger().warning(str(w.message))
     robot.dissipation = _dissipation(robot, p)
     node.get_logger().info(f"robot {robot.model.name!r} from {where}: {robot.dof} joints "
-                           f"{robot.joint_names}, {robot.base_link} -> {robot.tip_link}")
+                           f"{robot.joint_names}, {robot.base_link} -> {robot.tip_link}"
+                           + (" on a floating base" if robot.is_floating else ""))
     return robot
 
 

@@ -15,6 +15,10 @@ Inputs (checked in ``simulator_inputs``): efforts and servo targets on ``joint_c
 (``external_wrench``), a state to jump to (``~/set_state``), steps while paused
 (``~/step``). /diagnostics adds the real-time factor achieved, late steps and divergence
 events to the message counts.
+
+``floating_base``: the chain's base floats free (``FloatingRobot``); the base pose goes out
+on ``odom`` (nav_msgs/Odometry) beside ``joint_states`` and comes in on
+``~/set_base_state`` (``floating_state``).
 """
 from __future__ import annotations
 
@@ -24,6 +28,7 @@ import time
 
 import numpy as np
 from geometry_msgs.msg import WrenchStamped
+from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from rclpy.time import Time
 from rosgraph_msgs.msg import Clock
@@ -34,7 +39,7 @@ from std_srvs.srv import SetBool, Trigger
 from serial_dynamics.sim.fixed_step import SERVO_METHODS, FixedStepIntegrator
 from serial_dynamics.model.errors import SimulationError
 
-from . import common, parameters, simulator_inputs
+from . import common, floating_state, parameters, simulator_inputs
 from .command_hold import CommandHold
 from .common import Rejected
 from .pacing import Pacer
@@ -70,6 +75,13 @@ PARAMETERS = {
     "servo.kd": ("double[]", [200.0], "joint servo damping (N m s/rad; N s/m), one or one per "
                  "joint, for joint_commands with position and/or velocity targets"),
     **parameters.PAYLOAD_PARAMETERS,
+    "floating_base": ("bool", False, "the chain's base link floats free (FloatingRobot): the "
+                      "base pose on odom (nav_msgs/Odometry), ~/set_base_state; no joint "
+                      "servo, no position_limits"),
+    "initial_base_pose": ("double[]", floating_state.IDENTITY, "floating_base: the base pose "
+                          "at start and after ~/reset, [x, y, z, qx, qy, qz, qw] in odom_frame "
+                          "(the quaternion is normalized)"),
+    "odom_frame": ("string", "odom", "floating_base: header.frame_id of odom (the world)"),
 }
 # parameter ranges (ParameterDescriptor; inclusive, so only those that include their ends)
 RANGES = {"real_time_factor": (0.0, 1e6), "command_timeout": (0.0, 1e9),
@@ -89,6 +101,7 @@ class Simulator(Node):
                                                             self._set_plant)
         n = robot.dof
         self.q0 = parameters.per_joint("initial_positions", p["initial_positions"], robot, np.zeros(n))
+        self.jq, self.jv = (7, 6) if robot.is_floating else (0, 0)   # joints' start in q, qd
         outside = np.flatnonzero((self.q0 < robot.lower) | (self.q0 > robot.upper))
         if outside.size:
             j, lo, hi = outside[0], robot.lower, robot.upper
@@ -111,7 +124,15 @@ class Simulator(Node):
                                                  positive=True) for x in ("kp", "kd"))
         if not (np.all(np.isfinite(self.kp)) and np.all(np.isfinite(self.kd))):
             raise StartupError("parameters 'servo.kp' and 'servo.kd' must be finite")
-        self.servo_ok = p["integrator"] in SERVO_METHODS
+        self.servo_ok = p["integrator"] in SERVO_METHODS and not robot.is_floating
+        if robot.is_floating:
+            try:
+                self.q0 = np.concatenate((floating_state.initial_pose(p["initial_base_pose"]),
+                                          self.q0))
+            except ValueError as exc:
+                raise StartupError(str(exc)) from None
+            stops_dropped, p["position_limits"] = p["position_limits"], False
+            self.frames = (p["odom_frame"], robot.base_link)   # odom's frame_id, child_frame_id
         self.step_count = p["step_count"]
         if p["sim_dt"] > COARSE_DT:
             self.get_logger().warning(
@@ -126,6 +147,9 @@ class Simulator(Node):
             self.integrator = self._integrator_for(robot)
         except ValueError as exc:
             raise StartupError(str(exc)) from None
+        if robot.is_floating and stops_dropped:
+            self.get_logger().info("floating base: no hard stops at the joint limits "
+                                   "(position_limits is not available on a floating base)")
         dt = self.integrator.dt
         self.publish_every = max(1, round(1.0 / (p["publish_rate"] * dt)))
         self.clock_every = max(1, round(1.0 / (p["clock_rate"] * dt)))
@@ -134,12 +158,13 @@ class Simulator(Node):
         self.rtf, self.publish_clock = p["real_time_factor"], p["publish_clock"]
         self.pacer = Pacer(dt, self.rtf, MAX_LAG)
         robot.warmup()
-        self.integrator.step(self.q0, np.zeros(n), np.zeros(n))   # compile the step too
+        self.integrator.step(self.q0, np.zeros(n + self.jv), np.zeros(n))   # compile the step too
 
         self.lock = threading.Lock()
         self.paused = p["start_paused"]
         self.k = 0                                   # steps since start (simulated time)
         self.pending = None                          # ~/set_state: (idx, q or None, qd)
+        self.pending_base = None                     # ~/set_base_state: (pose, twist)
         self.divergences = 0
         self._reset_state()
         self.reject = common.Rejections(self, hardware_id=robot.model.name)
@@ -151,6 +176,11 @@ class Simulator(Node):
         common.subscribe(self, self.reject, JointState, "joint_commands", self.on_joint_command)
         common.subscribe(self, self.reject, WrenchStamped, "external_wrench", self.on_wrench)
         common.subscribe(self, self.reject, JointState, "~/set_state", self.on_set_state)
+        self.odom_pub = None
+        if robot.is_floating:
+            self.odom_pub = self.create_publisher(Odometry, "odom", common.QOS_DEPTH)
+            common.subscribe(self, self.reject, Odometry, "~/set_base_state",
+                             self.on_set_base_state)
         self.create_service(Trigger, "~/reset", self.on_reset)
         self.create_service(SetBool, "~/pause", self.on_pause)
         self.create_service(Trigger, "~/step", self.on_step)
@@ -160,9 +190,9 @@ class Simulator(Node):
 
     # ------------------------------------------------------------ commands and services
     def _reset_state(self):
-        self.q, self.qd = self.q0.copy(), np.zeros(self.robot.dof)
+        self.q, self.qd = self.q0.copy(), np.zeros(self.robot.dof + self.jv)
         self.hold.clear(self.k)
-        self.pending = None
+        self.pending = self.pending_base = None
 
     def _command(self, idx, effort, position=None, velocity=None):
         """The command of the joints ``idx``: effort (clamped), and servo targets (None:
@@ -191,15 +221,18 @@ class Simulator(Node):
                 raise Rejected("joint_commands servo", "joint_commands position/velocity "
                                f"targets need an integrator with the implicit servo "
                                f"{SERVO_METHODS}; this simulator runs another (parameter "
-                               "integrator); send effort only")
+                               "integrator); send effort only" if not self.robot.is_floating
+                               else "joint_commands position/velocity targets: the joint "
+                               "servo is not available on a floating base; send effort only")
         except Rejected as exc:
             return self.reject("joint_commands", exc, "; the last good command stays in force")
         self._command(idx, np.zeros(len(idx)) if effort is None else effort, position, velocity)
 
     def on_wrench(self, msg):
         try:
-            w = simulator_inputs.external_wrench(msg, self.robot)
-        except Rejected as exc:
+            w = (floating_state.external_wrench(msg, self.frames[0]) if self.robot.is_floating
+                 else simulator_inputs.external_wrench(msg, self.robot))
+        except ValueError as exc:   # Rejected, BaseStateError
             return self.reject("external_wrench", exc, "; the wrench in force stays")
         with self.lock:
             self.hold.push(self.k, w)
@@ -211,6 +244,14 @@ class Simulator(Node):
             return self.reject("set_state", exc, "; the state is left alone")
         with self.lock:
             self.pending = pending
+
+    def on_set_base_state(self, msg):
+        try:
+            pending = floating_state.base_state(msg, *self.frames)
+        except ValueError as exc:
+            return self.reject("set_base_state", exc, "; the state is left alone")
+        with self.lock:
+            self.pending_base = pending
 
     def on_step(self, request, response):
         """While paused: ``step_count`` steps now (in this callback), then a joint_states."""
@@ -235,6 +276,8 @@ class Simulator(Node):
         with self.lock:
             self._reset_state()
         response.success, response.message = True, "state reset to initial_positions, at rest"
+        if self.robot.is_floating:
+            response.message = "state reset to initial_base_pose and initial_positions, at rest"
         return response
 
     def _set_plant(self, robot):
@@ -303,8 +346,12 @@ class Simulator(Node):
                 idx, q_set, qd_set = self.pending
                 self.q, self.qd, self.pending = self.q.copy(), self.qd.copy(), None
                 if q_set is not None:
-                    self.q[idx] = q_set
-                self.qd[idx] = qd_set
+                    self.q[self.jq + idx] = q_set
+                self.qd[self.jv + idx] = qd_set
+            if self.pending_base is not None:   # ~/set_base_state, applied at this step
+                (pose, twist), self.pending_base = self.pending_base, None
+                self.q, self.qd = self.q.copy(), self.qd.copy()
+                self.q[:7], self.qd[:6] = pose, twist
             try:
                 q, qd = integrator.step(self.q, self.qd, hold.tau, hold.wrench,
                                         t=self.k * integrator.dt, servo=hold.servo)
@@ -331,12 +378,16 @@ class Simulator(Node):
         robot = self.robot               # every joint, mimic joints too (robot_state_publisher)
         effort = np.zeros(len(robot.all_joint_names))
         effort[robot.model.independent] = tau      # a mimic joint has no actuator: 0
-        msg = JointState(name=robot.all_joint_names, position=robot.all_joint_positions(q).tolist(),
-                         velocity=robot.all_joint_velocities(qd).tolist(), effort=effort.tolist())
+        qj, qdj = q[self.jq:], qd[self.jv:]   # the joints (a floating base: after the base)
+        msg = JointState(name=robot.all_joint_names, position=robot.all_joint_positions(qj).tolist(),
+                         velocity=robot.all_joint_velocities(qdj).tolist(), effort=effort.tolist())
         stamp = Time(nanoseconds=k * self.dt_ns) if self.publish_clock else self.get_clock().now()
         msg.header.stamp = stamp.to_msg()
         self.state_pub.publish(msg)
         self.reject.put("joint_states")
+        if self.odom_pub is not None:        # the base, same state and stamp
+            self.odom_pub.publish(floating_state.odometry(q, qd, *self.frames, msg.header.stamp))
+            self.reject.put("odom")
 
     def _diagnostics(self):
         """The real-time factor achieved since the last report (simulated s per wall s; WARN

@@ -1,0 +1,100 @@
+"""The simulator's floating base in messages (no node state, no rclpy here): the initial
+pose parameter, the state <-> nav_msgs/Odometry, and the checks of a base state sent to
+``~/set_base_state``.
+
+State (``FloatingRobot``, docs/modelling.md): q = [x, y, z, qx, qy, qz, qw, joints], v =
+[base linear velocity, base angular velocity, joint rates], the base's velocities in the
+base frame. nav_msgs/Odometry says the same (REP 105 and the message's own comments): the
+pose of ``child_frame_id`` (the base link) in ``header.frame_id`` (the world, ``odom``), the
+twist in ``child_frame_id`` -- so q[:7] and v[:6] go into the message as they are.
+"""
+from __future__ import annotations
+
+import numpy as np
+from nav_msgs.msg import Odometry
+
+from .common import MAX_VALUE, finite_vector
+
+IDENTITY = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0]     # [x, y, z, qx, qy, qz, qw]
+# |1 - |quaternion|| accepted (and normalized) in a message: 4 digits typed by hand pass
+QUAT_TOLERANCE = 1e-3
+
+
+class BaseStateError(ValueError):
+    """A bad base pose or twist; ``cause`` groups repeats (as ``common.Rejected``)."""
+
+    def __init__(self, cause: str, text: str):
+        super().__init__(text)
+        self.cause = cause
+
+
+def _unit(pose, what, tolerance):
+    """pose (7,) with its quaternion of unit length, or BaseStateError naming ``what``."""
+    pose = np.array(pose, dtype=float)
+    if pose.shape != (7,) or not np.all(np.isfinite(pose)) or np.any(np.abs(pose) > MAX_VALUE):
+        raise BaseStateError(f"{what} values", f"{what} must be 7 finite numbers [x, y, z, qx, "
+                             f"qy, qz, qw] (m; a quaternion, w last), got {pose.tolist()}")
+    norm = float(np.linalg.norm(pose[3:]))
+    if norm == 0.0 or (tolerance is not None and abs(norm - 1.0) > tolerance):
+        raise BaseStateError(f"{what} quaternion", f"{what} has a quaternion [qx, qy, qz, qw] = "
+                             f"{pose[3:].tolist()} of length {norm:.6g}; give a unit quaternion "
+                             "(identity: [0, 0, 0, 1], w last)")
+    pose[3:] /= norm
+    return pose
+
+
+def initial_pose(values):
+    """The ``initial_base_pose`` parameter -> (7,) (its quaternion normalized; [] = identity)."""
+    return _unit(IDENTITY if not values else values, "initial_base_pose", None)
+
+
+def odometry(q, v, frame_id, child_frame_id, stamp=None):
+    """nav_msgs/Odometry of the base at (q, v): pose in ``frame_id``, twist in the base
+    frame ``child_frame_id``; covariances zero (a simulation knows its state)."""
+    msg = Odometry()
+    if stamp is not None:
+        msg.header.stamp = stamp
+    msg.header.frame_id, msg.child_frame_id = frame_id, child_frame_id
+    x, y, z, qx, qy, qz, qw = q[:7].tolist()
+    vx, vy, vz, wx, wy, wz = v[:6].tolist()
+    p, o = msg.pose.pose.position, msg.pose.pose.orientation
+    p.x, p.y, p.z = x, y, z
+    o.x, o.y, o.z, o.w = qx, qy, qz, qw
+    lin, ang = msg.twist.twist.linear, msg.twist.twist.angular
+    lin.x, lin.y, lin.z = vx, vy, vz
+    ang.x, ang.y, ang.z = wx, wy, wz
+    return msg
+
+
+def base_state(msg, frame_id, child_frame_id):
+    """nav_msgs/Odometry -> (pose (7,), twist (6,)) of the base, as ``odometry`` writes
+    them. Frames: '' or the simulator's own; the quaternion of unit length (within
+    QUAT_TOLERANCE; normalized); every value finite and within MAX_VALUE."""
+    for field, got, want in (("header.frame_id", msg.header.frame_id, frame_id),
+                             ("child_frame_id", msg.child_frame_id, child_frame_id)):
+        if got not in ("", want):
+            raise BaseStateError(f"set_base_state {field}", f"set_base_state {field} {got!r} is "
+                                 f"not the simulator's: give '' or {want!r} (pose in "
+                                 f"{frame_id!r}, twist in the base frame {child_frame_id!r})")
+    p, o = msg.pose.pose.position, msg.pose.pose.orientation
+    pose = _unit([p.x, p.y, p.z, o.x, o.y, o.z, o.w], "set_base_state pose", QUAT_TOLERANCE)
+    lin, ang = msg.twist.twist.linear, msg.twist.twist.angular
+    twist = np.array([lin.x, lin.y, lin.z, ang.x, ang.y, ang.z])
+    if not np.all(np.isfinite(twist)) or np.any(np.abs(twist) > MAX_VALUE):
+        raise BaseStateError("set_base_state twist", "set_base_state twist must be finite and "
+                             f"within +-{MAX_VALUE:g}, got {twist.tolist()}")
+    return pose, twist
+
+
+def external_wrench(msg, frame_id):
+    """geometry_msgs/WrenchStamped -> (6,) [force; torque] on the tip at its origin, in
+    WORLD coordinates (a floating robot's convention), or None for a zero wrench; frame_id
+    '' or the world frame ``frame_id``."""
+    f, t = msg.wrench.force, msg.wrench.torque
+    w = finite_vector([f.x, f.y, f.z, t.x, t.y, t.z], 6, "external_wrench", "external_wrench")
+    if msg.header.frame_id not in ("", frame_id):
+        raise BaseStateError("external_wrench frame", f"external_wrench frame_id "
+                             f"{msg.header.frame_id!r} is not the world frame: give '' or "
+                             f"{frame_id!r} (on a floating base the wrench on the tip link at "
+                             "its origin is given in world coordinates)")
+    return w if np.any(w) else None

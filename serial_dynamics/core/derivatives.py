@@ -22,33 +22,14 @@ from . import flags as F
 from .cholesky import cholesky_solve_matrix
 from .data import new_chol, new_kin, scratch, stack_empty
 from .forward import cholesky_core
-from .layout import G, H, IO, KIND, MASS, TIPP, W_ACC, W_ALL, W_ALPHA, W_OMEGA, W_WRENCH
-from .rnea import status
+from .layout import H, IO, KIND, MASS, TIPP
+from .rnea import (base_state, body_wrench, inward_step, into_body, joint_rate, joint_rates, tip_load,
+                   w_length)
+from .status import BAD_LENGTH, NOT_FINITE, OK, status
 from .signatures import D1, D2, D3, In1, In2, Out2, Out3, Pm, Vec, f8, i8, internal
-from .spatial import finite, joint_transforms, to_parent
+from .spatial import force_to_parent, joint_transforms, rotate_t, rotation
 
 HAVE_TRANSFORMS = 1 << 16    # flag of derivatives_core: R, p already hold the transforms of q
-
-
-@njit(cache=True, inline="always")
-def _rows(R, i):
-    """R_i as a tuple of nine numbers (row-major): kept in registers in the loops below."""
-    return (R[i, 0, 0], R[i, 0, 1], R[i, 0, 2], R[i, 1, 0], R[i, 1, 1], R[i, 1, 2],
-            R[i, 2, 0], R[i, 2, 1], R[i, 2, 2])
-
-
-@njit(cache=True, inline="always")
-def _rt(r, x, y, z):
-    """R^T (x, y, z) for R = ``_rows``: into the child's frame."""
-    return (r[0] * x + r[3] * y + r[6] * z, r[1] * x + r[4] * y + r[7] * z,
-            r[2] * x + r[5] * y + r[8] * z)
-
-
-@njit(cache=True, inline="always")
-def _r(r, x, y, z):
-    """R (x, y, z): into the parent's frame."""
-    return (r[0] * x + r[1] * y + r[2] * z, r[3] * x + r[4] * y + r[5] * z,
-            r[6] * x + r[7] * y + r[8] * z)
 
 
 @njit(cache=True, inline="always")
@@ -83,60 +64,32 @@ def derivatives_core(P, sc, R, p, f, T, Tf, dB, q, qd, qdd, w, flags, dq, dqd):
     of tau = M qdd + b - J^T w (flags QD, QDD, WRENCH, BASE as ``rnea_core``). Scratch:
     sc, R, p, f (Data Kin), T (15, 2n), Tf (6, 2n), dB (n, 6, 2n). Returns 0.0 or NaN."""
     n = dq.shape[0]
-    use_qd, use_qdd, use_w = (flags & F.QD) != 0, (flags & F.QDD) != 0, (flags & F.WRENCH) != 0
+    use_w = (flags & F.WRENCH) != 0
     # R, p (and the check of q) may come from the caller (fd_derivatives_core)
     chk = joint_transforms(P, sc, R, p, q, n) if (flags & HAVE_TRANSFORMS) == 0 else 0.0
-    wx = wy = wz = 0.0                                  # omega of the previous body
-    ax = ay = az = 0.0                                  # alpha
-    lx, ly, lz = -P[n, G], -P[n, G + 1], -P[n, G + 2]   # acc; base: -g
-    ex = ey = ez = mx = my = mz = 0.0                   # tip wrench [f; m], carried outward
-    if use_w:
-        ex, ey, ez, mx, my, mz = w[0], w[1], w[2], w[3], w[4], w[5]
-        chk += finite(ex) + finite(ey) + finite(ez) + finite(mx) + finite(my) + finite(mz)
-    if (flags & F.BASE) != 0:   # moving base: omega_0, alpha_0, acc_0 - g (Angeles Sec. 7.5.2)
-        wx, wy, wz = w[W_OMEGA], w[W_OMEGA + 1], w[W_OMEGA + 2]
-        ax, ay, az = w[W_ALPHA], w[W_ALPHA + 1], w[W_ALPHA + 2]
-        lx, ly, lz = w[W_ACC] - P[n, G], w[W_ACC + 1] - P[n, G + 1], w[W_ACC + 2] - P[n, G + 2]
-        chk += (finite(wx) + finite(wy) + finite(wz) + finite(ax) + finite(ay) + finite(az)
-                + finite(lx) + finite(ly) + finite(lz))
+    (wx, wy, wz, ax, ay, az, lx, ly, lz), (ex, ey, ez, mx, my, mz), chk = base_state(P, w, flags, n, chk)
     for k in range(n):
-        dqk = qd[k] if use_qd else 0.0
-        ddqk = qdd[k] if use_qdd else 0.0
-        chk += finite(dqk) + finite(ddqk)
+        dqk, ddqk, c = joint_rates(qd, qdd, k, flags)
+        chk += c
         px, py, pz = p[k, 0], p[k, 1], p[k, 2]
         rev = P[k, KIND] == 0.0
-        r = _rows(R, k)
-        # rnea: acc + alpha x p + omega x (omega x p), into body k (u = omega x p)
+        r = rotation(R, k)
         w0x, w0y, w0z = wx, wy, wz                        # the parent's omega (frame k-1)
-        ux, uy, uz = wy * pz - wz * py, wz * px - wx * pz, wx * py - wy * px
-        tx = lx + ay * pz - az * py + wy * uz - wz * uy
-        ty = ly + az * px - ax * pz + wz * ux - wx * uz
-        tz = lz + ax * py - ay * px + wx * uy - wy * ux
-        lx, ly, lz = _rt(r, tx, ty, tz)
-        wx, wy, wz = _rt(r, wx, wy, wz)                   # omega', alpha': before the joint
-        ax, ay, az = _rt(r, ax, ay, az)
+        # rnea outward: omega', alpha', acc' in body k before its joint moves, then after
+        wx, wy, wz, ax, ay, az, lx, ly, lz = into_body(R, p, k, wx, wy, wz, ax, ay, az, lx, ly, lz)
         wpx, wpy, apx, apy = wx, wy, ax, ay
         lpx, lpy = lx, ly
         if use_w:
-            ex, ey, ez = _rt(r, ex, ey, ez)
-            mx, my, mz = _rt(r, mx, my, mz)
-        if rev:                                           # rnea: spin about z
-            ax, ay, az = ax + wy * dqk, ay - wx * dqk, az + ddqk
-            wz = wz + dqk
-        else:                                             # rnea: slide along z
-            lx, ly, lz = lx + 2.0 * wy * dqk, ly - 2.0 * wx * dqk, lz + ddqk
-        # rnea: body wrench about its origin (n; f) into f[k]
+            ex, ey, ez = rotate_t(r, ex, ey, ez)
+            mx, my, mz = rotate_t(r, mx, my, mz)
+        wx, wy, wz, ax, ay, az, lx, ly, lz = joint_rate(P, k, wx, wy, wz, ax, ay, az, lx, ly, lz,
+                                                        dqk, ddqk)
+        f[k, 0], f[k, 1], f[k, 2], f[k, 3], f[k, 4], f[k, 5] = body_wrench(
+            P, k, wx, wy, wz, ax, ay, az, lx, ly, lz)
         m = P[k, MASS]
         hx, hy, hz = P[k, H], P[k, H + 1], P[k, H + 2]
         I6 = (P[k, IO], P[k, IO + 1], P[k, IO + 2], P[k, IO + 3], P[k, IO + 4], P[k, IO + 5])
-        vx, vy, vz = wy * hz - wz * hy, wz * hx - wx * hz, wx * hy - wy * hx     # omega x h
-        f[k, 3] = m * lx + ay * hz - az * hy + wy * vz - wz * vy
-        f[k, 4] = m * ly + az * hx - ax * hz + wz * vx - wx * vz
-        f[k, 5] = m * lz + ax * hy - ay * hx + wx * vy - wy * vx
         Lx, Ly, Lz = _inertia_times(I6, wx, wy, wz)                              # I_O omega
-        f[k, 0] = I6[0] * ax + I6[3] * ay + I6[4] * az + wy * Lz - wz * Ly + hy * lz - hz * ly
-        f[k, 1] = I6[3] * ax + I6[1] * ay + I6[5] * az + wz * Lx - wx * Lz + hz * lx - hx * lz
-        f[k, 2] = I6[4] * ax + I6[5] * ay + I6[2] * az + wx * Ly - wy * Lx + hx * ly - hy * lx
         body = (m, hx, hy, hz, I6, wx, wy, wz, Lx, Ly, Lz, wx * hx + wy * hy + wz * hz)
         # the live tangents through body k, linearized (rnea outward): d acc + d alpha x p
         # + d w x (w x p) + w x (d w x p) = ... + w (d w.p) + d w (w.p) - 2 p (w.d w), into
@@ -152,17 +105,17 @@ def derivatives_core(P, sc, R, p, f, T, Tf, dB, q, qd, qdd, w, flags, dq, dqd):
             tx = T[6, d] + T[4, d] * pz - T[5, d] * py + w0x * s1 + dwx * wp - p2x * s2
             ty = T[7, d] + T[5, d] * px - T[3, d] * pz + w0y * s1 + dwy * wp - p2y * s2
             tz = T[8, d] + T[3, d] * py - T[4, d] * px + w0z * s1 + dwz * wp - p2z * s2
-            sx, sy, sz = _rt(r, tx, ty, tz)
-            cx, cy, cz = _rt(r, dwx, dwy, dwz)
-            bx, by, bz = _rt(r, T[3, d], T[4, d], T[5, d])
+            sx, sy, sz = rotate_t(r, tx, ty, tz)
+            cx, cy, cz = rotate_t(r, dwx, dwy, dwz)
+            bx, by, bz = rotate_t(r, T[3, d], T[4, d], T[5, d])
             bx, by, sx, sy = bx + ca * cy, by - ca * cx, sx + cl * cy, sy - cl * cx
             T[0, d], T[1, d], T[2, d] = cx, cy, cz
             T[3, d], T[4, d], T[5, d] = bx, by, bz
             T[6, d], T[7, d], T[8, d] = sx, sy, sz
         if use_w:
             for d in range(2 * k):
-                T[9, d], T[10, d], T[11, d] = _rt(r, T[9, d], T[10, d], T[11, d])
-                T[12, d], T[13, d], T[14, d] = _rt(r, T[12, d], T[13, d], T[14, d])
+                T[9, d], T[10, d], T[11, d] = rotate_t(r, T[9, d], T[10, d], T[11, d])
+                T[12, d], T[13, d], T[14, d] = rotate_t(r, T[12, d], T[13, d], T[14, d])
         # the seeds of directions q_k (d = 2k) and qd_k (d = 2k + 1), algorithms/derivatives.py
         a, b = 2 * k, 2 * k + 1
         for i in range(15):
@@ -186,10 +139,7 @@ def derivatives_core(P, sc, R, p, f, T, Tf, dB, q, qd, qdd, w, flags, dq, dqd):
     # inward: the last body carries the tip load -e (moment about its origin: -m + Xtip_p x -e)
     k = n - 1
     tpx, tpy, tpz = P[n, TIPP], P[n, TIPP + 1], P[n, TIPP + 2]
-    fx, fy, fz = f[k, 3] - ex, f[k, 4] - ey, f[k, 5] - ez
-    nx = f[k, 0] - mx - tpy * ez + tpz * ey
-    ny = f[k, 1] - my - tpz * ex + tpx * ez
-    nz = f[k, 2] - mz - tpx * ey + tpy * ex
+    nx, ny, nz, fx, fy, fz = tip_load(P, f, k, ex, ey, ez, mx, my, mz)
     for d in range(2 * n):
         for r in range(6):
             Tf[r, d] = dB[k, r, d]
@@ -217,23 +167,18 @@ def derivatives_core(P, sc, R, p, f, T, Tf, dB, q, qd, qdd, w, flags, dq, dqd):
         else:
             sx, sy, sz, gx, gy, gz = gx, gy, gz, 0.0, 0.0, 0.0
         # rnea inward: f_i = body wrench + Xup_j^T f_j, for the joint wrench and its tangents
-        nx, ny, nz, fx, fy, fz = to_parent(R, p, j, nx, ny, nz, fx, fy, fz)
-        fx, fy, fz = fx + f[i, 3], fy + f[i, 4], fz + f[i, 5]
-        nx, ny, nz = nx + f[i, 0], ny + f[i, 1], nz + f[i, 2]
-        r = _rows(R, j)
+        nx, ny, nz, fx, fy, fz = inward_step(R, p, f, i, nx, ny, nz, fx, fy, fz)
+        r = rotation(R, j)
         px, py, pz = p[j, 0], p[j, 1], p[j, 2]
         for d in range(2 * i + 2):    # Xup_j^T: f' = R f, n' = R n + p x f', + body i's
-            cx, cy, cz = _r(r, Tf[3, d], Tf[4, d], Tf[5, d])
-            ux, uy, uz = _r(r, Tf[0, d], Tf[1, d], Tf[2, d])
-            Tf[0, d] = ux + py * cz - pz * cy + dB[i, 0, d]
-            Tf[1, d] = uy + pz * cx - px * cz + dB[i, 1, d]
-            Tf[2, d] = uz + px * cy - py * cx + dB[i, 2, d]
+            ux, uy, uz, cx, cy, cz = force_to_parent(r, px, py, pz, Tf[0, d], Tf[1, d], Tf[2, d],
+                                                     Tf[3, d], Tf[4, d], Tf[5, d])
+            Tf[0, d], Tf[1, d], Tf[2, d] = ux + dB[i, 0, d], uy + dB[i, 1, d], uz + dB[i, 2, d]
             Tf[3, d], Tf[4, d], Tf[5, d] = cx + dB[i, 3, d], cy + dB[i, 4, d], cz + dB[i, 5, d]
         for d in range(2 * i + 2, 2 * n):   # directions of joints outboard of i: carried
-            cx, cy, cz = _r(r, Tf[3, d], Tf[4, d], Tf[5, d])
-            ux, uy, uz = _r(r, Tf[0, d], Tf[1, d], Tf[2, d])
-            Tf[0, d], Tf[1, d], Tf[2, d] = ux + py * cz - pz * cy, uy + pz * cx - px * cz, uz + px * cy - py * cx
-            Tf[3, d], Tf[4, d], Tf[5, d] = cx, cy, cz
+            (Tf[0, d], Tf[1, d], Tf[2, d], Tf[3, d], Tf[4, d],
+             Tf[5, d]) = force_to_parent(r, px, py, pz, Tf[0, d], Tf[1, d], Tf[2, d],
+                                         Tf[3, d], Tf[4, d], Tf[5, d])
         a = 2 * j
         Tf[0, a], Tf[1, a], Tf[2, a] = Tf[0, a] + sx, Tf[1, a] + sy, Tf[2, a] + sz
         Tf[3, a], Tf[4, a], Tf[5, a] = Tf[3, a] + gx, Tf[4, a] + gy, Tf[5, a] + gz
@@ -289,19 +234,19 @@ def _bad_shapes(P, q, qd, x, w, flags, dq, dqd):
     n = P.shape[0] - 1
     return (q.shape[0] != n or qd.shape[0] != n or x.shape[0] != n
             or dq.shape[0] != n or dq.shape[1] != n or dqd.shape[0] != n or dqd.shape[1] != n
-            or w.shape[0] != (W_ALL if (flags & F.BASE) != 0 else W_WRENCH))
+            or w.shape[0] != w_length(flags))
 
 
 def rnea_derivatives(P, q, qd, qdd, w, flags, out):
     """d tau/d q, d tau/d qd of one state into ``out[0]``, ``out[1]`` (out: (2, n, n); one
     array, one argument: each costs dispatch time). ``w``: as ``rnea.rnea_wrench``
-    (W_WRENCH entries, W_ALL with flag BASE; read with flags WRENCH, BASE). Returns 0, 1
-    (NaN/Inf) or 2 (a wrong length)."""
+    (W_WRENCH entries, W_ALL with flag BASE; read with flags WRENCH, BASE). Returns OK,
+    NOT_FINITE or BAD_LENGTH (status.py)."""
     if out.shape[0] != 2:
-        return 2
+        return BAD_LENGTH
     dq, dqd = out[0], out[1]
     if _bad_shapes(P, q, qd, qdd, w, flags, dq, dqd):
-        return 2
+        return BAD_LENGTH
     n = dq.shape[0]
     d = new_kin(n)
     T, Tf, dB = stack_empty((15, 2 * n)), stack_empty((6, 2 * n)), scratch((n, 6, 2 * n), 12 * n * n)
@@ -311,12 +256,12 @@ def rnea_derivatives(P, q, qd, qdd, w, flags, out):
 
 def fd_derivatives(P, q, qd, tau, w, flags, out):
     """d qdd/d q, d qdd/d qd, d qdd/d tau (= M^-1) of one state into ``out[0]``, ``out[1]``,
-    ``out[2]`` (out: (3, n, n)). Returns 0, 1 (NaN/Inf) or 2 (a wrong length)."""
+    ``out[2]`` (out: (3, n, n)). Returns OK, NOT_FINITE or BAD_LENGTH."""
     if out.shape[0] != 3:
-        return 2
+        return BAD_LENGTH
     dq, dqd, Minv = out[0], out[1], out[2]
     if _bad_shapes(P, q, qd, tau, w, flags, dq, dqd):
-        return 2
+        return BAD_LENGTH
     n = dq.shape[0]
     d, c, qdd = new_kin(n), new_chol(n), stack_empty((n,))
     T, Tf, dB = stack_empty((15, 2 * n)), stack_empty((6, 2 * n)), scratch((n, 6, 2 * n), 12 * n * n)
@@ -327,34 +272,34 @@ def fd_derivatives(P, q, qd, tau, w, flags, out):
 
 def rnea_derivatives_batch(P, q, qd, qdd, w, flags, dq, dqd):
     """``rnea_derivatives`` of N states (rows broadcast as in ``rnea_batch``) into (N, n, n)
-    arrays. Returns 0, or 1 if some input had a NaN/Inf."""
+    arrays. Returns OK, or NOT_FINITE if some input had a NaN/Inf."""
     n = P.shape[0] - 1
     d = new_kin(n)
     T, Tf, dB = stack_empty((15, 2 * n)), stack_empty((6, 2 * n)), scratch((n, 6, 2 * n), 12 * n * n)
     nq, nv, na, nw = q.shape[0] > 1, qd.shape[0] > 1, qdd.shape[0] > 1, w.shape[0] > 1
     flags = (flags & (F.WRENCH | F.BASE)) | F.QD | F.QDD
-    bad = 0
+    bad = OK
     for k in range(dq.shape[0]):
         if derivatives_core(P, d.sc, d.R, d.p, d.f, T, Tf, dB, q[k if nq else 0],
                             qd[k if nv else 0], qdd[k if na else 0], w[k if nw else 0],
                             flags, dq[k], dqd[k]) != 0.0:
-            bad = 1
+            bad = NOT_FINITE
     return bad
 
 
 def fd_derivatives_batch(P, q, qd, tau, w, flags, dq, dqd, Minv):
-    """``fd_derivatives`` of N states into (N, n, n) arrays. Returns 0, or 1 on a NaN/Inf."""
+    """``fd_derivatives`` of N states into (N, n, n) arrays. Returns OK, or NOT_FINITE on a NaN/Inf."""
     n = P.shape[0] - 1
     d, c, qdd = new_kin(n), new_chol(n), stack_empty((n,))
     T, Tf, dB = stack_empty((15, 2 * n)), stack_empty((6, 2 * n)), scratch((n, 6, 2 * n), 12 * n * n)
     X = scratch((n, 3 * n), 3 * n * n)
     nq, nv, nt, nw = q.shape[0] > 1, qd.shape[0] > 1, tau.shape[0] > 1, w.shape[0] > 1
-    bad = 0
+    bad = OK
     for k in range(dq.shape[0]):
         if fd_derivatives_core(P, d.sc, d.R, d.p, d.f, c.M, c.b, qdd, T, Tf, dB, X,
                                q[k if nq else 0], qd[k if nv else 0], tau[k if nt else 0],
                                w[k if nw else 0], flags, dq[k], dqd[k], Minv[k]) != 0.0:
-            bad = 1
+            bad = NOT_FINITE
     return bad
 
 

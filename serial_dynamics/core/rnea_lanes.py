@@ -15,7 +15,9 @@ import math
 
 from . import flags as F
 from .data import stack_empty
-from .layout import ARM, G, H, IO, KIND, LANES, MASS, TIPP, W_ACC, W_ALL, W_WRENCH, XP, XR
+from .layout import ARM, G, H, IO, KIND, LANES, MASS, TIPP, W_ACC, W_ALL, XP, XR
+from .rnea import w_length
+from .status import NOT_FINITE, OK
 from .signatures import In2, Out2, Pm, i8, internal
 from .spatial import SMALL_ANGLE, sincos
 
@@ -54,7 +56,7 @@ def rnea_block(P, q, qd, qdd, w, flags, out, k0):
         QV[3 * n, b] = 1.0 if lane_small else 0.0
         small &= lane_small
         if (flags & (F.WRENCH | F.BASE)) != 0:
-            for j in range(W_ALL if (flags & F.BASE) != 0 else W_WRENCH):
+            for j in range(w_length(flags)):
                 x = w[k if nw else 0, j]
                 WB[j, b] = x
                 fin &= x * 0.0 == 0.0
@@ -186,7 +188,7 @@ def rnea_block(P, q, qd, qdd, w, flags, out, k0):
     for b in range(nl):
         for i in range(n):
             out[k0 + b, i] = TB[i, b]
-    return 0 if fin else 1
+    return OK if fin else NOT_FINITE
 
 
 # ------------------------------------------------------------------ entry point
@@ -194,7 +196,7 @@ def rnea_batch(P, q, qd, qdd, w, flags, out):
     """Inverse dynamics of N states: q, qd, qdd (N, n) or (1, n) broadcast; w (N, 6) or
     (1, 6), with flag BASE (N or 1, W_ALL) (layout.W_*). Blocks of B samples run in lanes (the last one with the samples left). Returns
     0, or 1 if some input had a NaN/Inf (its rows are then not meaningful)."""
-    bad = 0
+    bad = OK
     for k0 in range(0, out.shape[0], int(P[P.shape[0] - 1, LANES])):
         bad |= rnea_block(P, q, qd, qdd, w, flags, out, k0)
     return bad

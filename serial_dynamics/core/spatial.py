@@ -89,26 +89,46 @@ def joint_transforms(P, sc, R, p, q, n):
     return chk
 
 
+@njit(cache=True, inline="always")
+def rotation(R, i):
+    """R_i as a tuple of nine numbers (row-major), to keep in registers through a loop."""
+    return (R[i, 0, 0], R[i, 0, 1], R[i, 0, 2], R[i, 1, 0], R[i, 1, 1], R[i, 1, 2],
+            R[i, 2, 0], R[i, 2, 1], R[i, 2, 2])
+
+
+@njit(cache=True, inline="always")
+def rotate_t(r, x, y, z):
+    """R^T (x, y, z), R given by ``rotation``: a 3-vector into the child's frame."""
+    return (r[0] * x + r[3] * y + r[6] * z, r[1] * x + r[4] * y + r[7] * z,
+            r[2] * x + r[5] * y + r[8] * z)
+
+
+@njit(cache=True, inline="always")
+def rotate(r, x, y, z):
+    """R (x, y, z), R given by ``rotation``: a 3-vector into the parent's frame."""
+    return (r[0] * x + r[1] * y + r[2] * z, r[3] * x + r[4] * y + r[5] * z,
+            r[6] * x + r[7] * y + r[8] * z)
+
+
+@njit(cache=True, inline="always")
+def force_to_parent(r, px, py, pz, nx, ny, nz, fx, fy, fz):
+    """A spatial force (n_O; f) carried into the parent's frame by R (``rotation``) and p:
+    f' = R f, n' = R n + p x f'  (Xup^T f, Featherstone 2008, eq. 2.24)."""
+    gx, gy, gz = rotate(r, fx, fy, fz)
+    mx, my, mz = rotate(r, nx, ny, nz)
+    return mx + py * gz - pz * gy, my + pz * gx - px * gz, mz + px * gy - py * gx, gx, gy, gz
+
+
 @internal
 def to_child(R, i, x, y, z):
     """R_i^T (x, y, z): a 3-vector from body i-1's frame into body i's."""
-    return (R[i, 0, 0] * x + R[i, 1, 0] * y + R[i, 2, 0] * z,
-            R[i, 0, 1] * x + R[i, 1, 1] * y + R[i, 2, 1] * z,
-            R[i, 0, 2] * x + R[i, 1, 2] * y + R[i, 2, 2] * z)
+    return rotate_t(rotation(R, i), x, y, z)
 
 
 @internal
 def to_parent(R, p, i, nx, ny, nz, fx, fy, fz):
-    """A spatial force (n_O; f) of body i, in its frame, carried into body i-1's frame:
-    f' = R f, n' = R n + p x f'  (Xup_i^T f, Featherstone 2008, eq. 2.24)."""
-    gx = R[i, 0, 0] * fx + R[i, 0, 1] * fy + R[i, 0, 2] * fz
-    gy = R[i, 1, 0] * fx + R[i, 1, 1] * fy + R[i, 1, 2] * fz
-    gz = R[i, 2, 0] * fx + R[i, 2, 1] * fy + R[i, 2, 2] * fz
-    mx = R[i, 0, 0] * nx + R[i, 0, 1] * ny + R[i, 0, 2] * nz
-    my = R[i, 1, 0] * nx + R[i, 1, 1] * ny + R[i, 1, 2] * nz
-    mz = R[i, 2, 0] * nx + R[i, 2, 1] * ny + R[i, 2, 2] * nz
-    px, py, pz = p[i, 0], p[i, 1], p[i, 2]
-    return mx + py * gz - pz * gy, my + pz * gx - px * gz, mz + px * gy - py * gx, gx, gy, gz
+    """A spatial force (n_O; f) of body i, in its frame, carried into body i-1's frame."""
+    return force_to_parent(rotation(R, i), p[i, 0], p[i, 1], p[i, 2], nx, ny, nz, fx, fy, fz)
 
 
 @internal

@@ -59,6 +59,74 @@ def _body_tangent(body, dwx, dwy, dwz, dax, day, daz, dlx, dly, dlz):
             m * dlz + dax * hy - day * hx + wz * s1 + dwz * wh - hz * s2)
 
 
+@njit(cache=True, inline="always")
+def tangent_through(r, px, py, pz, w0x, w0y, w0z, wp, ca, cl, dwx, dwy, dwz, t3, t4, t5, t6, t7, t8):
+    """One live tangent (d omega, d alpha, d acc) = (dw, t3..5, t6..8) through body k: rnea's
+    into_body linearized, d acc + d alpha x p + d w x (w x p) + w x (d w x p) = ... + w (d w.p)
+    + d w (w.p) - 2 p (w.d w) with the parent's omega w0 and wp = w0.p, into frame k (R = r);
+    then the joint's rate term d omega' x qd e_z = qd (d w_y, -d w_x, 0) on d alpha (ca = qd,
+    revolute) or d acc (cl = 2 qd, prismatic). 9 numbers."""
+    s1 = dwx * px + dwy * py + dwz * pz
+    s2 = w0x * dwx + w0y * dwy + w0z * dwz
+    tx = t6 + t4 * pz - t5 * py + w0x * s1 + dwx * wp - (2.0 * px) * s2
+    ty = t7 + t5 * px - t3 * pz + w0y * s1 + dwy * wp - (2.0 * py) * s2
+    tz = t8 + t3 * py - t4 * px + w0z * s1 + dwz * wp - (2.0 * pz) * s2
+    sx, sy, sz = rotate_t(r, tx, ty, tz)
+    cx, cy, cz = rotate_t(r, dwx, dwy, dwz)
+    bx, by, bz = rotate_t(r, t3, t4, t5)
+    return cx, cy, cz, bx + ca * cy, by - ca * cx, bz, sx + cl * cy, sy - cl * cx, sz
+
+
+@njit(cache=True, inline="always")
+def seeds(T, k, rev, dqk, wz, wpx, wpy, apx, apy, lpx, lpy, ex, ey, mx, my):
+    """The seeds of directions q_k (column 2k of T) and qd_k (2k + 1), algorithms/derivatives.py:
+    omega', alpha', acc' before joint k moves, wz after, the tip wrench (e; m) in frame k."""
+    a, b = 2 * k, 2 * k + 1
+    for i in range(15):
+        T[i, a] = 0.0
+        T[i, b] = 0.0
+    if rev:
+        T[0, a], T[1, a] = wpy, -wpx                  # d omega = omega x e_z
+        T[3, a], T[4, a] = apy - dqk * wpx, -apx - dqk * wpy   # alpha' x e_z + qd (omega' x e_z) x e_z
+        T[6, a], T[7, a] = lpy, -lpx                  # d acc = acc x e_z
+        T[9, a], T[10, a], T[12, a], T[13, a] = ey, -ex, my, -mx   # d e = e x e_z
+        T[2, b] = 1.0                                 # d omega = e_z
+        T[3, b], T[4, b] = wpy, -wpx                  # d alpha = omega' x e_z
+    else:
+        # d acc = alpha' x e_z + omega' x (omega' x e_z)
+        T[6, a], T[7, a], T[8, a] = apy + wz * wpx, -apx + wz * wpy, -(wpx * wpx + wpy * wpy)
+        T[6, b], T[7, b] = 2.0 * wpy, -2.0 * wpx      # d acc = 2 omega' x e_z
+
+
+@njit(cache=True, inline="always")
+def tip_tangents(P, T, Tf):
+    """The tip load's tangents on the last body's joint wrench: d(-e), d(-m + Xtip_p x -e)."""
+    n = P.shape[0] - 1
+    tpx, tpy, tpz = P[n, TIPP], P[n, TIPP + 1], P[n, TIPP + 2]
+    for d in range(2 * n):
+        gx, gy, gz = T[9, d], T[10, d], T[11, d]
+        Tf[3, d] -= gx
+        Tf[4, d] -= gy
+        Tf[5, d] -= gz
+        Tf[0, d] -= T[12, d] + tpy * gz - tpz * gy
+        Tf[1, d] -= T[13, d] + tpz * gx - tpx * gz
+        Tf[2, d] -= T[14, d] + tpx * gy - tpy * gx
+
+
+@njit(cache=True, inline="always")
+def own_turn(r, px, py, pz, rev, nx, ny, nz, fx, fy):
+    """Joint j's own turn on the joint wrench (n; f) of body j carried to body j-1, along
+    direction q_j: g = R_j (e_z x f); revolute: d f = g, d n = R_j (e_z x n) + p_j x g;
+    prismatic: d n = g  (algorithms/derivatives.py). Returns (d n, d f)."""
+    gx = -r[0] * fy + r[1] * fx
+    gy = -r[3] * fy + r[4] * fx
+    gz = -r[6] * fy + r[7] * fx
+    if rev:
+        return (-r[0] * ny + r[1] * nx + py * gz - pz * gy, -r[3] * ny + r[4] * nx + pz * gx - px * gz,
+                -r[6] * ny + r[7] * nx + px * gy - py * gx, gx, gy, gz)
+    return gx, gy, gz, 0.0, 0.0, 0.0
+
+
 def derivatives_core(P, sc, R, p, f, T, Tf, dB, q, qd, qdd, w, flags, dq, dqd):
     """d tau/d q into ``dq`` and d tau/d qd into ``dqd`` (n, n), [i, j] = d tau_i / d x_j,
     of tau = M qdd + b - J^T w (flags QD, QDD, WRENCH, BASE as ``rnea_core``). Scratch:
@@ -76,7 +144,7 @@ def derivatives_core(P, sc, R, p, f, T, Tf, dB, q, qd, qdd, w, flags, dq, dqd):
         r = rotation(R, k)
         w0x, w0y, w0z = wx, wy, wz                        # the parent's omega (frame k-1)
         # rnea outward: omega', alpha', acc' in body k before its joint moves, then after
-        wx, wy, wz, ax, ay, az, lx, ly, lz = into_body(R, p, k, wx, wy, wz, ax, ay, az, lx, ly, lz)
+        wx, wy, wz, ax, ay, az, lx, ly, lz = into_body(r, px, py, pz, wx, wy, wz, ax, ay, az, lx, ly, lz)
         wpx, wpy, apx, apy = wx, wy, ax, ay
         lpx, lpy = lx, ly
         if use_w:
@@ -97,79 +165,39 @@ def derivatives_core(P, sc, R, p, f, T, Tf, dB, q, qd, qdd, w, flags, dq, dqd):
         # twice): d omega' x qd e_z = qd (d w_y, -d w_x, 0)
         ca, cl = (dqk, 0.0) if rev else (0.0, 2.0 * dqk)
         wp = w0x * px + w0y * py + w0z * pz
-        p2x, p2y, p2z = 2.0 * px, 2.0 * py, 2.0 * pz
         for d in range(2 * k):
-            dwx, dwy, dwz = T[0, d], T[1, d], T[2, d]
-            s1 = dwx * px + dwy * py + dwz * pz
-            s2 = w0x * dwx + w0y * dwy + w0z * dwz
-            tx = T[6, d] + T[4, d] * pz - T[5, d] * py + w0x * s1 + dwx * wp - p2x * s2
-            ty = T[7, d] + T[5, d] * px - T[3, d] * pz + w0y * s1 + dwy * wp - p2y * s2
-            tz = T[8, d] + T[3, d] * py - T[4, d] * px + w0z * s1 + dwz * wp - p2z * s2
-            sx, sy, sz = rotate_t(r, tx, ty, tz)
-            cx, cy, cz = rotate_t(r, dwx, dwy, dwz)
-            bx, by, bz = rotate_t(r, T[3, d], T[4, d], T[5, d])
-            bx, by, sx, sy = bx + ca * cy, by - ca * cx, sx + cl * cy, sy - cl * cx
-            T[0, d], T[1, d], T[2, d] = cx, cy, cz
-            T[3, d], T[4, d], T[5, d] = bx, by, bz
-            T[6, d], T[7, d], T[8, d] = sx, sy, sz
+            (T[0, d], T[1, d], T[2, d], T[3, d], T[4, d], T[5, d], T[6, d], T[7, d],
+             T[8, d]) = tangent_through(r, px, py, pz, w0x, w0y, w0z, wp, ca, cl,
+                                        T[0, d], T[1, d], T[2, d], T[3, d], T[4, d], T[5, d],
+                                        T[6, d], T[7, d], T[8, d])
         if use_w:
             for d in range(2 * k):
                 T[9, d], T[10, d], T[11, d] = rotate_t(r, T[9, d], T[10, d], T[11, d])
                 T[12, d], T[13, d], T[14, d] = rotate_t(r, T[12, d], T[13, d], T[14, d])
-        # the seeds of directions q_k (d = 2k) and qd_k (d = 2k + 1), algorithms/derivatives.py
-        a, b = 2 * k, 2 * k + 1
-        for i in range(15):
-            T[i, a] = 0.0
-            T[i, b] = 0.0
-        if rev:
-            T[0, a], T[1, a] = wpy, -wpx                  # d omega = omega x e_z
-            T[3, a], T[4, a] = apy - dqk * wpx, -apx - dqk * wpy   # alpha' x e_z + qd (omega' x e_z) x e_z
-            T[6, a], T[7, a] = lpy, -lpx                  # d acc = acc x e_z
-            T[9, a], T[10, a], T[12, a], T[13, a] = ey, -ex, my, -mx   # d e = e x e_z
-            T[2, b] = 1.0                                 # d omega = e_z
-            T[3, b], T[4, b] = wpy, -wpx                  # d alpha = omega' x e_z
-        else:
-            # d acc = alpha' x e_z + omega' x (omega' x e_z)
-            T[6, a], T[7, a], T[8, a] = apy + wz * wpx, -apx + wz * wpy, -(wpx * wpx + wpy * wpy)
-            T[6, b], T[7, b] = 2.0 * wpy, -2.0 * wpx      # d acc = 2 omega' x e_z
-        for d in range(b + 1):       # (its own loop: the compiler runs it in SIMD lanes)
+        seeds(T, k, rev, dqk, wz, wpx, wpy, apx, apy, lpx, lpy, ex, ey, mx, my)
+        for d in range(2 * k + 2):       # (its own loop: the compiler runs it in SIMD lanes)
             (dB[k, 0, d], dB[k, 1, d], dB[k, 2, d], dB[k, 3, d], dB[k, 4, d],
              dB[k, 5, d]) = _body_tangent(body, T[0, d], T[1, d], T[2, d], T[3, d], T[4, d],
                                           T[5, d], T[6, d], T[7, d], T[8, d])
     # inward: the last body carries the tip load -e (moment about its origin: -m + Xtip_p x -e)
     k = n - 1
-    tpx, tpy, tpz = P[n, TIPP], P[n, TIPP + 1], P[n, TIPP + 2]
-    nx, ny, nz, fx, fy, fz = tip_load(P, f, k, ex, ey, ez, mx, my, mz)
+    nx, ny, nz, fx, fy, fz = tip_load(P, n, f[k, 0], f[k, 1], f[k, 2], f[k, 3], f[k, 4], f[k, 5],
+                                      ex, ey, ez, mx, my, mz)
     for d in range(2 * n):
         for r in range(6):
             Tf[r, d] = dB[k, r, d]
     if use_w:
-        for d in range(2 * n):
-            gx, gy, gz = T[9, d], T[10, d], T[11, d]
-            Tf[3, d] -= gx
-            Tf[4, d] -= gy
-            Tf[5, d] -= gz
-            Tf[0, d] -= T[12, d] + tpy * gz - tpz * gy
-            Tf[1, d] -= T[13, d] + tpz * gx - tpx * gz
-            Tf[2, d] -= T[14, d] + tpx * gy - tpy * gx
+        tip_tangents(P, T, Tf)
     _torques(P, Tf, k, dq, dqd)
     for i in range(n - 2, -1, -1):
         j = i + 1
         # joint j's own turn, direction q_j: g = R_j (e_z x f_j); revolute: d f += g,
         # d n += R_j (e_z x n_j) + p_j x g; prismatic: d n += g  (algorithms/derivatives.py)
-        gx = -R[j, 0, 0] * fy + R[j, 0, 1] * fx
-        gy = -R[j, 1, 0] * fy + R[j, 1, 1] * fx
-        gz = -R[j, 2, 0] * fy + R[j, 2, 1] * fx
-        if P[j, KIND] == 0.0:
-            sx = -R[j, 0, 0] * ny + R[j, 0, 1] * nx + p[j, 1] * gz - p[j, 2] * gy
-            sy = -R[j, 1, 0] * ny + R[j, 1, 1] * nx + p[j, 2] * gx - p[j, 0] * gz
-            sz = -R[j, 2, 0] * ny + R[j, 2, 1] * nx + p[j, 0] * gy - p[j, 1] * gx
-        else:
-            sx, sy, sz, gx, gy, gz = gx, gy, gz, 0.0, 0.0, 0.0
-        # rnea inward: f_i = body wrench + Xup_j^T f_j, for the joint wrench and its tangents
-        nx, ny, nz, fx, fy, fz = inward_step(R, p, f, i, nx, ny, nz, fx, fy, fz)
         r = rotation(R, j)
         px, py, pz = p[j, 0], p[j, 1], p[j, 2]
+        sx, sy, sz, gx, gy, gz = own_turn(r, px, py, pz, P[j, KIND] == 0.0, nx, ny, nz, fx, fy)
+        # rnea inward: f_i = body wrench + Xup_j^T f_j, for the joint wrench and its tangents
+        nx, ny, nz, fx, fy, fz = inward_step(R, p, f, i, nx, ny, nz, fx, fy, fz)
         for d in range(2 * i + 2):    # Xup_j^T: f' = R f, n' = R n + p x f', + body i's
             ux, uy, uz, cx, cy, cz = force_to_parent(r, px, py, pz, Tf[0, d], Tf[1, d], Tf[2, d],
                                                      Tf[3, d], Tf[4, d], Tf[5, d])
@@ -270,23 +298,6 @@ def fd_derivatives(P, q, qd, tau, w, flags, out):
                                       q, qd, tau, w, flags, dq, dqd, Minv))
 
 
-def rnea_derivatives_batch(P, q, qd, qdd, w, flags, dq, dqd):
-    """``rnea_derivatives`` of N states (rows broadcast as in ``rnea_batch``) into (N, n, n)
-    arrays. Returns OK, or NOT_FINITE if some input had a NaN/Inf."""
-    n = P.shape[0] - 1
-    d = new_kin(n)
-    T, Tf, dB = stack_empty((15, 2 * n)), stack_empty((6, 2 * n)), scratch((n, 6, 2 * n), 12 * n * n)
-    nq, nv, na, nw = q.shape[0] > 1, qd.shape[0] > 1, qdd.shape[0] > 1, w.shape[0] > 1
-    flags = (flags & (F.WRENCH | F.BASE)) | F.QD | F.QDD
-    bad = OK
-    for k in range(dq.shape[0]):
-        if derivatives_core(P, d.sc, d.R, d.p, d.f, T, Tf, dB, q[k if nq else 0],
-                            qd[k if nv else 0], qdd[k if na else 0], w[k if nw else 0],
-                            flags, dq[k], dqd[k]) != 0.0:
-            bad = NOT_FINITE
-    return bad
-
-
 def fd_derivatives_batch(P, q, qd, tau, w, flags, dq, dqd, Minv):
     """``fd_derivatives`` of N states into (N, n, n) arrays. Returns OK, or NOT_FINITE on a NaN/Inf."""
     n = P.shape[0] - 1
@@ -308,8 +319,6 @@ Mat3 = types.Array(f8, 3, "C")      # the single-state results, one C-contiguous
 ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core functions it calls)
     "rnea_derivatives": (rnea_derivatives, i8(Pm, Vec, Vec, Vec, Vec, i8, Mat3), False, _CALLS[:1]),
     "fd_derivatives": (fd_derivatives, i8(Pm, Vec, Vec, Vec, Vec, i8, Mat3), False, _CALLS[1:]),
-    "rnea_derivatives_batch": (rnea_derivatives_batch, i8(Pm, In2, In2, In2, In2, i8, Out3, Out3),
-                               True, _CALLS[:1]),
     "fd_derivatives_batch": (fd_derivatives_batch,
                              i8(Pm, In2, In2, In2, In2, i8, Out3, Out3, Out3), True, _CALLS[1:]),
 }

@@ -26,7 +26,8 @@ import numba
 from numba import njit
 from numba.core.dispatcher import Dispatcher
 
-from . import crba, derivatives, energy, forward, planar, planar_lanes, regressor, rnea, rnea_lanes
+from . import crba, derivatives, derivatives_lanes, energy, forward, planar, planar_lanes, regressor
+from . import rnea, rnea_lanes
 from .signatures import In2, Mat, Out2, Out3, Pm, Vec, compile_internal, i8
 from .status import BAD_LENGTH, NOT_CONVERGED, NOT_FINITE, OK, OTHER_TYPES   # noqa: F401 (re-exported)
 
@@ -46,6 +47,7 @@ ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core fu
     **planar.ENTRY_POINTS,   # the planar fast path (planar 3-vectors; Robot.is_planar),
     **planar_lanes.ENTRY_POINTS,   # and its batches
     **derivatives.ENTRY_POINTS,    # derivatives of inverse and forward dynamics
+    **derivatives_lanes.ENTRY_POINTS,   # and of inverse dynamics over a batch, in SIMD lanes
     **regressor.ENTRY_POINTS,      # the torque regressor
     **energy.ENTRY_POINTS,         # dT/dq and the symplectic Euler step
 }

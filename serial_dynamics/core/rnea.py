@@ -58,15 +58,14 @@ def joint_rates(qd, qdd, i, flags):
 
 
 @njit(cache=True, inline="always")
-def into_body(R, p, i, wx, wy, wz, ax, ay, az, lx, ly, lz):
-    """Body i-1's omega, alpha and acc carried to body i's origin (acc + alpha x p +
-    omega x (omega x p)) and into joint frame i, before joint i moves: 9 numbers."""
-    px, py, pz = p[i, 0], p[i, 1], p[i, 2]
+def into_body(r, px, py, pz, wx, wy, wz, ax, ay, az, lx, ly, lz):
+    """Body i-1's omega, alpha and acc carried to body i's origin p (acc + alpha x p +
+    omega x (omega x p)) and into joint frame i (R_i = r, ``spatial.rotation``), before
+    joint i moves: 9 numbers."""
     ux, uy, uz = wy * pz - wz * py, wz * px - wx * pz, wx * py - wy * px
     tx = lx + ay * pz - az * py + wy * uz - wz * uy
     ty = ly + az * px - ax * pz + wz * ux - wx * uz
     tz = lz + ax * py - ay * px + wx * uy - wy * ux
-    r = rotation(R, i)
     lx, ly, lz = rotate_t(r, tx, ty, tz)
     wx, wy, wz = rotate_t(r, wx, wy, wz)
     ax, ay, az = rotate_t(r, ax, ay, az)
@@ -88,7 +87,8 @@ def joint_rate(P, i, wx, wy, wz, ax, ay, az, lx, ly, lz, dq, ddq):
 def outward_step(P, R, p, i, wx, wy, wz, ax, ay, az, lx, ly, lz, dq, ddq):
     """Newton-Euler outward recursion, one body: ``into_body`` then ``joint_rate``.
     Returns (omega, alpha, acc) of body i, 9 numbers."""
-    wx, wy, wz, ax, ay, az, lx, ly, lz = into_body(R, p, i, wx, wy, wz, ax, ay, az, lx, ly, lz)
+    wx, wy, wz, ax, ay, az, lx, ly, lz = into_body(rotation(R, i), p[i, 0], p[i, 1], p[i, 2],
+                                                   wx, wy, wz, ax, ay, az, lx, ly, lz)
     return joint_rate(P, i, wx, wy, wz, ax, ay, az, lx, ly, lz, dq, ddq)
 
 
@@ -114,15 +114,14 @@ def body_wrench(P, i, wx, wy, wz, ax, ay, az, lx, ly, lz):
 
 
 @njit(cache=True, inline="always")
-def tip_load(P, f, k, ex, ey, ez, mx, my, mz):
-    """The joint wrench of the last body k: its body wrench f[k] and the load -w of the
-    environment (w = [e; m] in frame k; moment about its origin: -m + Xtip_p x -e)."""
-    n = k + 1
+def tip_load(P, n, bx, by, bz, bfx, bfy, bfz, ex, ey, ez, mx, my, mz):
+    """The joint wrench of the last body n-1: its body wrench (b; bf) and the load -w of
+    the environment (w = [e; m] in its frame; moment about its origin: -m + Xtip_p x -e)."""
     tpx, tpy, tpz = P[n, TIPP], P[n, TIPP + 1], P[n, TIPP + 2]
-    nx = f[k, 0] - mx - tpy * ez + tpz * ey
-    ny = f[k, 1] - my - tpz * ex + tpx * ez
-    nz = f[k, 2] - mz - tpx * ey + tpy * ex
-    return nx, ny, nz, f[k, 3] - ex, f[k, 4] - ey, f[k, 5] - ez
+    nx = bx - mx - tpy * ez + tpz * ey
+    ny = by - my - tpz * ex + tpx * ez
+    nz = bz - mz - tpx * ey + tpy * ex
+    return nx, ny, nz, bfx - ex, bfy - ey, bfz - ez
 
 
 @njit(cache=True, inline="always")
@@ -155,7 +154,8 @@ def rnea_core(P, sc, R, p, f, q, qd, qdd, w, flags, tau):
             mx, my, mz = to_child(R, i, mx, my, mz)
     # inward: tau_i = S_i^T (n; f) + I_a,i qdd_i  (the rotor's inertia, reflected through the gear)
     k = n - 1
-    nx, ny, nz, fx, fy, fz = tip_load(P, f, k, ex, ey, ez, mx, my, mz)
+    nx, ny, nz, fx, fy, fz = tip_load(P, n, f[k, 0], f[k, 1], f[k, 2], f[k, 3], f[k, 4], f[k, 5],
+                                      ex, ey, ez, mx, my, mz)
     tau[k] = (nz if P[k, KIND] == 0.0 else fz) + P[k, ARM] * (qdd[k] if use_qdd else 0.0)
     for i in range(n - 2, -1, -1):
         nx, ny, nz, fx, fy, fz = inward_step(R, p, f, i, nx, ny, nz, fx, fy, fz)

@@ -12,6 +12,7 @@ sample's torques are bitwise the same alone or in any batch, at any place in it.
 """
 import math
 
+from numba import njit
 
 from . import flags as F
 from .data import stack_empty
@@ -21,26 +22,15 @@ from .status import NOT_FINITE, OK
 from .signatures import In2, Out2, Pm, i8, internal
 from .spatial import SMALL_ANGLE, sincos
 
-@internal(i8(Pm, In2, In2, In2, In2, i8, Out2, i8))
-def rnea_block(P, q, qd, qdd, w, flags, out, k0):
-    """Inverse dynamics of the samples k0 .. k0 + B - 1 of the batch (fewer at its end), in
-    lock step, into the same rows of ``out``. Returns 1 if one of them has a NaN/Inf
-    input, else 0. The lanes' scratch is on this function's stack, shape (rows, B), each
-    written before it is read: QV rows q, qd, qdd, then a mask of the samples whose angles
-    are all below SMALL_ANGLE (the others get libm's sine and cosine, as in
-    ``joint_transforms``); WB tip wrenches (base frame); RB rotations, PB translations,
-    FB body wrenches; ST the state (omega, alpha, acc, then the wrench force and moment);
-    TB torques. Every lane loop is innermost and branch-free (the joint kind, the same in
-    every lane, picks values by selects), so that it vectorizes."""
-    N = out.shape[0]
+
+@njit(cache=True, inline="always")
+def gather(P, q, qd, qdd, w, flags, QV, WB, k0, nl):
+    """The samples k0 .. k0 + nl - 1 into lanes: QV rows q, qd, qdd (0 where flag QD, QDD is
+    off), then 1.0 where all of a sample's angles are below SMALL_ANGLE; WB the external
+    inputs w. Returns (all angles small, every input finite)."""
     n = P.shape[0] - 1
-    L = int(P[n, LANES])                 # lanes (= B), read at run time on purpose
-    nl = min(L, N - k0)
-    QV, WB, TB, ST = stack_empty((3 * n + 1, L)), stack_empty((W_ALL, L)), stack_empty((n, L)), stack_empty((15, L))
-    RB, PB, FB = stack_empty((9 * n, L)), stack_empty((3 * n, L)), stack_empty((6 * n, L))
     nq, nv, na, nw = q.shape[0] > 1, qd.shape[0] > 1, qdd.shape[0] > 1, w.shape[0] > 1
     use_qd, use_qdd = (flags & F.QD) != 0, (flags & F.QDD) != 0
-    # --- gather the block
     small = True                         # every angle of the block below SMALL_ANGLE
     fin = True                           # every rate, acceleration and wrench finite
     for b in range(nl):
@@ -64,6 +54,60 @@ def rnea_block(P, q, qd, qdd, w, flags, out, k0):
         for b in range(nl):
             for i in range(n):
                 fin &= QV[i, b] * 0.0 == 0.0
+    return small, fin
+
+
+@njit(cache=True, inline="always")
+def lane_transforms(P, i, QV, RB, PB, nl, small):
+    """Joint i's transform in every lane (``spatial.joint_transforms``' operations): R_i into
+    RB rows 9i..9i+8 (row-major), p_i into PB rows 3i..3i+2."""
+    n = P.shape[0] - 1
+    rp0, rp1, rp2, rp3, rp4, rp5, rp6, rp7, rp8 = (P[i, XR], P[i, XR + 1], P[i, XR + 2],
+                                                   P[i, XR + 3], P[i, XR + 4], P[i, XR + 5],
+                                                   P[i, XR + 6], P[i, XR + 7], P[i, XR + 8])
+    pp0, pp1, pp2 = P[i, XP], P[i, XP + 1], P[i, XP + 2]
+    ri, pi = 9 * i, 3 * i
+    kp = P[i, KIND]
+    # joint transform R = Rp' Rz(q) | Rp',  p = p' | p' + q Rp' e_z
+    if kp == 0.0:
+        for b in range(nl):
+            if small:
+                s, c = sincos(QV[i, b])
+            else:
+                s, c = sincos(QV[i, b]) if QV[3 * n, b] == 1.0 else (math.sin(QV[i, b]),
+                                                                      math.cos(QV[i, b]))
+            RB[ri, b], RB[ri + 1, b], RB[ri + 2, b] = c * rp0 + s * rp1, c * rp1 - s * rp0, rp2
+            RB[ri + 3, b], RB[ri + 4, b], RB[ri + 5, b] = c * rp3 + s * rp4, c * rp4 - s * rp3, rp5
+            RB[ri + 6, b], RB[ri + 7, b], RB[ri + 8, b] = c * rp6 + s * rp7, c * rp7 - s * rp6, rp8
+            PB[pi, b], PB[pi + 1, b], PB[pi + 2, b] = pp0, pp1, pp2
+    else:
+        for b in range(nl):
+            qi = QV[i, b]
+            RB[ri, b], RB[ri + 1, b], RB[ri + 2, b] = rp0, rp1, rp2
+            RB[ri + 3, b], RB[ri + 4, b], RB[ri + 5, b] = rp3, rp4, rp5
+            RB[ri + 6, b], RB[ri + 7, b], RB[ri + 8, b] = rp6, rp7, rp8
+            PB[pi, b], PB[pi + 1, b], PB[pi + 2, b] = pp0 + qi * rp2, pp1 + qi * rp5, pp2 + qi * rp8
+
+
+@internal(i8(Pm, In2, In2, In2, In2, i8, Out2, i8))
+def rnea_block(P, q, qd, qdd, w, flags, out, k0):
+    """Inverse dynamics of the samples k0 .. k0 + B - 1 of the batch (fewer at its end), in
+    lock step, into the same rows of ``out``. Returns 1 if one of them has a NaN/Inf
+    input, else 0. The lanes' scratch is on this function's stack, shape (rows, B), each
+    written before it is read: QV rows q, qd, qdd, then a mask of the samples whose angles
+    are all below SMALL_ANGLE (the others get libm's sine and cosine, as in
+    ``joint_transforms``); WB tip wrenches (base frame); RB rotations, PB translations,
+    FB body wrenches; ST the state (omega, alpha, acc, then the wrench force and moment);
+    TB torques. Every lane loop is innermost and branch-free (the joint kind, the same in
+    every lane, picks values by selects), so that it vectorizes."""
+    N = out.shape[0]
+    n = P.shape[0] - 1
+    L = int(P[n, LANES])                 # lanes (= B), read at run time on purpose
+    nl = min(L, N - k0)
+    QV, WB, TB, ST = stack_empty((3 * n + 1, L)), stack_empty((W_ALL, L)), stack_empty((n, L)), stack_empty((15, L))
+    RB, PB, FB = stack_empty((9 * n, L)), stack_empty((3 * n, L)), stack_empty((6 * n, L))
+    # --- gather the block
+    small, fin = gather(P, q, qd, qdd, w, flags, QV, WB, k0, nl)
     # --- the recursions, lane by lane
     use_w, use_base = (flags & F.WRENCH) != 0, (flags & F.BASE) != 0
     for k in range(15):          # omega = alpha = 0, a = -g; moving base: WB[6:15] - (0, 0, g)
@@ -74,32 +118,9 @@ def rnea_block(P, q, qd, qdd, w, flags, out, k0):
             else:
                 ST[k, b] = WB[k - 9, b] if use_w else 0.0
     for i in range(n):
-        rp0, rp1, rp2, rp3, rp4, rp5, rp6, rp7, rp8 = (P[i, XR], P[i, XR + 1], P[i, XR + 2],
-                                                       P[i, XR + 3], P[i, XR + 4], P[i, XR + 5],
-                                                       P[i, XR + 6], P[i, XR + 7], P[i, XR + 8])
-        pp0, pp1, pp2 = P[i, XP], P[i, XP + 1], P[i, XP + 2]
         ri, pi, fi = 9 * i, 3 * i, 6 * i
-        kp = P[i, KIND]                  # 1 prismatic, 0 revolute
-        rev = kp == 0.0                  # the same in every lane: selects, not branches
-        # joint transform R = Rp' Rz(q) | Rp',  p = p' | p' + q Rp' e_z
-        if kp == 0.0:
-            for b in range(nl):
-                if small:
-                    s, c = sincos(QV[i, b])
-                else:
-                    s, c = sincos(QV[i, b]) if QV[3 * n, b] == 1.0 else (math.sin(QV[i, b]),
-                                                                          math.cos(QV[i, b]))
-                RB[ri, b], RB[ri + 1, b], RB[ri + 2, b] = c * rp0 + s * rp1, c * rp1 - s * rp0, rp2
-                RB[ri + 3, b], RB[ri + 4, b], RB[ri + 5, b] = c * rp3 + s * rp4, c * rp4 - s * rp3, rp5
-                RB[ri + 6, b], RB[ri + 7, b], RB[ri + 8, b] = c * rp6 + s * rp7, c * rp7 - s * rp6, rp8
-                PB[pi, b], PB[pi + 1, b], PB[pi + 2, b] = pp0, pp1, pp2
-        else:
-            for b in range(nl):
-                qi = QV[i, b]
-                RB[ri, b], RB[ri + 1, b], RB[ri + 2, b] = rp0, rp1, rp2
-                RB[ri + 3, b], RB[ri + 4, b], RB[ri + 5, b] = rp3, rp4, rp5
-                RB[ri + 6, b], RB[ri + 7, b], RB[ri + 8, b] = rp6, rp7, rp8
-                PB[pi, b], PB[pi + 1, b], PB[pi + 2, b] = pp0 + qi * rp2, pp1 + qi * rp5, pp2 + qi * rp8
+        rev = P[i, KIND] == 0.0          # the same in every lane: selects, not branches
+        lane_transforms(P, i, QV, RB, PB, nl, small)
         # carry omega, alpha, a into body i, add the joint rates
         for b in range(nl):
             r0, r1, r2 = RB[ri, b], RB[ri + 1, b], RB[ri + 2, b]

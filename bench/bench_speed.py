@@ -5,6 +5,7 @@ its ratio on 2026-11-21 (the kernels before the dynamics-core rewrite), from EAR
     python bench/bench_speed.py            # writes the "speed" section of bench/BENCHMARKS.md
                                            # and bench/scaling.png
     python bench/bench_speed.py --quick    # fewer rounds, no cold-cache compile
+    python bench/bench_speed.py --before REV   # the *before* columns from commit REV
 
 Each peer's answer is checked against ours before it is timed. Times are the minimum over
 interleaved rounds (ours, peer, ours, peer, ...) of the mean over a round, wall clock, one
@@ -466,6 +467,8 @@ def main():
     ap.add_argument("--rows-only", action="store_true",
                     help="print the single and batch rows as JSON (used on the 2026-11-21 code)")
     ap.add_argument("--rounds", type=int, default=None)
+    ap.add_argument("--before", default=EARLIER_REV, metavar="REV",
+                    help=f"the commit of the *before* columns (default {EARLIER_REV}, the 2026-11-21 code)")
     args = ap.parse_args()
     rounds = args.rounds or (8 if args.quick else 30)
     if args.rows_only:
@@ -481,9 +484,9 @@ def main():
         return
     import mujoco
     tmp = tempfile.mkdtemp()
-    root = earlier_code(tmp)
+    root = earlier_code(tmp, args.before)
     earlier = earlier_rows(root, rounds) if root else {}
-    print(f"the {EARLIER_REV} code measured" if root else "no git: no earlier code", flush=True)
+    print(f"the {args.before} code measured" if root else "no git: no earlier code", flush=True)
 
     rows, robots = [], {}
     for name, (rel, tip) in ROBOTS.items():
@@ -503,7 +506,7 @@ def main():
     from serial_dynamics import robot as robot_module
     core_rows = cores(robots["Panda"], rounds)
     print("cores done", flush=True)
-    first = first_call(cold=not args.quick, earlier_root=root)
+    first = first_call(cold=not args.quick, earlier_root=root if args.before == EARLIER_REV else None)
     both_cores = None if args.quick else precompile_wall()
     print("first call done", flush=True)
     ns, res, cross = scaling(rounds)
@@ -517,12 +520,16 @@ def main():
              "example-robot-data `panda.urdf` to `panda_link8` (7 joints, fingers held and lumped), "
              "UR5 = `ur5_robot.urdf` to `tool0`. Every peer's result is checked against ours before "
              "it is timed (rigid-body terms agree to ~1e-15 relative, forward dynamics to cond(M) eps).",
-             "", f"*Before*: the same row measured in this run, on this machine, on the code as it "
-             f"was before the dynamics core was rewritten (commit {EARLIER_REV}, 2026-11-21: "
-             "joint-aligned kernels with a shared scratch array and fused multiply-add), imported "
-             "from a git archive in a subprocess, each with its own interleaved peer; *change*: "
-             "this row's ratio against that one. The rewrite must keep every row within 5 % or "
-             "better.",
+             "", (f"*Before*: the same row measured in this run, on this machine, on the code as it "
+                  f"was before the dynamics core was rewritten (commit {EARLIER_REV}, 2026-11-21: "
+                  "joint-aligned kernels with a shared scratch array and fused multiply-add), imported "
+                  "from a git archive in a subprocess, each with its own interleaved peer; *change*: "
+                  "this row's ratio against that one. The rewrite must keep every row within 5 % or "
+                  "better." if args.before == EARLIER_REV else
+                  f"*Before*: the same row measured in this run, on this machine, on commit "
+                  f"{args.before} (`--before {args.before}`), imported from a git archive in a "
+                  "subprocess, each with its own interleaved peer; *change*: this row's ratio "
+                  "against that one."),
              "", "| robot | what | ours | peer | peer's time | ratio | target | met "
              "| before | ratio before | change |",
              "|---|---|---:|---|---:|---:|---:|:---:|---:|---:|---:|"]

@@ -25,8 +25,8 @@ from .forward import cholesky_core
 from .layout import H, IO, KIND, MASS, TIPP
 from .rnea import (base_state, body_wrench, inward_step, into_body, joint_rate, joint_rates, tip_load,
                    w_length)
-from .status import BAD_LENGTH, NOT_FINITE, OK, status
-from .signatures import D1, D2, D3, In1, In2, Out2, Out3, Pm, Vec, f8, i8, internal
+from .status import BAD_LENGTH, status
+from .signatures import D1, D2, D3, In1, Out2, Pm, Vec, f8, i8, internal
 from .spatial import force_to_parent, joint_transforms, rotate_t, rotation
 
 HAVE_TRANSFORMS = 1 << 16    # flag of derivatives_core: R, p already hold the transforms of q
@@ -239,6 +239,16 @@ def fd_derivatives_core(P, sc, R, p, f, M, b, qdd, T, Tf, dB, X, q, qd, tau, w, 
     chk = cholesky_core(P, sc, R, p, f, M, b, q, qd, tau, w, tau, flags, qdd)   # M <- L
     chk += derivatives_core(P, sc, R, p, f, T, Tf, dB, q, qd, qdd, w,
                             flags | F.QDD | HAVE_TRANSFORMS, X[:, :n], X[:, n:2 * n])
+    solve_minus(M, X, dq, dqd, Minv)
+    return chk
+
+
+@njit(cache=True, inline="always")
+def solve_minus(M, X, dq, dqd, Minv):
+    """X = [d tau/d q, d tau/d qd, 1] (n, 3n) with M holding the Cholesky factor L of M:
+    -M^-1 d tau/d q, -M^-1 d tau/d qd, M^-1 into dq, dqd, Minv (mirrored from its upper
+    triangle: exactly symmetric)."""
+    n = M.shape[0]
     for i in range(n):
         for c in range(n):
             X[i, 2 * n + c] = 1.0 if i == c else 0.0
@@ -248,7 +258,6 @@ def fd_derivatives_core(P, sc, R, p, f, M, b, qdd, T, Tf, dB, X, q, qd, tau, w, 
             dq[i, c] = -X[i, c]
             dqd[i, c] = -X[i, n + c]
             Minv[i, c] = X[i, 2 * n + c] if c >= i else X[c, 2 * n + i]
-    return chk
 
 
 fd_derivatives_core = internal(
@@ -298,27 +307,9 @@ def fd_derivatives(P, q, qd, tau, w, flags, out):
                                       q, qd, tau, w, flags, dq, dqd, Minv))
 
 
-def fd_derivatives_batch(P, q, qd, tau, w, flags, dq, dqd, Minv):
-    """``fd_derivatives`` of N states into (N, n, n) arrays. Returns OK, or NOT_FINITE on a NaN/Inf."""
-    n = P.shape[0] - 1
-    d, c, qdd = new_kin(n), new_chol(n), stack_empty((n,))
-    T, Tf, dB = stack_empty((15, 2 * n)), stack_empty((6, 2 * n)), scratch((n, 6, 2 * n), 12 * n * n)
-    X = scratch((n, 3 * n), 3 * n * n)
-    nq, nv, nt, nw = q.shape[0] > 1, qd.shape[0] > 1, tau.shape[0] > 1, w.shape[0] > 1
-    bad = OK
-    for k in range(dq.shape[0]):
-        if fd_derivatives_core(P, d.sc, d.R, d.p, d.f, c.M, c.b, qdd, T, Tf, dB, X,
-                               q[k if nq else 0], qd[k if nv else 0], tau[k if nt else 0],
-                               w[k if nw else 0], flags, dq[k], dqd[k], Minv[k]) != 0.0:
-            bad = NOT_FINITE
-    return bad
-
-
 _CALLS = ("derivatives_core", "fd_derivatives_core")
 Mat3 = types.Array(f8, 3, "C")      # the single-state results, one C-contiguous array
 ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core functions it calls)
     "rnea_derivatives": (rnea_derivatives, i8(Pm, Vec, Vec, Vec, Vec, i8, Mat3), False, _CALLS[:1]),
     "fd_derivatives": (fd_derivatives, i8(Pm, Vec, Vec, Vec, Vec, i8, Mat3), False, _CALLS[1:]),
-    "fd_derivatives_batch": (fd_derivatives_batch,
-                             i8(Pm, In2, In2, In2, In2, i8, Out3, Out3, Out3), True, _CALLS[1:]),
 }

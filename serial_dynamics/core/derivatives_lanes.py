@@ -14,8 +14,10 @@ tip load, the torques) runs lane by lane on views of the same arrays.
 from numba import njit
 
 from . import flags as F
-from .data import scratch, stack_empty
-from .derivatives import _body_tangent, _inertia_times, _torques, own_turn, seeds, tangent_through, tip_tangents
+from .data import heap_empty, new_chol, new_kin, scratch, stack_empty
+from .derivatives import (_body_tangent, _inertia_times, _torques, own_turn, seeds, solve_minus,
+                          tangent_through, tip_tangents)
+from .forward import cholesky_core
 from .layout import H, IO, KIND, LANES, MASS, W_ALL
 from .rnea import base_state, body_wrench, into_body, joint_rate, tip_load
 from .rnea_lanes import gather, lane_transforms
@@ -23,7 +25,7 @@ from .signatures import In2, Out3, Pm, i8, internal
 from .spatial import force_to_parent, rotate_t
 from .status import NOT_FINITE, OK
 
-DLANES = 8      # lanes of this kernel at most (its tangents are O(n^2) per lane: kept in cache)
+DLANES = 32     # lanes of this kernel at most (its tangents are O(n^2) per lane)
 
 
 @njit(cache=True, inline="always")
@@ -170,7 +172,40 @@ def rnea_derivatives_batch(P, q, qd, qdd, w, flags, dq, dqd):
     return bad
 
 
+def fd_derivatives_batch(P, q, qd, tau, w, flags, dq, dqd, Minv):
+    """``derivatives.fd_derivatives`` of N states into (N, n, n) arrays: per block, qdd and
+    the Cholesky factor of M of each state (``forward.cholesky_core``), d tau/d (q, qd) at
+    (q, qd, qdd) in lanes, then each state's solves (``derivatives.solve_minus``) -- the
+    operations of ``fd_derivatives_core``. Returns OK, or NOT_FINITE on a NaN/Inf."""
+    n, N = P.shape[0] - 1, dq.shape[0]
+    L = min(int(P[n, LANES]), DLANES)
+    d, c = new_kin(n), new_chol(n)
+    qdd = heap_empty((N, n))
+    MF = scratch((L, n, n), L * n * n)
+    X = scratch((n, 3 * n), 3 * n * n)
+    nq, nv, nt, nw = q.shape[0] > 1, qd.shape[0] > 1, tau.shape[0] > 1, w.shape[0] > 1
+    flags = (flags & (F.WRENCH | F.BASE)) | F.QD
+    bad, chk = OK, 0.0
+    for k0 in range(0, N, L):
+        nl = min(L, N - k0)
+        for b in range(nl):
+            k = k0 + b
+            chk += cholesky_core(P, d.sc, d.R, d.p, d.f, MF[b], c.b, q[k if nq else 0],
+                                 qd[k if nv else 0], tau[k if nt else 0], w[k if nw else 0],
+                                 tau[k if nt else 0], flags, qdd[k])      # MF[b] <- L
+        bad |= derivatives_block(P, q, qd, qdd, w, flags | F.QDD, dq, dqd, k0)
+        for b in range(nl):
+            k = k0 + b
+            for i in range(n):
+                for j in range(n):
+                    X[i, j], X[i, n + j] = dq[k, i, j], dqd[k, i, j]
+            solve_minus(MF[b], X, dq[k], dqd[k], Minv[k])
+    return bad if chk == 0.0 else NOT_FINITE
+
+
 ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core functions it calls)
     "rnea_derivatives_batch": (rnea_derivatives_batch, i8(Pm, In2, In2, In2, In2, i8, Out3, Out3),
                                True, ("derivatives_block",)),
+    "fd_derivatives_batch": (fd_derivatives_batch, i8(Pm, In2, In2, In2, In2, i8, Out3, Out3, Out3),
+                             True, ("derivatives_block", "cholesky_core", "cholesky_solve_matrix")),
 }

@@ -1,6 +1,7 @@
-"""core/derivatives_lanes.py: the SIMD-lane batch of d tau/d (q, qd) gives every row bitwise
-what the single-state kernel gives that state alone (core/derivatives.py), whatever its place
-in a block, for revolute and prismatic joints, a tip wrench, a moving base, a huge angle."""
+"""core/derivatives_lanes.py: the SIMD-lane batches of d tau/d (q, qd) and of d qdd/d (q, qd,
+tau) give every row bitwise what the single-state kernels give that state alone
+(core/derivatives.py), whatever its place in a block, for revolute and prismatic joints, a
+tip wrench, a moving base, a huge angle."""
 import numpy as np
 import pytest
 
@@ -38,6 +39,14 @@ def test_every_row_is_the_single_state_bitwise(name, flags):
         assert K.rnea_derivatives(P, Q[k], V[k], A[k], W[k], flags, out) == 0
         np.testing.assert_array_equal(dq[k], out[0])
         np.testing.assert_array_equal(dqd[k], out[1])
+    # forward dynamics: qdd, tau at the same states
+    fq, fqd, fm = (np.full((N, n, n), np.nan) for _ in range(3))
+    assert K.fd_derivatives_batch(P, Q, V, A, W, flags, fq, fqd, fm) == 0
+    out3 = np.empty((3, n, n))
+    for k in range(N):
+        assert K.fd_derivatives(P, Q[k], V[k], A[k], W[k], flags, out3) == 0
+        for a, b in zip((fq[k], fqd[k], fm[k]), out3):
+            np.testing.assert_array_equal(a, b)
     # broadcast rows (1, n) are the same state in every lane
     dq1, dqd1 = np.empty((N, n, n)), np.empty((N, n, n))
     assert K.rnea_derivatives_batch(P, Q[:1], V, A[:1], W[:1], flags, dq1, dqd1) == 0
@@ -52,5 +61,6 @@ def test_a_nan_anywhere_is_reported():
     V[DLANES + 3, 2] = np.nan
     dq, dqd = np.empty((N, n, n)), np.empty((N, n, n))
     assert K.rnea_derivatives_batch(robot._P, Q, V, A, np.zeros((1, 6)), 0, dq, dqd) == 1
+    assert K.fd_derivatives_batch(robot._P, Q, V, A, np.zeros((1, 6)), 0, dq, dqd, dq.copy()) == 1
     with pytest.raises(ValueError, match="qd"):
         robot.inverse_dynamics_derivatives(Q, V, A)

@@ -6,6 +6,7 @@ import math
 
 from numba import njit
 
+from .data import stack_empty
 from .layout import KIND, XP, XR
 from .signatures import internal
 
@@ -65,9 +66,15 @@ def joint_transforms(P, sc, R, p, q, n):
     for i in range(n):
         small &= abs(q[i]) < SMALL_ANGLE
     chk = 0.0
-    if small:                            # a loop of its own, so that it vectorizes
-        for i in range(n):
-            sc[0, i], sc[1, i] = sincos(q[i])
+    if small:                            # 8 at a time in loops of their own, so that they
+        x, z = stack_empty((8,)), stack_empty((2, 8))   # vectorize (a loop of n < 8 would not)
+        for i0 in range(0, n, 8):
+            for j in range(8):
+                x[j] = q[i0 + j] if i0 + j < n else 0.0
+            for j in range(8):
+                z[0, j], z[1, j] = sincos(x[j])
+            for j in range(min(8, n - i0)):
+                sc[0, i0 + j], sc[1, i0 + j] = z[0, j], z[1, j]
     else:                                # huge, NaN or Inf angles: libm's argument reduction
         for i in range(n):
             chk += q[i] * 0.0

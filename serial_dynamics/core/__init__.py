@@ -9,6 +9,8 @@
     cholesky.py   M x = b                             aba.py         articulated bodies
     forward.py    forward dynamics (Cholesky or ABA)  flags.py       the entry points' flags
     status.py     the status codes entry points return
+    derivatives.py   derivatives of inverse and forward dynamics (forward mode)
+    derivatives_lanes.py  the same over a batch, B states in SIMD lanes
     dispatch.py   ENTRY_POINTS, K (built on first use), the numba hook, NUMBA_SUPPORTED
     planar.py     Newton-Euler and composite bodies of a planar chain in planar 3-vectors
     planar_lanes.py  the same, B samples in SIMD lanes

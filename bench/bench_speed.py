@@ -5,9 +5,7 @@ its ratio on 2026-11-21 (the kernels before the dynamics-core rewrite), from EAR
     python bench/bench_speed.py            # writes the "speed" section of bench/BENCHMARKS.md
                                            # and bench/scaling.png
     python bench/bench_speed.py --quick    # fewer rounds, no cold-cache compile
-    python bench/bench_speed.py --before REV   # only the single, batch and simulation rows,
-                                           # against commit REV measured in the same run:
-                                           # the "before_after" section (a refactor's check)
+    python bench/bench_speed.py --before REV   # the *before* columns from commit REV
 
 Each peer's answer is checked against ours before it is timed. Times are the minimum over
 interleaved rounds (ours, peer, ours, peer, ...) of the mean over a round, wall clock, one
@@ -191,7 +189,7 @@ def batch_calls(name, robot, pm, rounds):
 
 def cores(robot, rounds):
     """Per-state time of the batch methods, N_BATCH states: one thread against the
-    default (the batch split over the cores: ``robot.PARALLEL_MIN``), interleaved."""
+    default (the batch split over the cores: ``robot.facade.PARALLEL_MIN``), interleaved."""
     from serial_dynamics.robot import facade as robot_module
     rng = np.random.default_rng(2)
     Q, QD = robot.random_state(rng, batch=N_BATCH, speed=2.0)
@@ -457,42 +455,6 @@ def rtb_rows(robot_ur5, rounds):
         return [], f"roboticstoolbox-python could not run the UR5 ({type(exc).__name__}: {exc})"
 
 
-def before_after(rev, rounds, no_write):
-    """The single, batch and simulation rows of this code and of commit ``rev``, each with its
-    own interleaved peer, in one run (the earlier code in a subprocess, from a git archive):
-    a refactor must leave every ratio within its noise."""
-    root = earlier_code(tempfile.mkdtemp(), rev)
-    if root is None:
-        sys.exit(f"commit {rev} cannot be archived here (no git history?)")
-    earlier = earlier_rows(root, rounds)
-    rows, robots = [], {}
-    for name, (rel, tip) in ROBOTS.items():
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", sd.HeldJointsWarning)
-            robots[name] = robot = sd.load_urdf(erd_path(rel), None, tip).warmup()
-        pm = PinModel(robot, erd_path(rel))
-        rows += single_calls(name, robot, pm, rounds) + batch_calls(name, robot, pm, rounds)
-    rows += simulation(robots["Panda"], max(5, rounds // 3))[0]
-    lines = [stamp(), "", f"`python bench/bench_speed.py --before {rev}`: every row of the speed "
-             f"table on this code and on commit {rev}, measured in the same run (that code in a "
-             "subprocess, from a git archive), each against its own interleaved peer. *change* is "
-             "this code's ratio against the earlier one's: both ratios are min-of-rounds, so the "
-             "run-to-run noise of a row is the spread of its *change* around 0 (a few percent "
-             "here on a shared machine).", "",
-             "| robot | what | peer | ours now | ratio now | ours before | ratio before | change |",
-             "|---|---|---|---:|---:|---:|---:|---:|"]
-    for robot_name, what, a, b, peer, _ in rows:
-        a_old, b_old = earlier.get((robot_name, what, peer), (None, None))
-        change = f"{(a / b) / (a_old / b_old) * 100 - 100:+.0f} %" if a_old else ""
-        lines.append(f"| {robot_name} | {what} | {peer} | {fmt_t(a)} | {a / b:.3g} | "
-                     + (f"{fmt_t(a_old)} | {a_old / b_old:.3g} | " if a_old else " | | ")
-                     + f"{change} |")
-    body = "\n".join(lines)
-    print(body)
-    if not no_write:
-        write_section("before_after", body)
-
-
 # ------------------------------------------------------------------ report
 def fmt_t(s):
     return f"{s * 1e9:.0f} ns" if s < 1e-6 * 10 else (f"{s * 1e6:.1f} µs" if s < 1e-3 else f"{s * 1e3:.2f} ms")
@@ -505,9 +467,8 @@ def main():
     ap.add_argument("--rows-only", action="store_true",
                     help="print the single and batch rows as JSON (used on the 2026-11-21 code)")
     ap.add_argument("--rounds", type=int, default=None)
-    ap.add_argument("--before", default=None, metavar="REV",
-                    help="measure the rows on commit REV too, in the same run, and write only "
-                         "the 'before_after' section")
+    ap.add_argument("--before", default=EARLIER_REV, metavar="REV",
+                    help=f"the commit of the *before* columns (default {EARLIER_REV}, the 2026-11-21 code)")
     args = ap.parse_args()
     rounds = args.rounds or (8 if args.quick else 30)
     if args.rows_only:
@@ -521,13 +482,11 @@ def main():
         rows += simulation(robots["Panda"], max(5, rounds // 3))[0]
         print(json.dumps(rows))
         return
-    if args.before:
-        return before_after(args.before, rounds, args.no_write)
     import mujoco
     tmp = tempfile.mkdtemp()
-    root = earlier_code(tmp)
+    root = earlier_code(tmp, args.before)
     earlier = earlier_rows(root, rounds) if root else {}
-    print(f"the {EARLIER_REV} code measured" if root else "no git: no earlier code", flush=True)
+    print(f"the {args.before} code measured" if root else "no git: no earlier code", flush=True)
 
     rows, robots = [], {}
     for name, (rel, tip) in ROBOTS.items():
@@ -547,7 +506,7 @@ def main():
     from serial_dynamics.robot import facade as robot_module
     core_rows = cores(robots["Panda"], rounds)
     print("cores done", flush=True)
-    first = first_call(cold=not args.quick, earlier_root=root)
+    first = first_call(cold=not args.quick, earlier_root=root if args.before == EARLIER_REV else None)
     both_cores = None if args.quick else precompile_wall()
     print("first call done", flush=True)
     ns, res, cross = scaling(rounds)
@@ -561,12 +520,16 @@ def main():
              "example-robot-data `panda.urdf` to `panda_link8` (7 joints, fingers held and lumped), "
              "UR5 = `ur5_robot.urdf` to `tool0`. Every peer's result is checked against ours before "
              "it is timed (rigid-body terms agree to ~1e-15 relative, forward dynamics to cond(M) eps).",
-             "", f"*Before*: the same row measured in this run, on this machine, on the code as it "
-             f"was before the dynamics core was rewritten (commit {EARLIER_REV}, 2026-11-21: "
-             "joint-aligned kernels with a shared scratch array and fused multiply-add), imported "
-             "from a git archive in a subprocess, each with its own interleaved peer; *change*: "
-             "this row's ratio against that one. The rewrite must keep every row within 5 % or "
-             "better.",
+             "", (f"*Before*: the same row measured in this run, on this machine, on the code as it "
+                  f"was before the dynamics core was rewritten (commit {EARLIER_REV}, 2026-11-21: "
+                  "joint-aligned kernels with a shared scratch array and fused multiply-add), imported "
+                  "from a git archive in a subprocess, each with its own interleaved peer; *change*: "
+                  "this row's ratio against that one. The rewrite must keep every row within 5 % or "
+                  "better." if args.before == EARLIER_REV else
+                  f"*Before*: the same row measured in this run, on this machine, on commit "
+                  f"{args.before} (`--before {args.before}`), imported from a git archive in a "
+                  "subprocess, each with its own interleaved peer; *change*: this row's ratio "
+                  "against that one."),
              "", "| robot | what | ours | peer | peer's time | ratio | target | met "
              "| before | ratio before | change |",
              "|---|---|---:|---|---:|---:|---:|:---:|---:|---:|---:|"]

@@ -10,6 +10,7 @@ rotor inertia) adds to the diagonal: M_ii += I_a,i.
 from numba import njit, types
 
 from .data import new_kin
+from .status import BAD_LENGTH, NOT_FINITE, OK, status
 from .signatures import D2, D3, Out2, Pm, internal
 from .layout import ARM, H, IO, KIND, MASS
 from .spatial import joint_transforms, to_parent
@@ -88,23 +89,23 @@ crba_core = internal(types.void(Pm, D3, D2, Out2))(crba_core)   # called by the 
 
 # ------------------------------------------------------------------ entry points
 def crba(P, q, out):
-    """Mass matrix of one configuration into ``out`` (n, n). Returns 0, 1 (NaN/Inf), 2."""
+    """Mass matrix of one configuration into ``out`` (n, n). Returns OK, NOT_FINITE or BAD_LENGTH."""
     n = P.shape[0] - 1
     if q.shape[0] != n or out.shape[0] != n or out.shape[1] != n:
-        return 2
+        return BAD_LENGTH
     d = new_kin(n)
     chk = joint_transforms(P, d.sc, d.R, d.p, q, n)
     crba_inline(P, d.R, d.p, out)
-    return 0 if chk == 0.0 else 1
+    return status(chk)
 
 
 def crba_batch(P, q, out):
-    """Mass matrices (N, n, n) of N configurations (N, n). Returns 0, or 1 on a NaN/Inf."""
+    """Mass matrices (N, n, n) of N configurations (N, n). Returns OK, or NOT_FINITE on a NaN/Inf."""
     n = P.shape[0] - 1
     d = new_kin(n)
-    bad = 0
+    bad = OK
     for k in range(q.shape[0]):
         if joint_transforms(P, d.sc, d.R, d.p, q[k], n) != 0.0:
-            bad = 1
+            bad = NOT_FINITE
         crba_core(P, d.R, d.p, out[k])
     return bad

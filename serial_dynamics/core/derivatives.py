@@ -22,33 +22,14 @@ from . import flags as F
 from .cholesky import cholesky_solve_matrix
 from .data import new_chol, new_kin, scratch, stack_empty
 from .forward import cholesky_core
-from .layout import G, H, IO, KIND, MASS, TIPP, W_ACC, W_ALL, W_ALPHA, W_OMEGA, W_WRENCH
-from .rnea import status
-from .signatures import D1, D2, D3, In1, In2, Out2, Out3, Pm, Vec, f8, i8, internal
-from .spatial import finite, joint_transforms, to_parent
+from .layout import H, IO, KIND, MASS, TIPP
+from .rnea import (base_state, body_wrench, inward_step, into_body, joint_rate, joint_rates, tip_load,
+                   w_length)
+from .status import BAD_LENGTH, status
+from .signatures import D1, D2, D3, In1, Out2, Pm, Vec, f8, i8, internal
+from .spatial import force_to_parent, joint_transforms, rotate_t, rotation
 
 HAVE_TRANSFORMS = 1 << 16    # flag of derivatives_core: R, p already hold the transforms of q
-
-
-@njit(cache=True, inline="always")
-def _rows(R, i):
-    """R_i as a tuple of nine numbers (row-major): kept in registers in the loops below."""
-    return (R[i, 0, 0], R[i, 0, 1], R[i, 0, 2], R[i, 1, 0], R[i, 1, 1], R[i, 1, 2],
-            R[i, 2, 0], R[i, 2, 1], R[i, 2, 2])
-
-
-@njit(cache=True, inline="always")
-def _rt(r, x, y, z):
-    """R^T (x, y, z) for R = ``_rows``: into the child's frame."""
-    return (r[0] * x + r[3] * y + r[6] * z, r[1] * x + r[4] * y + r[7] * z,
-            r[2] * x + r[5] * y + r[8] * z)
-
-
-@njit(cache=True, inline="always")
-def _r(r, x, y, z):
-    """R (x, y, z): into the parent's frame."""
-    return (r[0] * x + r[1] * y + r[2] * z, r[3] * x + r[4] * y + r[5] * z,
-            r[6] * x + r[7] * y + r[8] * z)
 
 
 @njit(cache=True, inline="always")
@@ -78,65 +59,105 @@ def _body_tangent(body, dwx, dwy, dwz, dax, day, daz, dlx, dly, dlz):
             m * dlz + dax * hy - day * hx + wz * s1 + dwz * wh - hz * s2)
 
 
+@njit(cache=True, inline="always")
+def tangent_through(r, px, py, pz, w0x, w0y, w0z, wp, ca, cl, dwx, dwy, dwz, t3, t4, t5, t6, t7, t8):
+    """One live tangent (d omega, d alpha, d acc) = (dw, t3..5, t6..8) through body k: rnea's
+    into_body linearized, d acc + d alpha x p + d w x (w x p) + w x (d w x p) = ... + w (d w.p)
+    + d w (w.p) - 2 p (w.d w) with the parent's omega w0 and wp = w0.p, into frame k (R = r);
+    then the joint's rate term d omega' x qd e_z = qd (d w_y, -d w_x, 0) on d alpha (ca = qd,
+    revolute) or d acc (cl = 2 qd, prismatic). 9 numbers."""
+    s1 = dwx * px + dwy * py + dwz * pz
+    s2 = w0x * dwx + w0y * dwy + w0z * dwz
+    tx = t6 + t4 * pz - t5 * py + w0x * s1 + dwx * wp - (2.0 * px) * s2
+    ty = t7 + t5 * px - t3 * pz + w0y * s1 + dwy * wp - (2.0 * py) * s2
+    tz = t8 + t3 * py - t4 * px + w0z * s1 + dwz * wp - (2.0 * pz) * s2
+    sx, sy, sz = rotate_t(r, tx, ty, tz)
+    cx, cy, cz = rotate_t(r, dwx, dwy, dwz)
+    bx, by, bz = rotate_t(r, t3, t4, t5)
+    return cx, cy, cz, bx + ca * cy, by - ca * cx, bz, sx + cl * cy, sy - cl * cx, sz
+
+
+@njit(cache=True, inline="always")
+def seeds(T, k, rev, dqk, wz, wpx, wpy, apx, apy, lpx, lpy, ex, ey, mx, my):
+    """The seeds of directions q_k (column 2k of T) and qd_k (2k + 1), algorithms/derivatives.py:
+    omega', alpha', acc' before joint k moves, wz after, the tip wrench (e; m) in frame k."""
+    a, b = 2 * k, 2 * k + 1
+    for i in range(15):
+        T[i, a] = 0.0
+        T[i, b] = 0.0
+    if rev:
+        T[0, a], T[1, a] = wpy, -wpx                  # d omega = omega x e_z
+        T[3, a], T[4, a] = apy - dqk * wpx, -apx - dqk * wpy   # alpha' x e_z + qd (omega' x e_z) x e_z
+        T[6, a], T[7, a] = lpy, -lpx                  # d acc = acc x e_z
+        T[9, a], T[10, a], T[12, a], T[13, a] = ey, -ex, my, -mx   # d e = e x e_z
+        T[2, b] = 1.0                                 # d omega = e_z
+        T[3, b], T[4, b] = wpy, -wpx                  # d alpha = omega' x e_z
+    else:
+        # d acc = alpha' x e_z + omega' x (omega' x e_z)
+        T[6, a], T[7, a], T[8, a] = apy + wz * wpx, -apx + wz * wpy, -(wpx * wpx + wpy * wpy)
+        T[6, b], T[7, b] = 2.0 * wpy, -2.0 * wpx      # d acc = 2 omega' x e_z
+
+
+@njit(cache=True, inline="always")
+def tip_tangents(P, T, Tf):
+    """The tip load's tangents on the last body's joint wrench: d(-e), d(-m + Xtip_p x -e)."""
+    n = P.shape[0] - 1
+    tpx, tpy, tpz = P[n, TIPP], P[n, TIPP + 1], P[n, TIPP + 2]
+    for d in range(2 * n):
+        gx, gy, gz = T[9, d], T[10, d], T[11, d]
+        Tf[3, d] -= gx
+        Tf[4, d] -= gy
+        Tf[5, d] -= gz
+        Tf[0, d] -= T[12, d] + tpy * gz - tpz * gy
+        Tf[1, d] -= T[13, d] + tpz * gx - tpx * gz
+        Tf[2, d] -= T[14, d] + tpx * gy - tpy * gx
+
+
+@njit(cache=True, inline="always")
+def own_turn(r, px, py, pz, rev, nx, ny, nz, fx, fy):
+    """Joint j's own turn on the joint wrench (n; f) of body j carried to body j-1, along
+    direction q_j: g = R_j (e_z x f); revolute: d f = g, d n = R_j (e_z x n) + p_j x g;
+    prismatic: d n = g  (algorithms/derivatives.py). Returns (d n, d f)."""
+    gx = -r[0] * fy + r[1] * fx
+    gy = -r[3] * fy + r[4] * fx
+    gz = -r[6] * fy + r[7] * fx
+    if rev:
+        return (-r[0] * ny + r[1] * nx + py * gz - pz * gy, -r[3] * ny + r[4] * nx + pz * gx - px * gz,
+                -r[6] * ny + r[7] * nx + px * gy - py * gx, gx, gy, gz)
+    return gx, gy, gz, 0.0, 0.0, 0.0
+
+
 def derivatives_core(P, sc, R, p, f, T, Tf, dB, q, qd, qdd, w, flags, dq, dqd):
     """d tau/d q into ``dq`` and d tau/d qd into ``dqd`` (n, n), [i, j] = d tau_i / d x_j,
     of tau = M qdd + b - J^T w (flags QD, QDD, WRENCH, BASE as ``rnea_core``). Scratch:
     sc, R, p, f (Data Kin), T (15, 2n), Tf (6, 2n), dB (n, 6, 2n). Returns 0.0 or NaN."""
     n = dq.shape[0]
-    use_qd, use_qdd, use_w = (flags & F.QD) != 0, (flags & F.QDD) != 0, (flags & F.WRENCH) != 0
+    use_w = (flags & F.WRENCH) != 0
     # R, p (and the check of q) may come from the caller (fd_derivatives_core)
     chk = joint_transforms(P, sc, R, p, q, n) if (flags & HAVE_TRANSFORMS) == 0 else 0.0
-    wx = wy = wz = 0.0                                  # omega of the previous body
-    ax = ay = az = 0.0                                  # alpha
-    lx, ly, lz = -P[n, G], -P[n, G + 1], -P[n, G + 2]   # acc; base: -g
-    ex = ey = ez = mx = my = mz = 0.0                   # tip wrench [f; m], carried outward
-    if use_w:
-        ex, ey, ez, mx, my, mz = w[0], w[1], w[2], w[3], w[4], w[5]
-        chk += finite(ex) + finite(ey) + finite(ez) + finite(mx) + finite(my) + finite(mz)
-    if (flags & F.BASE) != 0:   # moving base: omega_0, alpha_0, acc_0 - g (Angeles Sec. 7.5.2)
-        wx, wy, wz = w[W_OMEGA], w[W_OMEGA + 1], w[W_OMEGA + 2]
-        ax, ay, az = w[W_ALPHA], w[W_ALPHA + 1], w[W_ALPHA + 2]
-        lx, ly, lz = w[W_ACC] - P[n, G], w[W_ACC + 1] - P[n, G + 1], w[W_ACC + 2] - P[n, G + 2]
-        chk += (finite(wx) + finite(wy) + finite(wz) + finite(ax) + finite(ay) + finite(az)
-                + finite(lx) + finite(ly) + finite(lz))
+    (wx, wy, wz, ax, ay, az, lx, ly, lz), (ex, ey, ez, mx, my, mz), chk = base_state(P, w, flags, n, chk)
     for k in range(n):
-        dqk = qd[k] if use_qd else 0.0
-        ddqk = qdd[k] if use_qdd else 0.0
-        chk += finite(dqk) + finite(ddqk)
+        dqk, ddqk, c = joint_rates(qd, qdd, k, flags)
+        chk += c
         px, py, pz = p[k, 0], p[k, 1], p[k, 2]
         rev = P[k, KIND] == 0.0
-        r = _rows(R, k)
-        # rnea: acc + alpha x p + omega x (omega x p), into body k (u = omega x p)
+        r = rotation(R, k)
         w0x, w0y, w0z = wx, wy, wz                        # the parent's omega (frame k-1)
-        ux, uy, uz = wy * pz - wz * py, wz * px - wx * pz, wx * py - wy * px
-        tx = lx + ay * pz - az * py + wy * uz - wz * uy
-        ty = ly + az * px - ax * pz + wz * ux - wx * uz
-        tz = lz + ax * py - ay * px + wx * uy - wy * ux
-        lx, ly, lz = _rt(r, tx, ty, tz)
-        wx, wy, wz = _rt(r, wx, wy, wz)                   # omega', alpha': before the joint
-        ax, ay, az = _rt(r, ax, ay, az)
+        # rnea outward: omega', alpha', acc' in body k before its joint moves, then after
+        wx, wy, wz, ax, ay, az, lx, ly, lz = into_body(r, px, py, pz, wx, wy, wz, ax, ay, az, lx, ly, lz)
         wpx, wpy, apx, apy = wx, wy, ax, ay
         lpx, lpy = lx, ly
         if use_w:
-            ex, ey, ez = _rt(r, ex, ey, ez)
-            mx, my, mz = _rt(r, mx, my, mz)
-        if rev:                                           # rnea: spin about z
-            ax, ay, az = ax + wy * dqk, ay - wx * dqk, az + ddqk
-            wz = wz + dqk
-        else:                                             # rnea: slide along z
-            lx, ly, lz = lx + 2.0 * wy * dqk, ly - 2.0 * wx * dqk, lz + ddqk
-        # rnea: body wrench about its origin (n; f) into f[k]
+            ex, ey, ez = rotate_t(r, ex, ey, ez)
+            mx, my, mz = rotate_t(r, mx, my, mz)
+        wx, wy, wz, ax, ay, az, lx, ly, lz = joint_rate(P, k, wx, wy, wz, ax, ay, az, lx, ly, lz,
+                                                        dqk, ddqk)
+        f[k, 0], f[k, 1], f[k, 2], f[k, 3], f[k, 4], f[k, 5] = body_wrench(
+            P, k, wx, wy, wz, ax, ay, az, lx, ly, lz)
         m = P[k, MASS]
         hx, hy, hz = P[k, H], P[k, H + 1], P[k, H + 2]
         I6 = (P[k, IO], P[k, IO + 1], P[k, IO + 2], P[k, IO + 3], P[k, IO + 4], P[k, IO + 5])
-        vx, vy, vz = wy * hz - wz * hy, wz * hx - wx * hz, wx * hy - wy * hx     # omega x h
-        f[k, 3] = m * lx + ay * hz - az * hy + wy * vz - wz * vy
-        f[k, 4] = m * ly + az * hx - ax * hz + wz * vx - wx * vz
-        f[k, 5] = m * lz + ax * hy - ay * hx + wx * vy - wy * vx
         Lx, Ly, Lz = _inertia_times(I6, wx, wy, wz)                              # I_O omega
-        f[k, 0] = I6[0] * ax + I6[3] * ay + I6[4] * az + wy * Lz - wz * Ly + hy * lz - hz * ly
-        f[k, 1] = I6[3] * ax + I6[1] * ay + I6[5] * az + wz * Lx - wx * Lz + hz * lx - hx * lz
-        f[k, 2] = I6[4] * ax + I6[5] * ay + I6[2] * az + wx * Ly - wy * Lx + hx * ly - hy * lx
         body = (m, hx, hy, hz, I6, wx, wy, wz, Lx, Ly, Lz, wx * hx + wy * hy + wz * hz)
         # the live tangents through body k, linearized (rnea outward): d acc + d alpha x p
         # + d w x (w x p) + w x (d w x p) = ... + w (d w.p) + d w (w.p) - 2 p (w.d w), into
@@ -144,96 +165,48 @@ def derivatives_core(P, sc, R, p, f, T, Tf, dB, q, qd, qdd, w, flags, dq, dqd):
         # twice): d omega' x qd e_z = qd (d w_y, -d w_x, 0)
         ca, cl = (dqk, 0.0) if rev else (0.0, 2.0 * dqk)
         wp = w0x * px + w0y * py + w0z * pz
-        p2x, p2y, p2z = 2.0 * px, 2.0 * py, 2.0 * pz
         for d in range(2 * k):
-            dwx, dwy, dwz = T[0, d], T[1, d], T[2, d]
-            s1 = dwx * px + dwy * py + dwz * pz
-            s2 = w0x * dwx + w0y * dwy + w0z * dwz
-            tx = T[6, d] + T[4, d] * pz - T[5, d] * py + w0x * s1 + dwx * wp - p2x * s2
-            ty = T[7, d] + T[5, d] * px - T[3, d] * pz + w0y * s1 + dwy * wp - p2y * s2
-            tz = T[8, d] + T[3, d] * py - T[4, d] * px + w0z * s1 + dwz * wp - p2z * s2
-            sx, sy, sz = _rt(r, tx, ty, tz)
-            cx, cy, cz = _rt(r, dwx, dwy, dwz)
-            bx, by, bz = _rt(r, T[3, d], T[4, d], T[5, d])
-            bx, by, sx, sy = bx + ca * cy, by - ca * cx, sx + cl * cy, sy - cl * cx
-            T[0, d], T[1, d], T[2, d] = cx, cy, cz
-            T[3, d], T[4, d], T[5, d] = bx, by, bz
-            T[6, d], T[7, d], T[8, d] = sx, sy, sz
+            (T[0, d], T[1, d], T[2, d], T[3, d], T[4, d], T[5, d], T[6, d], T[7, d],
+             T[8, d]) = tangent_through(r, px, py, pz, w0x, w0y, w0z, wp, ca, cl,
+                                        T[0, d], T[1, d], T[2, d], T[3, d], T[4, d], T[5, d],
+                                        T[6, d], T[7, d], T[8, d])
         if use_w:
             for d in range(2 * k):
-                T[9, d], T[10, d], T[11, d] = _rt(r, T[9, d], T[10, d], T[11, d])
-                T[12, d], T[13, d], T[14, d] = _rt(r, T[12, d], T[13, d], T[14, d])
-        # the seeds of directions q_k (d = 2k) and qd_k (d = 2k + 1), algorithms/derivatives.py
-        a, b = 2 * k, 2 * k + 1
-        for i in range(15):
-            T[i, a] = 0.0
-            T[i, b] = 0.0
-        if rev:
-            T[0, a], T[1, a] = wpy, -wpx                  # d omega = omega x e_z
-            T[3, a], T[4, a] = apy - dqk * wpx, -apx - dqk * wpy   # alpha' x e_z + qd (omega' x e_z) x e_z
-            T[6, a], T[7, a] = lpy, -lpx                  # d acc = acc x e_z
-            T[9, a], T[10, a], T[12, a], T[13, a] = ey, -ex, my, -mx   # d e = e x e_z
-            T[2, b] = 1.0                                 # d omega = e_z
-            T[3, b], T[4, b] = wpy, -wpx                  # d alpha = omega' x e_z
-        else:
-            # d acc = alpha' x e_z + omega' x (omega' x e_z)
-            T[6, a], T[7, a], T[8, a] = apy + wz * wpx, -apx + wz * wpy, -(wpx * wpx + wpy * wpy)
-            T[6, b], T[7, b] = 2.0 * wpy, -2.0 * wpx      # d acc = 2 omega' x e_z
-        for d in range(b + 1):       # (its own loop: the compiler runs it in SIMD lanes)
+                T[9, d], T[10, d], T[11, d] = rotate_t(r, T[9, d], T[10, d], T[11, d])
+                T[12, d], T[13, d], T[14, d] = rotate_t(r, T[12, d], T[13, d], T[14, d])
+        seeds(T, k, rev, dqk, wz, wpx, wpy, apx, apy, lpx, lpy, ex, ey, mx, my)
+        for d in range(2 * k + 2):       # (its own loop: the compiler runs it in SIMD lanes)
             (dB[k, 0, d], dB[k, 1, d], dB[k, 2, d], dB[k, 3, d], dB[k, 4, d],
              dB[k, 5, d]) = _body_tangent(body, T[0, d], T[1, d], T[2, d], T[3, d], T[4, d],
                                           T[5, d], T[6, d], T[7, d], T[8, d])
     # inward: the last body carries the tip load -e (moment about its origin: -m + Xtip_p x -e)
     k = n - 1
-    tpx, tpy, tpz = P[n, TIPP], P[n, TIPP + 1], P[n, TIPP + 2]
-    fx, fy, fz = f[k, 3] - ex, f[k, 4] - ey, f[k, 5] - ez
-    nx = f[k, 0] - mx - tpy * ez + tpz * ey
-    ny = f[k, 1] - my - tpz * ex + tpx * ez
-    nz = f[k, 2] - mz - tpx * ey + tpy * ex
+    nx, ny, nz, fx, fy, fz = tip_load(P, n, f[k, 0], f[k, 1], f[k, 2], f[k, 3], f[k, 4], f[k, 5],
+                                      ex, ey, ez, mx, my, mz)
     for d in range(2 * n):
         for r in range(6):
             Tf[r, d] = dB[k, r, d]
     if use_w:
-        for d in range(2 * n):
-            gx, gy, gz = T[9, d], T[10, d], T[11, d]
-            Tf[3, d] -= gx
-            Tf[4, d] -= gy
-            Tf[5, d] -= gz
-            Tf[0, d] -= T[12, d] + tpy * gz - tpz * gy
-            Tf[1, d] -= T[13, d] + tpz * gx - tpx * gz
-            Tf[2, d] -= T[14, d] + tpx * gy - tpy * gx
+        tip_tangents(P, T, Tf)
     _torques(P, Tf, k, dq, dqd)
     for i in range(n - 2, -1, -1):
         j = i + 1
         # joint j's own turn, direction q_j: g = R_j (e_z x f_j); revolute: d f += g,
         # d n += R_j (e_z x n_j) + p_j x g; prismatic: d n += g  (algorithms/derivatives.py)
-        gx = -R[j, 0, 0] * fy + R[j, 0, 1] * fx
-        gy = -R[j, 1, 0] * fy + R[j, 1, 1] * fx
-        gz = -R[j, 2, 0] * fy + R[j, 2, 1] * fx
-        if P[j, KIND] == 0.0:
-            sx = -R[j, 0, 0] * ny + R[j, 0, 1] * nx + p[j, 1] * gz - p[j, 2] * gy
-            sy = -R[j, 1, 0] * ny + R[j, 1, 1] * nx + p[j, 2] * gx - p[j, 0] * gz
-            sz = -R[j, 2, 0] * ny + R[j, 2, 1] * nx + p[j, 0] * gy - p[j, 1] * gx
-        else:
-            sx, sy, sz, gx, gy, gz = gx, gy, gz, 0.0, 0.0, 0.0
-        # rnea inward: f_i = body wrench + Xup_j^T f_j, for the joint wrench and its tangents
-        nx, ny, nz, fx, fy, fz = to_parent(R, p, j, nx, ny, nz, fx, fy, fz)
-        fx, fy, fz = fx + f[i, 3], fy + f[i, 4], fz + f[i, 5]
-        nx, ny, nz = nx + f[i, 0], ny + f[i, 1], nz + f[i, 2]
-        r = _rows(R, j)
+        r = rotation(R, j)
         px, py, pz = p[j, 0], p[j, 1], p[j, 2]
+        sx, sy, sz, gx, gy, gz = own_turn(r, px, py, pz, P[j, KIND] == 0.0, nx, ny, nz, fx, fy)
+        # rnea inward: f_i = body wrench + Xup_j^T f_j, for the joint wrench and its tangents
+        nx, ny, nz, fx, fy, fz = inward_step(R, p, f, i, nx, ny, nz, fx, fy, fz)
         for d in range(2 * i + 2):    # Xup_j^T: f' = R f, n' = R n + p x f', + body i's
-            cx, cy, cz = _r(r, Tf[3, d], Tf[4, d], Tf[5, d])
-            ux, uy, uz = _r(r, Tf[0, d], Tf[1, d], Tf[2, d])
-            Tf[0, d] = ux + py * cz - pz * cy + dB[i, 0, d]
-            Tf[1, d] = uy + pz * cx - px * cz + dB[i, 1, d]
-            Tf[2, d] = uz + px * cy - py * cx + dB[i, 2, d]
+            ux, uy, uz, cx, cy, cz = force_to_parent(r, px, py, pz, Tf[0, d], Tf[1, d], Tf[2, d],
+                                                     Tf[3, d], Tf[4, d], Tf[5, d])
+            Tf[0, d], Tf[1, d], Tf[2, d] = ux + dB[i, 0, d], uy + dB[i, 1, d], uz + dB[i, 2, d]
             Tf[3, d], Tf[4, d], Tf[5, d] = cx + dB[i, 3, d], cy + dB[i, 4, d], cz + dB[i, 5, d]
         for d in range(2 * i + 2, 2 * n):   # directions of joints outboard of i: carried
-            cx, cy, cz = _r(r, Tf[3, d], Tf[4, d], Tf[5, d])
-            ux, uy, uz = _r(r, Tf[0, d], Tf[1, d], Tf[2, d])
-            Tf[0, d], Tf[1, d], Tf[2, d] = ux + py * cz - pz * cy, uy + pz * cx - px * cz, uz + px * cy - py * cx
-            Tf[3, d], Tf[4, d], Tf[5, d] = cx, cy, cz
+            (Tf[0, d], Tf[1, d], Tf[2, d], Tf[3, d], Tf[4, d],
+             Tf[5, d]) = force_to_parent(r, px, py, pz, Tf[0, d], Tf[1, d], Tf[2, d],
+                                         Tf[3, d], Tf[4, d], Tf[5, d])
         a = 2 * j
         Tf[0, a], Tf[1, a], Tf[2, a] = Tf[0, a] + sx, Tf[1, a] + sy, Tf[2, a] + sz
         Tf[3, a], Tf[4, a], Tf[5, a] = Tf[3, a] + gx, Tf[4, a] + gy, Tf[5, a] + gz
@@ -266,6 +239,16 @@ def fd_derivatives_core(P, sc, R, p, f, M, b, qdd, T, Tf, dB, X, q, qd, tau, w, 
     chk = cholesky_core(P, sc, R, p, f, M, b, q, qd, tau, w, tau, flags, qdd)   # M <- L
     chk += derivatives_core(P, sc, R, p, f, T, Tf, dB, q, qd, qdd, w,
                             flags | F.QDD | HAVE_TRANSFORMS, X[:, :n], X[:, n:2 * n])
+    solve_minus(M, X, dq, dqd, Minv)
+    return chk
+
+
+@njit(cache=True, inline="always")
+def solve_minus(M, X, dq, dqd, Minv):
+    """X = [d tau/d q, d tau/d qd, 1] (n, 3n) with M holding the Cholesky factor L of M:
+    -M^-1 d tau/d q, -M^-1 d tau/d qd, M^-1 into dq, dqd, Minv (mirrored from its upper
+    triangle: exactly symmetric)."""
+    n = M.shape[0]
     for i in range(n):
         for c in range(n):
             X[i, 2 * n + c] = 1.0 if i == c else 0.0
@@ -275,7 +258,6 @@ def fd_derivatives_core(P, sc, R, p, f, M, b, qdd, T, Tf, dB, X, q, qd, tau, w, 
             dq[i, c] = -X[i, c]
             dqd[i, c] = -X[i, n + c]
             Minv[i, c] = X[i, 2 * n + c] if c >= i else X[c, 2 * n + i]
-    return chk
 
 
 fd_derivatives_core = internal(
@@ -289,19 +271,19 @@ def _bad_shapes(P, q, qd, x, w, flags, dq, dqd):
     n = P.shape[0] - 1
     return (q.shape[0] != n or qd.shape[0] != n or x.shape[0] != n
             or dq.shape[0] != n or dq.shape[1] != n or dqd.shape[0] != n or dqd.shape[1] != n
-            or w.shape[0] != (W_ALL if (flags & F.BASE) != 0 else W_WRENCH))
+            or w.shape[0] != w_length(flags))
 
 
 def rnea_derivatives(P, q, qd, qdd, w, flags, out):
     """d tau/d q, d tau/d qd of one state into ``out[0]``, ``out[1]`` (out: (2, n, n); one
     array, one argument: each costs dispatch time). ``w``: as ``rnea.rnea_wrench``
-    (W_WRENCH entries, W_ALL with flag BASE; read with flags WRENCH, BASE). Returns 0, 1
-    (NaN/Inf) or 2 (a wrong length)."""
+    (W_WRENCH entries, W_ALL with flag BASE; read with flags WRENCH, BASE). Returns OK,
+    NOT_FINITE or BAD_LENGTH (status.py)."""
     if out.shape[0] != 2:
-        return 2
+        return BAD_LENGTH
     dq, dqd = out[0], out[1]
     if _bad_shapes(P, q, qd, qdd, w, flags, dq, dqd):
-        return 2
+        return BAD_LENGTH
     n = dq.shape[0]
     d = new_kin(n)
     T, Tf, dB = stack_empty((15, 2 * n)), stack_empty((6, 2 * n)), scratch((n, 6, 2 * n), 12 * n * n)
@@ -311,12 +293,12 @@ def rnea_derivatives(P, q, qd, qdd, w, flags, out):
 
 def fd_derivatives(P, q, qd, tau, w, flags, out):
     """d qdd/d q, d qdd/d qd, d qdd/d tau (= M^-1) of one state into ``out[0]``, ``out[1]``,
-    ``out[2]`` (out: (3, n, n)). Returns 0, 1 (NaN/Inf) or 2 (a wrong length)."""
+    ``out[2]`` (out: (3, n, n)). Returns OK, NOT_FINITE or BAD_LENGTH."""
     if out.shape[0] != 3:
-        return 2
+        return BAD_LENGTH
     dq, dqd, Minv = out[0], out[1], out[2]
     if _bad_shapes(P, q, qd, tau, w, flags, dq, dqd):
-        return 2
+        return BAD_LENGTH
     n = dq.shape[0]
     d, c, qdd = new_kin(n), new_chol(n), stack_empty((n,))
     T, Tf, dB = stack_empty((15, 2 * n)), stack_empty((6, 2 * n)), scratch((n, 6, 2 * n), 12 * n * n)
@@ -325,46 +307,9 @@ def fd_derivatives(P, q, qd, tau, w, flags, out):
                                       q, qd, tau, w, flags, dq, dqd, Minv))
 
 
-def rnea_derivatives_batch(P, q, qd, qdd, w, flags, dq, dqd):
-    """``rnea_derivatives`` of N states (rows broadcast as in ``rnea_batch``) into (N, n, n)
-    arrays. Returns 0, or 1 if some input had a NaN/Inf."""
-    n = P.shape[0] - 1
-    d = new_kin(n)
-    T, Tf, dB = stack_empty((15, 2 * n)), stack_empty((6, 2 * n)), scratch((n, 6, 2 * n), 12 * n * n)
-    nq, nv, na, nw = q.shape[0] > 1, qd.shape[0] > 1, qdd.shape[0] > 1, w.shape[0] > 1
-    flags = (flags & (F.WRENCH | F.BASE)) | F.QD | F.QDD
-    bad = 0
-    for k in range(dq.shape[0]):
-        if derivatives_core(P, d.sc, d.R, d.p, d.f, T, Tf, dB, q[k if nq else 0],
-                            qd[k if nv else 0], qdd[k if na else 0], w[k if nw else 0],
-                            flags, dq[k], dqd[k]) != 0.0:
-            bad = 1
-    return bad
-
-
-def fd_derivatives_batch(P, q, qd, tau, w, flags, dq, dqd, Minv):
-    """``fd_derivatives`` of N states into (N, n, n) arrays. Returns 0, or 1 on a NaN/Inf."""
-    n = P.shape[0] - 1
-    d, c, qdd = new_kin(n), new_chol(n), stack_empty((n,))
-    T, Tf, dB = stack_empty((15, 2 * n)), stack_empty((6, 2 * n)), scratch((n, 6, 2 * n), 12 * n * n)
-    X = scratch((n, 3 * n), 3 * n * n)
-    nq, nv, nt, nw = q.shape[0] > 1, qd.shape[0] > 1, tau.shape[0] > 1, w.shape[0] > 1
-    bad = 0
-    for k in range(dq.shape[0]):
-        if fd_derivatives_core(P, d.sc, d.R, d.p, d.f, c.M, c.b, qdd, T, Tf, dB, X,
-                               q[k if nq else 0], qd[k if nv else 0], tau[k if nt else 0],
-                               w[k if nw else 0], flags, dq[k], dqd[k], Minv[k]) != 0.0:
-            bad = 1
-    return bad
-
-
 _CALLS = ("derivatives_core", "fd_derivatives_core")
 Mat3 = types.Array(f8, 3, "C")      # the single-state results, one C-contiguous array
 ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core functions it calls)
     "rnea_derivatives": (rnea_derivatives, i8(Pm, Vec, Vec, Vec, Vec, i8, Mat3), False, _CALLS[:1]),
     "fd_derivatives": (fd_derivatives, i8(Pm, Vec, Vec, Vec, Vec, i8, Mat3), False, _CALLS[1:]),
-    "rnea_derivatives_batch": (rnea_derivatives_batch, i8(Pm, In2, In2, In2, In2, i8, Out3, Out3),
-                               True, _CALLS[:1]),
-    "fd_derivatives_batch": (fd_derivatives_batch,
-                             i8(Pm, In2, In2, In2, In2, i8, Out3, Out3, Out3), True, _CALLS[1:]),
 }

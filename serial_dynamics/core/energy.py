@@ -29,6 +29,7 @@ from .crba import crba_core
 from .data import new_kin, scratch, stack_empty
 from .layout import H, IO, KIND, MASS, W_WRENCH
 from .rnea import rnea_core
+from .status import BAD_LENGTH, NOT_CONVERGED, NOT_FINITE, status
 from .signatures import D2, D3, In1, Out1, Pm, f8, i8, internal
 from .spatial import finite, joint_transforms, to_child, to_parent
 
@@ -90,17 +91,17 @@ def mask_held(M, held):
 
 # ------------------------------------------------------------------ entry points
 def kinetic_energy_gradient(P, q, qd, out):
-    """dT/dq of one state into ``out`` (n,). Returns 0, 1 (NaN/Inf), 2 (length)."""
+    """dT/dq of one state into ``out`` (n,). Returns OK, NOT_FINITE or BAD_LENGTH."""
     n = P.shape[0] - 1
     if q.shape[0] != n or qd.shape[0] != n or out.shape[0] != n:
-        return 2
+        return BAD_LENGTH
     d = new_kin(n)
     V = scratch((n, 12), 12 * n)
     chk = joint_transforms(P, d.sc, d.R, d.p, q, n)
     for i in range(n):
         chk += finite(qd[i])
     ke_gradient_core(P, d.R, d.p, qd, V, out)
-    return 0 if chk == 0.0 else 1
+    return status(chk)
 
 
 def symplectic_euler(P, q, qd, f, w, beta, held, dt, tol, maxit, flags, qo, qdo, vo):
@@ -108,14 +109,15 @@ def symplectic_euler(P, q, qd, f, w, beta, held, dt, tol, maxit, flags, qo, qdo,
     ``f`` (n,) held over the step, viscous coefficients ``beta`` (implicit), the tip
     wrench ``w`` (flag WRENCH) and ``held`` joints (1.0: held). Writes q1, qd1 and the
     velocity v of the position update into qo, qdo, vo.
-    Returns the fixed-point iterations (>= 1), -1 when the corrections did not fall below
-    ``tol`` (relative) within ``maxit`` iterations, -2 on a NaN/Inf, -3 on a wrong length."""
+    Returns the fixed-point iterations (>= 1), or minus a status (status.py): -NOT_CONVERGED
+    when the corrections did not fall below ``tol`` (relative) within ``maxit`` iterations,
+    -NOT_FINITE on a NaN/Inf, -BAD_LENGTH on a wrong length."""
     n = P.shape[0] - 1
     if (q.shape[0] != n or qd.shape[0] != n or f.shape[0] != n or beta.shape[0] != n
             or held.shape[0] != n
             or qo.shape[0] != n or qdo.shape[0] != n or vo.shape[0] != n
             or ((flags & F.WRENCH) != 0 and w.shape[0] != W_WRENCH)):
-        return -3
+        return -BAD_LENGTH
     d = new_kin(n)
     M, L = scratch((n, n), n * n), scratch((n, n), n * n)
     V = scratch((n, 12), 12 * n)
@@ -138,7 +140,7 @@ def symplectic_euler(P, q, qd, f, w, beta, held, dt, tol, maxit, flags, qo, qdo,
             L[i, j] = M[i, j]
         L[i, i] += dt * beta[i] if free else 0.0                 # M + dt diag(beta)
     if chk != 0.0:
-        return -2
+        return -NOT_FINITE
     cholesky_factor(L)
     done, prev, k = False, 0.0, 0
     while k < maxit and not done:
@@ -154,7 +156,7 @@ def symplectic_euler(P, q, qd, f, w, beta, held, dt, tol, maxit, flags, qo, qdo,
             vo[i] = x[i]
         scale = 1.0 + vmax
         if not diff <= 1e300:                                    # NaN or Inf
-            return -2
+            return -NOT_FINITE
         done = diff <= tol * scale or (k > 1 and diff >= prev and diff <= ROUNDOFF * scale)
         prev = diff
     for i in range(n):                                           # p1 = M(q0) v
@@ -170,7 +172,7 @@ def symplectic_euler(P, q, qd, f, w, beta, held, dt, tol, maxit, flags, qo, qdo,
         qdo[i] = x[i]
     cholesky_factor(M)
     cholesky_solve_factored(M, qdo)                              # qd1 = M(q1)^-1 p1
-    return k if done else -1
+    return k if done else -NOT_CONVERGED
 
 
 ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core functions it calls)

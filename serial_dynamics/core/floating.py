@@ -34,9 +34,10 @@ from .crba import crba_inline
 from .data import new_art, new_chol, new_kin
 from .forward import cholesky_core
 from .layout import W_ACC, W_ALL
-from .rnea import rnea_core, status
+from .rnea import rnea_core
 from .signatures import In2, Mat, Out2, Pm, Vec, i8
 from .spatial import joint_transforms
+from .status import BAD_LENGTH, status
 
 GW = 9            # length of gw: the tip wrench [f; m] (world), then the world's gravity
 
@@ -119,7 +120,7 @@ def floating_rnea(P, q, v, a, gw, flags, out):
     nv = P.shape[0] - 1
     if (q.shape[0] != nv + 1 or v.shape[0] != nv or a.shape[0] != nv or gw.shape[0] != GW
             or out.shape[0] != nv):
-        return 2
+        return BAD_LENGTH
     d = new_kin(nv)
     qv, w, qddv = np.empty(nv), np.empty(W_ALL), np.empty(nv)
     return status(_rnea_one(P, d, qv, w, qddv, q, v, a, gw, flags, out))
@@ -131,7 +132,7 @@ def floating_fd(P, q, v, tau, gw, flags, out):
     nv = P.shape[0] - 1
     if (q.shape[0] != nv + 1 or v.shape[0] != nv or (tau.shape[0] != nv and tau.shape[0] != nv - 6)
             or gw.shape[0] != GW or out.shape[0] != nv):
-        return 2
+        return BAD_LENGTH
     d, c, art = new_kin(nv), new_chol(nv), new_art(nv)
     qv, w, tv = np.empty(nv), np.empty(W_ALL), np.empty(nv)
     return status(_fd_one(P, d, c, art, qv, w, tv, q, v, tau, gw, flags | F.QD, out))
@@ -141,7 +142,7 @@ def floating_crba(P, q, out):
     """The (n+6, n+6) mass matrix of one floating configuration into ``out``."""
     nv = P.shape[0] - 1
     if q.shape[0] != nv + 1 or out.shape[0] != nv or out.shape[1] != nv:
-        return 2
+        return BAD_LENGTH
     d = new_kin(nv)
     qv, w = np.empty(nv), np.empty(W_ALL)
     chk = _chain_inputs(q, np.zeros(GW), 0, qv, w)

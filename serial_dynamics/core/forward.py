@@ -18,7 +18,8 @@ from .crba import crba_core
 from .data import new_art, new_chol, new_kin
 from .layout import W_ALL, W_WRENCH
 from .signatures import D1, D2, D3, In1, Out1, Pm, f8, i8, internal
-from .rnea import rnea_core, status
+from .rnea import rnea_core
+from .status import BAD_LENGTH, NOT_FINITE, OK, status
 from .spatial import finite
 
 
@@ -53,12 +54,12 @@ def fd(P, q, qd, tau, w, flags, out):
     """Forward dynamics of one state into ``out`` (n,): Cholesky, or ABA with flag ABA;
     with flag WRENCH the tip wrench ``w[:6]``, [f; m] in base coordinates, on the tip
     (else not read); with flag BASE the base motion (then ``w`` has W_ALL entries,
-    layout.W_*). Returns 0, 1 (NaN/Inf) or 2 (a wrong length). (One entry
+    layout.W_*). Returns OK, NOT_FINITE or BAD_LENGTH. (One entry
     point with and without a wrench: a second one would compile the recursions again,
     ~0.7 s of a cold start, to save ~40 ns a call.)"""
     if (not _checked_length(P, q, qd, tau, out)
             or w.shape[0] != (W_ALL if (flags & F.BASE) != 0 else W_WRENCH)):
-        return 2
+        return BAD_LENGTH
     n = out.shape[0]
     d = new_kin(n)
     flags &= ~F.DAMPING                  # tau stands in for the unread damping argument
@@ -71,14 +72,14 @@ def fd(P, q, qd, tau, w, flags, out):
 
 
 def fd_batch(P, q, qd, tau, w, flags, out):
-    """Forward dynamics of N states (rows broadcast as in ``rnea_batch``). Returns 0, or 1
+    """Forward dynamics of N states (rows broadcast as in ``rnea_batch``). Returns OK, or NOT_FINITE
     if some input had a NaN/Inf."""
     N = out.shape[0]
     n = P.shape[0] - 1
     d, c, a = new_kin(n), new_chol(n), new_art(n)
     nq, nv, nt, nw = q.shape[0] > 1, qd.shape[0] > 1, tau.shape[0] > 1, w.shape[0] > 1
     flags &= ~F.DAMPING
-    bad = 0
+    bad = OK
     for k in range(N):
         qk, qdk, tk, wk = q[k if nq else 0], qd[k if nv else 0], tau[k if nt else 0], w[k if nw else 0]
         if (flags & F.ABA) != 0:
@@ -87,5 +88,5 @@ def fd_batch(P, q, qd, tau, w, flags, out):
         else:
             chk = cholesky_core(P, d.sc, d.R, d.p, d.f, c.M, c.b, qk, qdk, tk, wk, tk, flags, out[k])
         if chk != 0.0:
-            bad = 1
+            bad = NOT_FINITE
     return bad

@@ -4,9 +4,9 @@
 The same equations, frames and symbols as ``algorithms/planar.py`` (the readable
 reference; its docstring defines the layout ``Q`` and says why the dropped components do
 not change a joint torque). Kernels take ``Q`` (``planar_pack``), not ``P``: n = Q.shape[0]
-- 1 joints. Status codes and ``flags`` as ``rnea.py``'s entry points: 0 ok, 1 a NaN/Inf in
-an input, 2 a wrong length (or a flag the planar path does not model: BASE, a moving
-base); flags QD, QDD (and WRENCH: read by the batch kernel, implied by the wrench entry).
+- 1 joints. Status codes (status.py) and ``flags`` as ``rnea.py``'s entry points: OK,
+NOT_FINITE (a NaN/Inf in an input), BAD_LENGTH (a wrong length, or a flag the planar path
+does not model: BASE, a moving base); flags QD, QDD (and WRENCH: read by the batch kernel, implied by the wrench entry).
 
 Entry points (``core.K.<name>``, compiled -- or loaded from numba's cache -- on first use,
 each with its one signature):
@@ -32,11 +32,12 @@ from ..algorithms.planar import (ANG, ARM, DX, DY, E1, E2, GX, GY, HX, HY, IZ, K
                                  NRM, RX, RY, SGN, TX, TY)
 from .data import stack_empty
 from .signatures import Mat, Pm, Vec, i8
+from .status import BAD_LENGTH, status
 from .spatial import SMALL_ANGLE, sincos
 
 Qm = Pm                 # the packed planar model Q (never written), C-contiguous
 UNSUPPORTED = getattr(F, "BASE", 0)   # flags the planar path does not model (a moving base):
-                                      # status 2, so that the caller takes its general path
+                                      # BAD_LENGTH, so that the caller takes its general path
 SCRATCH = 7             # columns of S: c, s, px, py, fx, fy, nz
 
 
@@ -169,19 +170,13 @@ def planar_crba_core(Q, S, M):
 planar_crba_core = njit(cache=True, inline="always")(planar_crba_core)
 
 
-@njit(cache=True, inline="always")
-def status(chk):
-    """An entry point's return value: 0 ok, 1 a NaN/Inf in an input."""
-    return 0 if chk == 0.0 else 1
-
-
 # ------------------------------------------------------------------ entry points
 def _planar_rnea(Q, q, qd, qdd, flags, out):
-    """Inverse dynamics of one state into ``out`` (n,). Returns 0, 1 (NaN/Inf), 2 (length)."""
+    """Inverse dynamics of one state into ``out`` (n,). Returns OK, NOT_FINITE or BAD_LENGTH."""
     n = Q.shape[0] - 1
     if (n < 1 or q.shape[0] != n or qd.shape[0] != n or qdd.shape[0] != n or out.shape[0] != n
             or (flags & UNSUPPORTED) != 0):
-        return 2
+        return BAD_LENGTH
     S = stack_empty((n, SCRATCH))
     return status(planar_rnea_core(Q, S, q, qd, qdd, q, flags & ~F.WRENCH, out))
 
@@ -191,16 +186,16 @@ def _planar_rnea_wrench(Q, q, qd, qdd, w, flags, out):
     n = Q.shape[0] - 1
     if (n < 1 or q.shape[0] != n or qd.shape[0] != n or qdd.shape[0] != n or out.shape[0] != n
             or w.shape[0] != 6 or (flags & UNSUPPORTED) != 0):
-        return 2
+        return BAD_LENGTH
     S = stack_empty((n, SCRATCH))
     return status(planar_rnea_core(Q, S, q, qd, qdd, w, flags | F.WRENCH, out))
 
 
 def _planar_crba(Q, q, out):
-    """Mass matrix of one configuration into ``out`` (n, n). Returns 0, 1 (NaN/Inf), 2."""
+    """Mass matrix of one configuration into ``out`` (n, n). Returns OK, NOT_FINITE or BAD_LENGTH."""
     n = Q.shape[0] - 1
     if n < 1 or q.shape[0] != n or out.shape[0] != n or out.shape[1] != n:
-        return 2
+        return BAD_LENGTH
     S = stack_empty((n, SCRATCH))
     chk = planar_transforms(Q, S, q, n)
     planar_crba_core(Q, S, out)

@@ -13,6 +13,7 @@ from ..algorithms.planar import (ANG, ARM, DX, DY, E1, E2, GX, GY, HX, HY, IZ, K
                                  NRM, RX, RY, SGN, TX, TY)
 from .data import scratch, stack_empty
 from .planar import UNSUPPORTED, Qm
+from .status import BAD_LENGTH, NOT_FINITE, OK
 from .signatures import In2, Out2, Out3, i8, internal
 from .spatial import SMALL_ANGLE, sincos
 
@@ -171,7 +172,7 @@ def planar_rnea_block(Q, q, qd, qdd, w, flags, out, k0, L):
     for b in range(nl):
         for i in range(n):
             out[k0 + b, i] = TB[i, b]
-    return 0 if fin else 1
+    return OK if fin else NOT_FINITE
 
 
 @internal(i8(Qm, In2, Out3, i8, i8))
@@ -259,13 +260,13 @@ def planar_crba_block(Q, q, out, k0, L):
                 v = MB[i * n + j, b]
                 M[i, j] = v
                 M[j, i] = v
-    return 0 if fin else 1
+    return OK if fin else NOT_FINITE
 
 
 def _planar_rnea_batch(Q, q, qd, qdd, w, flags, out):
     """Inverse dynamics of N = out.shape[0] states: q, qd, qdd (N, n) or (1, n) broadcast;
     w (N, 6) or (1, 6), read with the flag WRENCH. Blocks of B samples run in lanes (the
-    last one with the samples left). Returns 0, 1 if some input had a NaN/Inf (its rows
+    last one with the samples left). Returns OK, NOT_FINITE if some input had a NaN/Inf (its rows
     are then not meaningful), 2 on a wrong shape."""
     n, N = Q.shape[0] - 1, out.shape[0]
     use_qd, use_qdd, use_w = (flags & F.QD) != 0, (flags & F.QDD) != 0, (flags & F.WRENCH) != 0
@@ -273,9 +274,9 @@ def _planar_rnea_batch(Q, q, qd, qdd, w, flags, out):
             or (q.shape[0] != N and q.shape[0] != 1) or (use_qd and (qd.shape[1] != n or (qd.shape[0] != N and qd.shape[0] != 1)))
             or (use_qdd and (qdd.shape[1] != n or (qdd.shape[0] != N and qdd.shape[0] != 1)))
             or (use_w and (w.shape[1] != 6 or (w.shape[0] != N and w.shape[0] != 1)))):
-        return 2
+        return BAD_LENGTH
     L = min(B, N)                        # known at run time only (see above)
-    bad = 0
+    bad = OK
     for k0 in range(0, N, B):
         bad |= planar_rnea_block(Q, q, qd, qdd, w, flags, out, k0, L)
     return bad
@@ -283,13 +284,13 @@ def _planar_rnea_batch(Q, q, qd, qdd, w, flags, out):
 
 def _planar_crba_batch(Q, q, out):
     """Mass matrices (N, n, n) of N = out.shape[0] configurations (N, n), or one (1, n)
-    broadcast; blocks of B samples in lanes. Returns 0, 1 on a NaN/Inf, 2 on a wrong shape."""
+    broadcast; blocks of B samples in lanes. Returns OK, NOT_FINITE or BAD_LENGTH."""
     n, N = Q.shape[0] - 1, out.shape[0]
     if (n < 1 or out.shape[1] != n or out.shape[2] != n or q.shape[1] != n
             or (q.shape[0] != N and q.shape[0] != 1)):
-        return 2
+        return BAD_LENGTH
     L = min(B, N)
-    bad = 0
+    bad = OK
     for k0 in range(0, N, B):
         bad |= planar_crba_block(Q, q, out, k0, L)
     return bad

@@ -31,7 +31,8 @@ from numba import njit
 
 from .data import new_kin, stack_empty
 from .layout import G, KIND, WIDTH
-from .rnea import outward_step, status
+from .rnea import outward_step
+from .status import BAD_LENGTH, status
 from .signatures import D2, D3, In1, In2, Mat, Out2, Out3, Pm, Vec, f8, i8, internal
 from .spatial import finite, joint_transforms, to_child
 
@@ -134,25 +135,25 @@ def _columns(n, flags):
 
 # ------------------------------------------------------------------ entry points
 def regressor(L, q, qd, qdd, flags, out):
-    """Y of one state into ``out`` (n, p). Returns 0, 1 (NaN/Inf), 2 (a wrong length)."""
+    """Y of one state into ``out`` (n, p). Returns OK, NOT_FINITE or BAD_LENGTH."""
     n = L.shape[0] - 1
     if (q.shape[0] != n or qd.shape[0] != n or qdd.shape[0] != n or out.shape[0] != n
             or out.shape[1] != _columns(n, flags)):
-        return 2
+        return BAD_LENGTH
     d = new_kin(n)
     return status(regressor_core(L, d.sc, d.R, d.p, stack_empty((n, 9)), q, qd, qdd, flags, out))
 
 
 def regressor_batch(L, q, qd, qdd, flags, out):
     """Y of N states into ``out`` (N, n, p): q, qd, qdd (N, n) or (1, n) broadcast. Returns
-    0, 1 (some input had a NaN/Inf), 2 (a wrong shape). Each state is ``regressor``'s
+    OK, NOT_FINITE (some input had a NaN/Inf) or BAD_LENGTH. Each state is ``regressor``'s
     computation, alone: the same bits in any batch."""
     n, N = L.shape[0] - 1, out.shape[0]
     for x in (q, qd, qdd):
         if x.shape[1] != n or (x.shape[0] != N and x.shape[0] != 1):
-            return 2
+            return BAD_LENGTH
     if out.shape[1] != n or out.shape[2] != _columns(n, flags):
-        return 2
+        return BAD_LENGTH
     d = new_kin(n)
     V = stack_empty((n, 9))
     bad = 0.0

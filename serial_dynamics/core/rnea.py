@@ -14,30 +14,122 @@ from numba import njit
 
 from . import flags as F
 from .data import new_kin
+from .status import BAD_LENGTH, status
 from .signatures import D2, D3, In1, Out1, Pm, f8, i8, internal
 from .layout import ARM, G, H, IO, KIND, MASS, TIPP, W_ACC, W_ALL, W_ALPHA, W_OMEGA, W_WRENCH
-from .spatial import finite, joint_transforms, to_child, to_parent
+from .spatial import finite, joint_transforms, rotate_t, rotation, to_child, to_parent
 
 
-@internal
-def outward_step(P, R, p, i, wx, wy, wz, ax, ay, az, lx, ly, lz, dq, ddq):
-    """Newton-Euler outward recursion, one body: body i-1's omega, alpha and acc carried to
-    body i's origin (acc + alpha x p + omega x (omega x p)), into joint frame i, then joint
-    i's rate qd, qdd added. Returns (omega, alpha, acc) of body i, 9 numbers."""
-    px, py, pz = p[i, 0], p[i, 1], p[i, 2]
+@njit(cache=True, inline="always")
+def w_length(flags):
+    """The length the external inputs ``w`` must have: W_ALL with flag BASE, else W_WRENCH."""
+    return W_ALL if (flags & F.BASE) != 0 else W_WRENCH
+
+
+@njit(cache=True, inline="always")
+def base_state(P, w, flags, n, chk):
+    """The start of the outward recursion: ((omega, alpha, acc) of the base, 9 numbers;
+    the tip wrench [f; m], 6 numbers; the check of what was read from ``w``). A fixed base
+    has omega = alpha = 0 and acc = -g (gravity as a base acceleration); a moving base
+    (flag BASE) its omega_0, alpha_0 and acc_0 - g (Angeles Sec. 7.5.2); the tip wrench is
+    w[:6] with flag WRENCH, else 0. ``chk`` plus NaN if one of them is NaN/Inf."""
+    wx = wy = wz = 0.0                                  # omega
+    ax = ay = az = 0.0                                  # alpha
+    lx, ly, lz = -P[n, G], -P[n, G + 1], -P[n, G + 2]   # acc; base: -g
+    ex = ey = ez = mx = my = mz = 0.0                   # tip wrench [f; m], carried outward
+    if (flags & F.WRENCH) != 0:
+        ex, ey, ez, mx, my, mz = w[0], w[1], w[2], w[3], w[4], w[5]
+        chk += finite(ex) + finite(ey) + finite(ez) + finite(mx) + finite(my) + finite(mz)
+    if (flags & F.BASE) != 0:
+        wx, wy, wz = w[W_OMEGA], w[W_OMEGA + 1], w[W_OMEGA + 2]
+        ax, ay, az = w[W_ALPHA], w[W_ALPHA + 1], w[W_ALPHA + 2]
+        lx, ly, lz = w[W_ACC] - P[n, G], w[W_ACC + 1] - P[n, G + 1], w[W_ACC + 2] - P[n, G + 2]
+        chk += (finite(wx) + finite(wy) + finite(wz) + finite(ax) + finite(ay) + finite(az)
+                + finite(lx) + finite(ly) + finite(lz))
+    return (wx, wy, wz, ax, ay, az, lx, ly, lz), (ex, ey, ez, mx, my, mz), chk
+
+
+@njit(cache=True, inline="always")
+def joint_rates(qd, qdd, i, flags):
+    """(qd_i, qdd_i, their check): each 0.0 unless flag QD, QDD says it is given."""
+    dq = qd[i] if (flags & F.QD) != 0 else 0.0
+    ddq = qdd[i] if (flags & F.QDD) != 0 else 0.0
+    return dq, ddq, finite(dq) + finite(ddq)
+
+
+@njit(cache=True, inline="always")
+def into_body(r, px, py, pz, wx, wy, wz, ax, ay, az, lx, ly, lz):
+    """Body i-1's omega, alpha and acc carried to body i's origin p (acc + alpha x p +
+    omega x (omega x p)) and into joint frame i (R_i = r, ``spatial.rotation``), before
+    joint i moves: 9 numbers."""
     ux, uy, uz = wy * pz - wz * py, wz * px - wx * pz, wx * py - wy * px
     tx = lx + ay * pz - az * py + wy * uz - wz * uy
     ty = ly + az * px - ax * pz + wz * ux - wx * uz
     tz = lz + ax * py - ay * px + wx * uy - wy * ux
-    lx, ly, lz = to_child(R, i, tx, ty, tz)
-    wx, wy, wz = to_child(R, i, wx, wy, wz)
-    ax, ay, az = to_child(R, i, ax, ay, az)
+    lx, ly, lz = rotate_t(r, tx, ty, tz)
+    wx, wy, wz = rotate_t(r, wx, wy, wz)
+    ax, ay, az = rotate_t(r, ax, ay, az)
+    return wx, wy, wz, ax, ay, az, lx, ly, lz
+
+
+@njit(cache=True, inline="always")
+def joint_rate(P, i, wx, wy, wz, ax, ay, az, lx, ly, lz, dq, ddq):
+    """Joint i's rate qd, qdd added to omega, alpha, acc of body i (in its frame)."""
     if P[i, KIND] == 0.0:       # spin about z: alpha += omega x (qd e_z) + qdd e_z
         ax, ay, az = ax + wy * dq, ay - wx * dq, az + ddq
         wz = wz + dq
     else:                       # slide along z: acc += 2 omega x (qd e_z) + qdd e_z
         lx, ly, lz = lx + 2.0 * wy * dq, ly - 2.0 * wx * dq, lz + ddq
     return wx, wy, wz, ax, ay, az, lx, ly, lz
+
+
+@internal
+def outward_step(P, R, p, i, wx, wy, wz, ax, ay, az, lx, ly, lz, dq, ddq):
+    """Newton-Euler outward recursion, one body: ``into_body`` then ``joint_rate``.
+    Returns (omega, alpha, acc) of body i, 9 numbers."""
+    wx, wy, wz, ax, ay, az, lx, ly, lz = into_body(rotation(R, i), p[i, 0], p[i, 1], p[i, 2],
+                                                   wx, wy, wz, ax, ay, az, lx, ly, lz)
+    return joint_rate(P, i, wx, wy, wz, ax, ay, az, lx, ly, lz, dq, ddq)
+
+
+@njit(cache=True, inline="always")
+def body_wrench(P, i, wx, wy, wz, ax, ay, az, lx, ly, lz):
+    """Body i's wrench (n; f) about its origin, 6 numbers (Luh, Walker & Paul, 1980):
+    n = I_O alpha + omega x (I_O omega) + h x acc,  f = m acc + alpha x h + omega x (omega x h)."""
+    m = P[i, MASS]
+    hx, hy, hz = P[i, H], P[i, H + 1], P[i, H + 2]
+    Ixx, Iyy, Izz, Ixy, Ixz, Iyz = (P[i, IO], P[i, IO + 1], P[i, IO + 2], P[i, IO + 3],
+                                    P[i, IO + 4], P[i, IO + 5])
+    ux, uy, uz = wy * hz - wz * hy, wz * hx - wx * hz, wx * hy - wy * hx
+    fx = m * lx + ay * hz - az * hy + wy * uz - wz * uy
+    fy = m * ly + az * hx - ax * hz + wz * ux - wx * uz
+    fz = m * lz + ax * hy - ay * hx + wx * uy - wy * ux
+    Lx = Ixx * wx + Ixy * wy + Ixz * wz
+    Ly = Ixy * wx + Iyy * wy + Iyz * wz
+    Lz = Ixz * wx + Iyz * wy + Izz * wz
+    nx = Ixx * ax + Ixy * ay + Ixz * az + wy * Lz - wz * Ly + hy * lz - hz * ly
+    ny = Ixy * ax + Iyy * ay + Iyz * az + wz * Lx - wx * Lz + hz * lx - hx * lz
+    nz = Ixz * ax + Iyz * ay + Izz * az + wx * Ly - wy * Lx + hx * ly - hy * lx
+    return nx, ny, nz, fx, fy, fz
+
+
+@njit(cache=True, inline="always")
+def tip_load(P, n, bx, by, bz, bfx, bfy, bfz, ex, ey, ez, mx, my, mz):
+    """The joint wrench of the last body n-1: its body wrench (b; bf) and the load -w of
+    the environment (w = [e; m] in its frame; moment about its origin: -m + Xtip_p x -e)."""
+    tpx, tpy, tpz = P[n, TIPP], P[n, TIPP + 1], P[n, TIPP + 2]
+    nx = bx - mx - tpy * ez + tpz * ey
+    ny = by - my - tpz * ex + tpx * ez
+    nz = bz - mz - tpx * ey + tpy * ex
+    return nx, ny, nz, bfx - ex, bfy - ey, bfz - ez
+
+
+@njit(cache=True, inline="always")
+def inward_step(R, p, f, i, nx, ny, nz, fx, fy, fz):
+    """Newton-Euler inward recursion, one body: f_i = body wrench + Xup_{i+1}^T f_{i+1}
+    (Featherstone 2008, Sec. 5.3), from body i+1's joint wrench (n; f)."""
+    nx, ny, nz, fx, fy, fz = to_parent(R, p, i + 1, nx, ny, nz, fx, fy, fz)
+    return nx + f[i, 0], ny + f[i, 1], nz + f[i, 2], fx + f[i, 3], fy + f[i, 4], fz + f[i, 5]
 
 
 def rnea_core(P, sc, R, p, f, q, qd, qdd, w, flags, tau):
@@ -47,60 +139,26 @@ def rnea_core(P, sc, R, p, f, q, qd, qdd, w, flags, tau):
     Returns 0.0, or NaN if an input has a NaN/Inf entry. Every operation is that of the lane-parallel
     batch kernel (rnea_lanes.py) in the same order, so both give the same bits."""
     n = tau.shape[0]
-    use_qd, use_qdd, use_w = (flags & F.QD) != 0, (flags & F.QDD) != 0, (flags & F.WRENCH) != 0
+    use_qdd, use_w = (flags & F.QDD) != 0, (flags & F.WRENCH) != 0
     chk = joint_transforms(P, sc, R, p, q, n)
-    wx = wy = wz = 0.0                                  # omega of the previous body
-    ax = ay = az = 0.0                                  # alpha
-    lx, ly, lz = -P[n, G], -P[n, G + 1], -P[n, G + 2]   # acc; base: -g
-    ex = ey = ez = mx = my = mz = 0.0                   # tip wrench [f; m], carried outward
-    if use_w:
-        ex, ey, ez, mx, my, mz = w[0], w[1], w[2], w[3], w[4], w[5]
-        chk += finite(ex) + finite(ey) + finite(ez) + finite(mx) + finite(my) + finite(mz)
-    if (flags & F.BASE) != 0:   # moving base: omega_0, alpha_0, acc_0 - g (Angeles Sec. 7.5.2)
-        wx, wy, wz = w[W_OMEGA], w[W_OMEGA + 1], w[W_OMEGA + 2]
-        ax, ay, az = w[W_ALPHA], w[W_ALPHA + 1], w[W_ALPHA + 2]
-        lx, ly, lz = w[W_ACC] - P[n, G], w[W_ACC + 1] - P[n, G + 1], w[W_ACC + 2] - P[n, G + 2]
-        chk += (finite(wx) + finite(wy) + finite(wz) + finite(ax) + finite(ay) + finite(az)
-                + finite(lx) + finite(ly) + finite(lz))
+    (wx, wy, wz, ax, ay, az, lx, ly, lz), (ex, ey, ez, mx, my, mz), chk = base_state(P, w, flags, n, chk)
     for i in range(n):
-        dq = qd[i] if use_qd else 0.0
-        ddq = qdd[i] if use_qdd else 0.0
-        chk += finite(dq) + finite(ddq)
+        dq, ddq, c = joint_rates(qd, qdd, i, flags)
+        chk += c
         wx, wy, wz, ax, ay, az, lx, ly, lz = outward_step(P, R, p, i, wx, wy, wz, ax, ay, az,
                                                           lx, ly, lz, dq, ddq)
-        # body wrench about its origin: n = I_O alpha + omega x (I_O omega) + h x acc,
-        #                                f = m acc + alpha x h + omega x (omega x h)
-        m = P[i, MASS]
-        hx, hy, hz = P[i, H], P[i, H + 1], P[i, H + 2]
-        Ixx, Iyy, Izz, Ixy, Ixz, Iyz = (P[i, IO], P[i, IO + 1], P[i, IO + 2], P[i, IO + 3],
-                                        P[i, IO + 4], P[i, IO + 5])
-        ux, uy, uz = wy * hz - wz * hy, wz * hx - wx * hz, wx * hy - wy * hx
-        f[i, 3] = m * lx + ay * hz - az * hy + wy * uz - wz * uy
-        f[i, 4] = m * ly + az * hx - ax * hz + wz * ux - wx * uz
-        f[i, 5] = m * lz + ax * hy - ay * hx + wx * uy - wy * ux
-        Lx = Ixx * wx + Ixy * wy + Ixz * wz
-        Ly = Ixy * wx + Iyy * wy + Iyz * wz
-        Lz = Ixz * wx + Iyz * wy + Izz * wz
-        f[i, 0] = Ixx * ax + Ixy * ay + Ixz * az + wy * Lz - wz * Ly + hy * lz - hz * ly
-        f[i, 1] = Ixy * ax + Iyy * ay + Iyz * az + wz * Lx - wx * Lz + hz * lx - hx * lz
-        f[i, 2] = Ixz * ax + Iyz * ay + Izz * az + wx * Ly - wy * Lx + hx * ly - hy * lx
+        f[i, 0], f[i, 1], f[i, 2], f[i, 3], f[i, 4], f[i, 5] = body_wrench(
+            P, i, wx, wy, wz, ax, ay, az, lx, ly, lz)
         if use_w:
             ex, ey, ez = to_child(R, i, ex, ey, ez)
             mx, my, mz = to_child(R, i, mx, my, mz)
-    # inward: f_i = body wrench + Xup_{i+1}^T f_{i+1}, tau_i = S_i^T f_i; the last body
-    # carries the load -w of the environment (moment about its origin: m + Xtip_p x f)
+    # inward: tau_i = S_i^T (n; f) + I_a,i qdd_i  (the rotor's inertia, reflected through the gear)
     k = n - 1
-    tpx, tpy, tpz = P[n, TIPP], P[n, TIPP + 1], P[n, TIPP + 2]
-    fx, fy, fz = f[k, 3] - ex, f[k, 4] - ey, f[k, 5] - ez
-    nx = f[k, 0] - mx - tpy * ez + tpz * ey
-    ny = f[k, 1] - my - tpz * ex + tpx * ez
-    nz = f[k, 2] - mz - tpx * ey + tpy * ex
-    # tau_i = S_i^T (n; f) + I_a,i qdd_i  (the rotor's inertia, reflected through the gear)
+    nx, ny, nz, fx, fy, fz = tip_load(P, n, f[k, 0], f[k, 1], f[k, 2], f[k, 3], f[k, 4], f[k, 5],
+                                      ex, ey, ez, mx, my, mz)
     tau[k] = (nz if P[k, KIND] == 0.0 else fz) + P[k, ARM] * (qdd[k] if use_qdd else 0.0)
     for i in range(n - 2, -1, -1):
-        nx, ny, nz, fx, fy, fz = to_parent(R, p, i + 1, nx, ny, nz, fx, fy, fz)
-        fx, fy, fz = fx + f[i, 3], fy + f[i, 4], fz + f[i, 5]
-        nx, ny, nz = nx + f[i, 0], ny + f[i, 1], nz + f[i, 2]
+        nx, ny, nz, fx, fy, fz = inward_step(R, p, f, i, nx, ny, nz, fx, fy, fz)
         tau[i] = (nz if P[i, KIND] == 0.0 else fz) + P[i, ARM] * (qdd[i] if use_qdd else 0.0)
     return chk
 
@@ -109,20 +167,15 @@ rnea_inline = njit(cache=True, inline="always")(rnea_core)   # into the single-s
 rnea_core = internal(f8(Pm, D2, D3, D2, D2, In1, In1, In1, In1, i8, Out1))(rnea_core)   # the others call it
 
 
-@njit(cache=True, inline="always")
-def status(chk):
-    """An entry point's return value: 0 ok, 1 a NaN/Inf in an input."""
-    return 0 if chk == 0.0 else 1
-
-
 # ------------------------------------------------------------------ entry points
 # Two single-state entry points, without and with a tip wrench: every array argument of
 # a compiled call costs ~40 ns of dispatch, a fifth of a short chain's whole call.
 def rnea(P, q, qd, qdd, flags, out):
-    """Inverse dynamics of one state into ``out`` (n,). Returns 0, 1 (NaN/Inf), 2 (length)."""
+    """Inverse dynamics of one state into ``out`` (n,). Returns OK, NOT_FINITE or BAD_LENGTH
+    (status.py)."""
     n = P.shape[0] - 1
     if q.shape[0] != n or qd.shape[0] != n or qdd.shape[0] != n or out.shape[0] != n:
-        return 2
+        return BAD_LENGTH
     d = new_kin(n)
     return status(rnea_inline(P, d.sc, d.R, d.p, d.f, q, qd, qdd, q, flags & (F.QD | F.QDD), out))
 
@@ -133,7 +186,7 @@ def rnea_wrench(P, q, qd, qdd, w, flags, out):
     (then ``w`` has W_ALL entries, else W_WRENCH)."""
     n = P.shape[0] - 1
     if (q.shape[0] != n or qd.shape[0] != n or qdd.shape[0] != n or out.shape[0] != n
-            or w.shape[0] != (W_ALL if (flags & F.BASE) != 0 else W_WRENCH)):
-        return 2
+            or w.shape[0] != w_length(flags)):
+        return BAD_LENGTH
     d = new_kin(n)
     return status(rnea_core(P, d.sc, d.R, d.p, d.f, q, qd, qdd, w, flags, out))

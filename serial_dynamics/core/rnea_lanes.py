@@ -12,12 +12,82 @@ sample's torques are bitwise the same alone or in any batch, at any place in it.
 """
 import math
 
+from numba import njit
 
 from . import flags as F
 from .data import stack_empty
-from .layout import ARM, G, H, IO, KIND, LANES, MASS, TIPP, W_ACC, W_ALL, W_WRENCH, XP, XR
+from .layout import ARM, G, H, IO, KIND, LANES, MASS, TIPP, W_ACC, W_ALL, XP, XR
+from .rnea import w_length
+from .status import NOT_FINITE, OK
 from .signatures import In2, Out2, Pm, i8, internal
 from .spatial import SMALL_ANGLE, sincos
+
+
+@njit(cache=True, inline="always")
+def gather(P, q, qd, qdd, w, flags, QV, WB, k0, nl):
+    """The samples k0 .. k0 + nl - 1 into lanes: QV rows q, qd, qdd (0 where flag QD, QDD is
+    off), then 1.0 where all of a sample's angles are below SMALL_ANGLE; WB the external
+    inputs w. Returns (all angles small, every input finite)."""
+    n = P.shape[0] - 1
+    nq, nv, na, nw = q.shape[0] > 1, qd.shape[0] > 1, qdd.shape[0] > 1, w.shape[0] > 1
+    use_qd, use_qdd = (flags & F.QD) != 0, (flags & F.QDD) != 0
+    small = True                         # every angle of the block below SMALL_ANGLE
+    fin = True                           # every rate, acceleration and wrench finite
+    for b in range(nl):
+        k = k0 + b
+        lane_small = True
+        for i in range(n):
+            x = q[k if nq else 0, i]
+            y = qd[k if nv else 0, i] if use_qd else 0.0
+            z = qdd[k if na else 0, i] if use_qdd else 0.0
+            QV[i, b], QV[n + i, b], QV[2 * n + i, b] = x, y, z
+            lane_small &= abs(x) < SMALL_ANGLE
+            fin &= y * 0.0 == 0.0 and z * 0.0 == 0.0
+        QV[3 * n, b] = 1.0 if lane_small else 0.0
+        small &= lane_small
+        if (flags & (F.WRENCH | F.BASE)) != 0:
+            for j in range(w_length(flags)):
+                x = w[k if nw else 0, j]
+                WB[j, b] = x
+                fin &= x * 0.0 == 0.0
+    if not small:                        # a huge angle is legal; NaN or Inf is not
+        for b in range(nl):
+            for i in range(n):
+                fin &= QV[i, b] * 0.0 == 0.0
+    return small, fin
+
+
+@njit(cache=True, inline="always")
+def lane_transforms(P, i, QV, RB, PB, nl, small):
+    """Joint i's transform in every lane (``spatial.joint_transforms``' operations): R_i into
+    RB rows 9i..9i+8 (row-major), p_i into PB rows 3i..3i+2."""
+    n = P.shape[0] - 1
+    rp0, rp1, rp2, rp3, rp4, rp5, rp6, rp7, rp8 = (P[i, XR], P[i, XR + 1], P[i, XR + 2],
+                                                   P[i, XR + 3], P[i, XR + 4], P[i, XR + 5],
+                                                   P[i, XR + 6], P[i, XR + 7], P[i, XR + 8])
+    pp0, pp1, pp2 = P[i, XP], P[i, XP + 1], P[i, XP + 2]
+    ri, pi = 9 * i, 3 * i
+    kp = P[i, KIND]
+    # joint transform R = Rp' Rz(q) | Rp',  p = p' | p' + q Rp' e_z
+    if kp == 0.0:
+        for b in range(nl):
+            if small:
+                s, c = sincos(QV[i, b])
+            else:
+                s, c = sincos(QV[i, b]) if QV[3 * n, b] == 1.0 else (math.sin(QV[i, b]),
+                                                                      math.cos(QV[i, b]))
+            RB[ri, b], RB[ri + 1, b], RB[ri + 2, b] = c * rp0 + s * rp1, c * rp1 - s * rp0, rp2
+            RB[ri + 3, b], RB[ri + 4, b], RB[ri + 5, b] = c * rp3 + s * rp4, c * rp4 - s * rp3, rp5
+            RB[ri + 6, b], RB[ri + 7, b], RB[ri + 8, b] = c * rp6 + s * rp7, c * rp7 - s * rp6, rp8
+            PB[pi, b], PB[pi + 1, b], PB[pi + 2, b] = pp0, pp1, pp2
+    else:
+        for b in range(nl):
+            qi = QV[i, b]
+            RB[ri, b], RB[ri + 1, b], RB[ri + 2, b] = rp0, rp1, rp2
+            RB[ri + 3, b], RB[ri + 4, b], RB[ri + 5, b] = rp3, rp4, rp5
+            RB[ri + 6, b], RB[ri + 7, b], RB[ri + 8, b] = rp6, rp7, rp8
+            PB[pi, b], PB[pi + 1, b], PB[pi + 2, b] = pp0 + qi * rp2, pp1 + qi * rp5, pp2 + qi * rp8
+
 
 @internal(i8(Pm, In2, In2, In2, In2, i8, Out2, i8))
 def rnea_block(P, q, qd, qdd, w, flags, out, k0):
@@ -36,32 +106,8 @@ def rnea_block(P, q, qd, qdd, w, flags, out, k0):
     nl = min(L, N - k0)
     QV, WB, TB, ST = stack_empty((3 * n + 1, L)), stack_empty((W_ALL, L)), stack_empty((n, L)), stack_empty((15, L))
     RB, PB, FB = stack_empty((9 * n, L)), stack_empty((3 * n, L)), stack_empty((6 * n, L))
-    nq, nv, na, nw = q.shape[0] > 1, qd.shape[0] > 1, qdd.shape[0] > 1, w.shape[0] > 1
-    use_qd, use_qdd = (flags & F.QD) != 0, (flags & F.QDD) != 0
     # --- gather the block
-    small = True                         # every angle of the block below SMALL_ANGLE
-    fin = True                           # every rate, acceleration and wrench finite
-    for b in range(nl):
-        k = k0 + b
-        lane_small = True
-        for i in range(n):
-            x = q[k if nq else 0, i]
-            y = qd[k if nv else 0, i] if use_qd else 0.0
-            z = qdd[k if na else 0, i] if use_qdd else 0.0
-            QV[i, b], QV[n + i, b], QV[2 * n + i, b] = x, y, z
-            lane_small &= abs(x) < SMALL_ANGLE
-            fin &= y * 0.0 == 0.0 and z * 0.0 == 0.0
-        QV[3 * n, b] = 1.0 if lane_small else 0.0
-        small &= lane_small
-        if (flags & (F.WRENCH | F.BASE)) != 0:
-            for j in range(W_ALL if (flags & F.BASE) != 0 else W_WRENCH):
-                x = w[k if nw else 0, j]
-                WB[j, b] = x
-                fin &= x * 0.0 == 0.0
-    if not small:                        # a huge angle is legal; NaN or Inf is not
-        for b in range(nl):
-            for i in range(n):
-                fin &= QV[i, b] * 0.0 == 0.0
+    small, fin = gather(P, q, qd, qdd, w, flags, QV, WB, k0, nl)
     # --- the recursions, lane by lane
     use_w, use_base = (flags & F.WRENCH) != 0, (flags & F.BASE) != 0
     for k in range(15):          # omega = alpha = 0, a = -g; moving base: WB[6:15] - (0, 0, g)
@@ -72,32 +118,9 @@ def rnea_block(P, q, qd, qdd, w, flags, out, k0):
             else:
                 ST[k, b] = WB[k - 9, b] if use_w else 0.0
     for i in range(n):
-        rp0, rp1, rp2, rp3, rp4, rp5, rp6, rp7, rp8 = (P[i, XR], P[i, XR + 1], P[i, XR + 2],
-                                                       P[i, XR + 3], P[i, XR + 4], P[i, XR + 5],
-                                                       P[i, XR + 6], P[i, XR + 7], P[i, XR + 8])
-        pp0, pp1, pp2 = P[i, XP], P[i, XP + 1], P[i, XP + 2]
         ri, pi, fi = 9 * i, 3 * i, 6 * i
-        kp = P[i, KIND]                  # 1 prismatic, 0 revolute
-        rev = kp == 0.0                  # the same in every lane: selects, not branches
-        # joint transform R = Rp' Rz(q) | Rp',  p = p' | p' + q Rp' e_z
-        if kp == 0.0:
-            for b in range(nl):
-                if small:
-                    s, c = sincos(QV[i, b])
-                else:
-                    s, c = sincos(QV[i, b]) if QV[3 * n, b] == 1.0 else (math.sin(QV[i, b]),
-                                                                          math.cos(QV[i, b]))
-                RB[ri, b], RB[ri + 1, b], RB[ri + 2, b] = c * rp0 + s * rp1, c * rp1 - s * rp0, rp2
-                RB[ri + 3, b], RB[ri + 4, b], RB[ri + 5, b] = c * rp3 + s * rp4, c * rp4 - s * rp3, rp5
-                RB[ri + 6, b], RB[ri + 7, b], RB[ri + 8, b] = c * rp6 + s * rp7, c * rp7 - s * rp6, rp8
-                PB[pi, b], PB[pi + 1, b], PB[pi + 2, b] = pp0, pp1, pp2
-        else:
-            for b in range(nl):
-                qi = QV[i, b]
-                RB[ri, b], RB[ri + 1, b], RB[ri + 2, b] = rp0, rp1, rp2
-                RB[ri + 3, b], RB[ri + 4, b], RB[ri + 5, b] = rp3, rp4, rp5
-                RB[ri + 6, b], RB[ri + 7, b], RB[ri + 8, b] = rp6, rp7, rp8
-                PB[pi, b], PB[pi + 1, b], PB[pi + 2, b] = pp0 + qi * rp2, pp1 + qi * rp5, pp2 + qi * rp8
+        rev = P[i, KIND] == 0.0          # the same in every lane: selects, not branches
+        lane_transforms(P, i, QV, RB, PB, nl, small)
         # carry omega, alpha, a into body i, add the joint rates
         for b in range(nl):
             r0, r1, r2 = RB[ri, b], RB[ri + 1, b], RB[ri + 2, b]
@@ -186,7 +209,7 @@ def rnea_block(P, q, qd, qdd, w, flags, out, k0):
     for b in range(nl):
         for i in range(n):
             out[k0 + b, i] = TB[i, b]
-    return 0 if fin else 1
+    return OK if fin else NOT_FINITE
 
 
 # ------------------------------------------------------------------ entry point
@@ -194,7 +217,7 @@ def rnea_batch(P, q, qd, qdd, w, flags, out):
     """Inverse dynamics of N states: q, qd, qdd (N, n) or (1, n) broadcast; w (N, 6) or
     (1, 6), with flag BASE (N or 1, W_ALL) (layout.W_*). Blocks of B samples run in lanes (the last one with the samples left). Returns
     0, or 1 if some input had a NaN/Inf (its rows are then not meaningful)."""
-    bad = 0
+    bad = OK
     for k0 in range(0, out.shape[0], int(P[P.shape[0] - 1, LANES])):
         bad |= rnea_block(P, q, qd, qdd, w, flags, out, k0)
     return bad

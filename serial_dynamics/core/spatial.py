@@ -6,6 +6,7 @@ import math
 
 from numba import njit
 
+from .data import stack_empty
 from .layout import KIND, XP, XR
 from .signatures import internal
 
@@ -65,9 +66,15 @@ def joint_transforms(P, sc, R, p, q, n):
     for i in range(n):
         small &= abs(q[i]) < SMALL_ANGLE
     chk = 0.0
-    if small:                            # a loop of its own, so that it vectorizes
-        for i in range(n):
-            sc[0, i], sc[1, i] = sincos(q[i])
+    if small:                            # 8 at a time in loops of their own, so that they
+        x, z = stack_empty((8,)), stack_empty((2, 8))   # vectorize (a loop of n < 8 would not)
+        for i0 in range(0, n, 8):
+            for j in range(8):
+                x[j] = q[i0 + j] if i0 + j < n else 0.0
+            for j in range(8):
+                z[0, j], z[1, j] = sincos(x[j])
+            for j in range(min(8, n - i0)):
+                sc[0, i0 + j], sc[1, i0 + j] = z[0, j], z[1, j]
     else:                                # huge, NaN or Inf angles: libm's argument reduction
         for i in range(n):
             chk += q[i] * 0.0
@@ -89,26 +96,46 @@ def joint_transforms(P, sc, R, p, q, n):
     return chk
 
 
+@njit(cache=True, inline="always")
+def rotation(R, i):
+    """R_i as a tuple of nine numbers (row-major), to keep in registers through a loop."""
+    return (R[i, 0, 0], R[i, 0, 1], R[i, 0, 2], R[i, 1, 0], R[i, 1, 1], R[i, 1, 2],
+            R[i, 2, 0], R[i, 2, 1], R[i, 2, 2])
+
+
+@njit(cache=True, inline="always")
+def rotate_t(r, x, y, z):
+    """R^T (x, y, z), R given by ``rotation``: a 3-vector into the child's frame."""
+    return (r[0] * x + r[3] * y + r[6] * z, r[1] * x + r[4] * y + r[7] * z,
+            r[2] * x + r[5] * y + r[8] * z)
+
+
+@njit(cache=True, inline="always")
+def rotate(r, x, y, z):
+    """R (x, y, z), R given by ``rotation``: a 3-vector into the parent's frame."""
+    return (r[0] * x + r[1] * y + r[2] * z, r[3] * x + r[4] * y + r[5] * z,
+            r[6] * x + r[7] * y + r[8] * z)
+
+
+@njit(cache=True, inline="always")
+def force_to_parent(r, px, py, pz, nx, ny, nz, fx, fy, fz):
+    """A spatial force (n_O; f) carried into the parent's frame by R (``rotation``) and p:
+    f' = R f, n' = R n + p x f'  (Xup^T f, Featherstone 2008, eq. 2.24)."""
+    gx, gy, gz = rotate(r, fx, fy, fz)
+    mx, my, mz = rotate(r, nx, ny, nz)
+    return mx + py * gz - pz * gy, my + pz * gx - px * gz, mz + px * gy - py * gx, gx, gy, gz
+
+
 @internal
 def to_child(R, i, x, y, z):
     """R_i^T (x, y, z): a 3-vector from body i-1's frame into body i's."""
-    return (R[i, 0, 0] * x + R[i, 1, 0] * y + R[i, 2, 0] * z,
-            R[i, 0, 1] * x + R[i, 1, 1] * y + R[i, 2, 1] * z,
-            R[i, 0, 2] * x + R[i, 1, 2] * y + R[i, 2, 2] * z)
+    return rotate_t(rotation(R, i), x, y, z)
 
 
 @internal
 def to_parent(R, p, i, nx, ny, nz, fx, fy, fz):
-    """A spatial force (n_O; f) of body i, in its frame, carried into body i-1's frame:
-    f' = R f, n' = R n + p x f'  (Xup_i^T f, Featherstone 2008, eq. 2.24)."""
-    gx = R[i, 0, 0] * fx + R[i, 0, 1] * fy + R[i, 0, 2] * fz
-    gy = R[i, 1, 0] * fx + R[i, 1, 1] * fy + R[i, 1, 2] * fz
-    gz = R[i, 2, 0] * fx + R[i, 2, 1] * fy + R[i, 2, 2] * fz
-    mx = R[i, 0, 0] * nx + R[i, 0, 1] * ny + R[i, 0, 2] * nz
-    my = R[i, 1, 0] * nx + R[i, 1, 1] * ny + R[i, 1, 2] * nz
-    mz = R[i, 2, 0] * nx + R[i, 2, 1] * ny + R[i, 2, 2] * nz
-    px, py, pz = p[i, 0], p[i, 1], p[i, 2]
-    return mx + py * gz - pz * gy, my + pz * gx - px * gz, mz + px * gy - py * gx, gx, gy, gz
+    """A spatial force (n_O; f) of body i, in its frame, carried into body i-1's frame."""
+    return force_to_parent(rotation(R, i), p[i, 0], p[i, 1], p[i, 2], nx, ny, nz, fx, fy, fz)
 
 
 @internal

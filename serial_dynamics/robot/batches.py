@@ -17,7 +17,7 @@ from ..core import flags as F
 
 WORKERS = min(os.cpu_count() or 1, 8)      # threads of a split batch (os.cpu_count() costs ~2 us)
 PAGE = 512                                 # float64 per 4 KiB page
-W_BAD = np.zeros(0)                        # a w that no entry point accepts (status 2)
+W_BAD = np.zeros(0)                        # a w that no entry point accepts (BAD_LENGTH)
 _pool = None
 
 

@@ -25,7 +25,7 @@ from ..algorithms import derivatives as reference
 from ..algorithms._batch import as_batch
 from .base_motion import check_base_motion
 from .batches import kernel_rows, run_split, single_external
-from ..core import K, layout
+from ..core import K, OK, layout
 from ..core import flags as F
 
 _W0 = np.zeros(layout.W_WRENCH)      # w of a single call without wrench or base motion (not read)
@@ -42,7 +42,7 @@ def inverse_dynamics_derivatives(robot, q, qd, qdd, wrench=None, base_motion=Non
         n = robot._n
         o = _empty((2, n, n))
         if (K.rnea_derivatives(robot._P, q, qd, qdd, _W0, 0, o) if wrench is None else
-                K.rnea_derivatives(robot._P, q, qd, qdd, wrench, _WRENCH, o)) == 0:
+                K.rnea_derivatives(robot._P, q, qd, qdd, wrench, _WRENCH, o)) == OK:
             return o[0], o[1]
     return chain_derivatives(robot, q, qd, qdd, wrench, base_motion, base_motion is not None)
 
@@ -53,12 +53,12 @@ def forward_dynamics_derivatives(robot, q, qd, tau, wrench=None, base_motion=Non
         n = robot._n
         o = _empty((3, n, n))
         if (K.fd_derivatives(robot._P, q, qd, tau, _W0, 0, o) if wrench is None else
-                K.fd_derivatives(robot._P, q, qd, tau, wrench, _WRENCH, o)) == 0:
+                K.fd_derivatives(robot._P, q, qd, tau, wrench, _WRENCH, o)) == OK:
             return o[0], o[1], o[2]
     if robot._compiled and base_motion is not None:      # one state with a base motion
         o = _empty((3, robot._n, robot._n))
         w, flags = _single_w(wrench, base_motion)
-        if K.fd_derivatives(robot._P, q, qd, tau, w, flags, o) == 0:
+        if K.fd_derivatives(robot._P, q, qd, tau, w, flags, o) == OK:
             return o[0], o[1], o[2]
     base_motion = check_base_motion(base_motion)
     if not robot._compiled:
@@ -68,7 +68,7 @@ def forward_dynamics_derivatives(robot, q, qd, tau, wrench=None, base_motion=Non
     N, n = q.shape[0], robot._n
     w, flags = robot._external_rows(wrench, base_motion, N, F.QD)
     out = tuple(np.empty((N, n, n)) for _ in range(3))
-    if _run(robot, "fd_derivatives_batch", N, (q, qd, tau, w), flags, out) != 0:
+    if _run(robot, "fd_derivatives_batch", N, (q, qd, tau, w), flags, out) != OK:
         raise ValueError("wrench has a NaN or Inf entry; give finite numbers")
     return tuple(x[0] for x in out) if single else out
 
@@ -79,7 +79,7 @@ def chain_derivatives(robot, q, qd, qdd, wrench, base_motion, single_first):
     if robot._compiled and single_first:
         o = _empty((2, robot.model.dof, robot.model.dof))
         w, flags = _single_w(wrench, base_motion)
-        if K.rnea_derivatives(robot._P, q, qd, qdd, w, flags, o) == 0:
+        if K.rnea_derivatives(robot._P, q, qd, qdd, w, flags, o) == OK:
             return o[0], o[1]
     base_motion = check_base_motion(base_motion)
     if not robot._compiled:
@@ -89,7 +89,7 @@ def chain_derivatives(robot, q, qd, qdd, wrench, base_motion, single_first):
     N, n = q.shape[0], robot.model.dof
     w, flags = robot._external_rows(wrench, base_motion, N, F.QD | F.QDD)
     out = (np.empty((N, n, n)), np.empty((N, n, n)))
-    if _run(robot, "rnea_derivatives_batch", N, (q, qd, qdd, w), flags, out) != 0:
+    if _run(robot, "rnea_derivatives_batch", N, (q, qd, qdd, w), flags, out) != OK:
         raise ValueError("wrench has a NaN or Inf entry; give finite numbers")
     return (out[0][0], out[1][0]) if single else out
 

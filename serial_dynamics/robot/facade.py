@@ -39,7 +39,7 @@ from .base_motion import check_base_motion
 from .batches import kernel_rows as _rows
 from .batches import run_split
 from .batches import single_external as _external
-from ..core import ENTRY_POINTS, K, layout
+from ..core import ENTRY_POINTS, K, OK, layout
 from ..core import flags as F
 from ..model.dissipation import Dissipation
 from ..model.model import Model
@@ -173,9 +173,9 @@ class Robot:
 
     # ------------------------------------------------------------- dynamics
     # Fast path: every call first tries the compiled single-state entry point, whose one
-    # signature numba matches in C (~70 ns). It returns 0 when it wrote the result; 1 (a
-    # NaN/Inf), 2 (a wrong length) or 3 (arguments of other types: lists, batches, other
-    # dtypes or layouts, read-only arrays; see core._Kernels) send the call to the general
+    # signature numba matches in C (~70 ns). It returns OK when it wrote the result;
+    # NOT_FINITE, BAD_LENGTH or OTHER_TYPES (arguments of other types: lists, batches, other
+    # dtypes or layouts, read-only arrays; see core.dispatch) send the call to the general
     # path, which validates like the reference, raises its ValueError naming the culprit,
     # or runs the batch kernels. No exception is caught to choose the path.
     # ``out``: an array of the result's shape (float64, writable) to write the result into
@@ -188,9 +188,9 @@ class Robot:
             o = _empty(self._n) if out is None else out
             if base_motion is None:
                 if (K.rnea(self._P, q, qd, qdd, _QD_QDD, o) if wrench is None else
-                        K.rnea_wrench(self._P, q, qd, qdd, wrench, _QD_QDD_W, o)) == 0:
+                        K.rnea_wrench(self._P, q, qd, qdd, wrench, _QD_QDD_W, o)) == OK:
                     return o
-            elif K.rnea_wrench(self._P, q, qd, qdd, *_external(base_motion, wrench, _QD_QDD), o) == 0:
+            elif K.rnea_wrench(self._P, q, qd, qdd, *_external(base_motion, wrench, _QD_QDD), o) == OK:
                 return o
         return _into(out, self._rnea_general((("q", q), ("qd", qd), ("qdd", qdd)), wrench,
                                              base_motion))
@@ -200,7 +200,7 @@ class Robot:
         if not self._compiled:
             return _into(out, crba.mass_matrix(self.model, q))
         o = _empty(self._nn) if out is None else out
-        if K.crba(self._P, q, o) == 0:
+        if K.crba(self._P, q, o) == OK:
             return o
         single, (q,) = as_batch(self.model, ("q", q))
         q = _rows(q)
@@ -214,9 +214,9 @@ class Robot:
             o = _empty(self._n) if out is None else out
             if base_motion is None:
                 if (K.rnea(self._P, q, qd, q, _QD, o) if wrench is None else
-                        K.rnea_wrench(self._P, q, qd, q, wrench, _QD_W, o)) == 0:
+                        K.rnea_wrench(self._P, q, qd, q, wrench, _QD_W, o)) == OK:
                     return o
-            elif K.rnea_wrench(self._P, q, qd, q, *_external(base_motion, wrench, _QD), o) == 0:
+            elif K.rnea_wrench(self._P, q, qd, q, *_external(base_motion, wrench, _QD), o) == OK:
                 return o
         return _into(out, self._rnea_general((("q", q), ("qd", qd), ("qdd", None)), wrench,
                                              base_motion))
@@ -225,7 +225,7 @@ class Robot:
         """g(q): the torques that hold the chain still (the textbook's gamma is -g)."""
         if self._compiled:
             o = _empty(self._n) if out is None else out
-            if K.rnea(self._P, q, q, q, 0, o) == 0:
+            if K.rnea(self._P, q, q, q, 0, o) == OK:
                 return o
         return _into(out, self._rnea_general((("q", q), ("qd", None), ("qdd", None)), None, None))
 
@@ -243,9 +243,9 @@ class Robot:
             o = _empty(self._n) if out is None else out
             if base_motion is None:
                 if K.fd(self._P, q, qd, tau, _W0 if wrench is None else wrench,
-                        flags if wrench is None else flags | F.WRENCH, o) == 0:
+                        flags if wrench is None else flags | F.WRENCH, o) == OK:
                     return o
-            elif K.fd(self._P, q, qd, tau, *_external(base_motion, wrench, flags), o) == 0:
+            elif K.fd(self._P, q, qd, tau, *_external(base_motion, wrench, flags), o) == OK:
                 return o
         if not self._compiled or flags is None:
             base_motion = check_base_motion(base_motion)
@@ -264,7 +264,7 @@ class Robot:
         q, qd, tau = _rows(q), _rows(qd), _rows(tau)
         N = max(q.shape[0], qd.shape[0], tau.shape[0])
         qdd = np.empty((N, self._n))
-        if _parallel(K.fd_batch, self._P, N, (q, qd, tau, w), (flags,), qdd) != 0:
+        if _parallel(K.fd_batch, self._P, N, (q, qd, tau, w), (flags,), qdd) != OK:
             raise ValueError("wrench has a NaN or Inf entry; give finite numbers")
         return _into(out, qdd[0] if single else qdd)
 
@@ -283,7 +283,7 @@ class Robot:
         w, flags = self._external_rows(wrench, base_motion, N, flags)
         out = np.empty((N, self._n))
         kernel, model = self._rnea_batch if base_motion is None else ("rnea_batch", self._P)
-        if _parallel(getattr(K, kernel), model, N, (q, qd, qdd, w), (flags,), out) != 0:
+        if _parallel(getattr(K, kernel), model, N, (q, qd, qdd, w), (flags,), out) != OK:
             raise ValueError("wrench has a NaN or Inf entry; give finite numbers")
         return out[0] if single else out
 
@@ -331,7 +331,7 @@ class Robot:
         if self._compiled:
             out = _empty(self._n)
             if K.kinetic_energy_gradient(self._P, np.asarray(q, float), np.asarray(qd, float),
-                                         out) == 0:
+                                         out) == OK:
                 return out
         return energy.kinetic_energy_gradient(self.model, q, qd)
 

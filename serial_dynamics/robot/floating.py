@@ -29,7 +29,7 @@ from ..algorithms import floating as fb
 from ..algorithms import kinematics
 from ..algorithms._batch import skew
 from ..algorithms.rnea import _wrench_batch as rnea_wrench_rows
-from ..core import ENTRY_POINTS, K
+from ..core import ENTRY_POINTS, K, OK
 from ..core import flags as F
 from ..core.layout import B, W_ALL
 from ..core.layout import pack as layout_pack
@@ -88,10 +88,10 @@ class Floating:
         if self._compiled and base_motion is None:        # the single-state fast path
             o = _empty(self._nv) if out is None else out
             if wrench is None:
-                if K.floating_rnea(self._chain, q, qd, qdd, self._gw, _QD_QDD, o) == 0:
+                if K.floating_rnea(self._chain, q, qd, qdd, self._gw, _QD_QDD, o) == OK:
                     return o
             elif K.floating_rnea(self._chain, q, qd, qdd, *self._gw_single(wrench, _QD_QDD),
-                                 o) == 0:
+                                 o) == OK:
                 return o
         _no_base_motion(base_motion)
         if not self._compiled:
@@ -124,7 +124,7 @@ class Floating:
         """M (n+6, n+6), in the order of v."""
         if self._compiled:
             o = _empty(self._nvnv) if out is None else out
-            if K.floating_crba(self._chain, q, o) == 0:
+            if K.floating_crba(self._chain, q, o) == OK:
                 return o
         else:
             return _into(out, fb.mass_matrix(self.model, q))
@@ -159,9 +159,9 @@ class Floating:
         if self._compiled and base_motion is None and flags is not None:   # the fast path
             o = _empty(self._nv) if out is None else out
             if wrench is None:
-                if K.floating_fd(self._chain, q, qd, tau, self._gw, flags, o) == 0:
+                if K.floating_fd(self._chain, q, qd, tau, self._gw, flags, o) == OK:
                     return o
-            elif K.floating_fd(self._chain, q, qd, tau, *self._gw_single(wrench, flags), o) == 0:
+            elif K.floating_fd(self._chain, q, qd, tau, *self._gw_single(wrench, flags), o) == OK:
                 return o
         _no_base_motion(base_motion)
         if flags is None:

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core import K
+from ..core import K, OK
 from .common import QD as _QD
 from .common import QD_QDD as _QD_QDD
 from .common import QD_QDD_W as _QD_QDD_W
@@ -41,7 +41,7 @@ class Planar:
         if self._compiled and base_motion is None:
             o = _empty(self._n) if out is None else out
             if (K.planar_rnea(self._Q, q, qd, qdd, _QD_QDD, o) if wrench is None else
-                    K.planar_rnea_wrench(self._Q, q, qd, qdd, wrench, _QD_QDD_W, o)) == 0:
+                    K.planar_rnea_wrench(self._Q, q, qd, qdd, wrench, _QD_QDD_W, o)) == OK:
                 return o
         return super().inverse_dynamics(q, qd, qdd, wrench, base_motion, out)
 
@@ -49,21 +49,21 @@ class Planar:
         if self._compiled and base_motion is None:
             o = _empty(self._n) if out is None else out
             if (K.planar_rnea(self._Q, q, qd, q, _QD, o) if wrench is None else
-                    K.planar_rnea_wrench(self._Q, q, qd, q, wrench, _QD_W, o)) == 0:
+                    K.planar_rnea_wrench(self._Q, q, qd, q, wrench, _QD_W, o)) == OK:
                 return o
         return super().bias_torques(q, qd, wrench, base_motion, out)
 
     def gravity_torques(self, q, out=None):
         if self._compiled:
             o = _empty(self._n) if out is None else out
-            if K.planar_rnea(self._Q, q, q, q, 0, o) == 0:
+            if K.planar_rnea(self._Q, q, q, q, 0, o) == OK:
                 return o
         return super().gravity_torques(q, out)
 
     def mass_matrix(self, q, out=None):
         if self._compiled:
             o = _empty(self._nn) if out is None else out
-            if K.planar_crba(self._Q, q, o) == 0:
+            if K.planar_crba(self._Q, q, o) == OK:
                 return o
         return super().mass_matrix(q, out)
 

@@ -45,7 +45,7 @@ import numpy as np
 from ..algorithms import regressor as reference
 from ..algorithms._batch import as_batch
 from .batches import kernel_rows, run_split
-from ..core import K
+from ..core import K, OK
 from ..core.regressor import ARMATURE_COLUMNS, FRICTION_COLUMNS, regressor_layout
 
 PARAMETERS = reference.PARAMETERS
@@ -126,11 +126,11 @@ def regressor(robot, q, qd, qdd, friction=False, armature=None):
         N = _plain_batch(n, q, qd, qdd)       # float64 (N, n) arrays: the batch kernel, checked there
         if N:
             Y = _empty((N, n, p))
-            if _parallel(L, (q, qd, qdd), flags, Y) == 0:
+            if _parallel(L, (q, qd, qdd), flags, Y) == OK:
                 return Y
         else:
             Y = _empty((n, p))
-            if K.regressor(L, q, qd, qdd, flags, Y) == 0:     # the single-state fast path
+            if K.regressor(L, q, qd, qdd, flags, Y) == OK:     # the single-state fast path
                 return Y
     single, (q, qd, qdd) = as_batch(robot.model, ("q", q), ("qd", qd), ("qdd", qdd))
     if single:

@@ -24,6 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core import flags as F
+from ..core.status import BAD_LENGTH, NOT_CONVERGED, NOT_FINITE, OK
 from .equations import External, split
 from ..model.errors import SimulationError
 from .methods import advice
@@ -46,7 +47,7 @@ def step(integ, q, qd, f, wrench, beta, held):
         w = _NO_W if wrench is None else np.asarray(wrench, dtype=float)
         status = K.symplectic_euler(P, q, qd, f, w, beta, held, dt, TOL, MAX_ITER,
                                     0 if wrench is None else F.WRENCH, q1, qd1, v)
-        if status in (-2, -3):
+        if status in (-NOT_FINITE, -BAD_LENGTH):
             _check_inputs(robot, q, qd, f, wrench)      # raises the ValueError naming it
     else:
         q1, qd1, v, status = _step_numpy(robot, q, qd, f, wrench, beta, held, dt)
@@ -54,7 +55,7 @@ def step(integ, q, qd, f, wrench, beta, held):
     integ.eq.states += 1
     if status < 0:
         t = integ.t_now
-        if status == -1:
+        if status == -NOT_CONVERGED:
             raise SimulationError(
                 f"symplectic Euler: the fixed-point iteration did not converge within "
                 f"{MAX_ITER} iterations at t = {t:.6g} s (the step is too large for the "
@@ -102,19 +103,19 @@ def _step_numpy(robot, q, qd, f, wrench, beta, held, dt):
     M = masked(robot.mass_matrix(q))
     p0 = np.where(free, M @ np.where(free, qd, 0.0), 0.0)
     if not (np.all(np.isfinite(p0)) and np.all(np.isfinite(f)) and np.all(np.isfinite(gw))):
-        return q, qd, qd, -2
+        return q, qd, qd, -NOT_FINITE
     r = np.where(free, p0 + dt * (f - gw), 0.0)
     A = M + np.diag(np.where(free, dt * beta, 0.0))
     L = np.linalg.cholesky(A)
     v = np.where(free, qd, 0.0)
-    prev, status = 0.0, -1
+    prev, status = 0.0, -NOT_CONVERGED
     for k in range(1, MAX_ITER + 1):
         x = np.where(free, r + dt * robot.kinetic_energy_gradient(q, v), 0.0)
         x = np.linalg.solve(L.T, np.linalg.solve(L, x))
         diff, scale = np.max(np.abs(x - v)), 1.0 + np.max(np.abs(x))
         v = x
         if not np.isfinite(diff):
-            return q, qd, v, -2
+            return q, qd, v, -NOT_FINITE
         if diff <= TOL * scale or (k > 1 and diff >= prev and diff <= 1e-10 * scale):
             status = k
             break

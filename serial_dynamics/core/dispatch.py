@@ -1,0 +1,152 @@
+"""Dispatch: the compiled entry points (``ENTRY_POINTS``), ``K`` that builds them on first
+use, the numba hook of the single-state ones, and the status codes they return.
+
+``K.rnea`` etc. (one attribute of ``_Kernels`` per entry point, listed below) compiles its
+entry point on first use with its explicit signature and ``cache=True``, after the typed
+algorithms it calls (seconds once per machine; loading from the numba cache in
+``__pycache__`` takes milliseconds); importing compiles nothing;
+``python -m serial_dynamics.precompile`` fills the cache. Entry points take the packed model
+``P`` and float64 arrays, write into ``out`` and return a status (``status.py``: OK,
+NOT_FINITE, BAD_LENGTH, OTHER_TYPES, NOT_CONVERGED). Batch kernels take (N, n) inputs, or
+(1, n) to broadcast one row, and release the GIL so that ``Robot`` can split a large batch
+over the cores.
+
+The hook: a single-state entry point has one exact signature -- C-contiguous, writable
+float64 arrays, what a caller usually has -- which numba's dispatcher matches in C
+(~70 ns). For argument types it has no version for, numba calls the dispatcher's
+``_compile_for_args``; that internal method is replaced here by a function returning a
+function returning OTHER_TYPES, so that any other arguments (a list, a batch, another dtype
+or layout, a read-only array) get that status instead of a new compilation or an
+exception, and ``Robot`` takes its general path. (No exception is raised or caught to
+choose the path.) The hook depends on numba's internals: importing this module checks that
+the method exists and raises an ImportError naming the numba version and the supported
+range (``NUMBA_SUPPORTED``, the range setup.py pins) when it does not.
+"""
+import numba
+from numba import njit
+from numba.core.dispatcher import Dispatcher
+
+from . import crba, derivatives, derivatives_lanes, energy, floating, forward, planar, planar_lanes
+from . import regressor
+from . import rnea, rnea_lanes
+from .signatures import In2, Mat, Out2, Out3, Pm, Vec, compile_internal, i8
+from .status import BAD_LENGTH, NOT_CONVERGED, NOT_FINITE, OK, OTHER_TYPES   # noqa: F401 (re-exported)
+
+NUMBA_SUPPORTED = ">=0.59,<0.69"   # the numba releases the tests have run on (setup.py pins it)
+HOOK = "_compile_for_args"          # the dispatcher method the hook replaces
+
+FD_CALLS = ("aba_core", "rnea_core", "crba_core", "cholesky_solve")   # the Cholesky route inlined
+
+ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core functions it calls)
+    "rnea": (rnea.rnea, i8(Pm, Vec, Vec, Vec, i8, Vec), False, ()),
+    "rnea_wrench": (rnea.rnea_wrench, i8(Pm, Vec, Vec, Vec, Vec, i8, Vec), False, ("rnea_core",)),
+    "crba": (crba.crba, i8(Pm, Vec, Mat), False, ()),
+    "fd": (forward.fd, i8(Pm, Vec, Vec, Vec, Vec, i8, Vec), False, FD_CALLS),
+    "rnea_batch": (rnea_lanes.rnea_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True, ("rnea_block",)),
+    "crba_batch": (crba.crba_batch, i8(Pm, In2, Out3), True, ("crba_core",)),
+    "fd_batch": (forward.fd_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True, FD_CALLS),
+    **planar.ENTRY_POINTS,   # the planar fast path (planar 3-vectors; Robot.is_planar),
+    **planar_lanes.ENTRY_POINTS,   # and its batches
+    **derivatives.ENTRY_POINTS,    # derivatives of inverse and forward dynamics
+    **derivatives_lanes.ENTRY_POINTS,   # and of inverse dynamics over a batch, in SIMD lanes
+    **regressor.ENTRY_POINTS,      # the torque regressor
+    **energy.ENTRY_POINTS,         # dT/dq and the symplectic Euler step
+    **floating.ENTRY_POINTS,       # a free-floating base on the instantaneous chain
+}
+SINGLE_STATE = ("rnea", "rnea_wrench", "crba", "fd", "planar_rnea", "planar_rnea_wrench",
+                "planar_crba", "regressor", "rnea_derivatives", "fd_derivatives",
+                *floating.SINGLE_STATE)
+
+
+def check_hook(dispatcher_class=Dispatcher, version=numba.__version__):
+    """Raise an ImportError unless numba's dispatcher has the method the hook replaces."""
+    if not callable(getattr(dispatcher_class, HOOK, None)):
+        raise ImportError(
+            f"serial_dynamics cannot run on numba {version}: its dispatcher has no {HOOK}, "
+            f"the internal method serial_dynamics.core.dispatch replaces so that a compiled "
+            f"call with arguments of other types returns a status instead of compiling. The "
+            f"supported numba releases are {NUMBA_SUPPORTED}: pip install 'numba{NUMBA_SUPPORTED}'.")
+
+
+check_hook()
+
+
+def _other_types(*args, **kwargs):
+    return lambda *a, **k: OTHER_TYPES
+
+
+def build(name):
+    """Compile (or load from the cache) entry point ``name``, after the typed algorithms it
+    calls; a single-state one gets its one signature and the hook."""
+    func, sig, nogil, calls = ENTRY_POINTS[name]
+    compile_internal(calls)
+    if name in SINGLE_STATE:
+        kernel = njit(cache=True, nogil=nogil)(func)
+        kernel.compile(sig)
+        setattr(kernel, HOOK, _other_types)
+    else:
+        kernel = njit([sig], cache=True, nogil=nogil)(func)
+    return kernel
+
+
+class _EntryPoint:
+    """An attribute of ``K``: builds its entry point on first access and stores it in the
+    instance, whose plain attribute lookup finds it from then on (a non-data descriptor)."""
+
+    def __set_name__(self, owner, name):
+        self.name = name
+
+    def __get__(self, obj, owner=None):
+        if obj is None:
+            return self
+        kernel = build(self.name)
+        obj.__dict__[self.name] = kernel
+        return kernel
+
+
+class _Kernels:
+    """The compiled entry points, built (compiled or loaded from the cache) on first use."""
+    # single state: inverse dynamics, mass matrix, forward dynamics (module dispatch doc)
+    rnea = _EntryPoint()
+    rnea_wrench = _EntryPoint()
+    crba = _EntryPoint()
+    fd = _EntryPoint()
+    # batches of N states
+    rnea_batch = _EntryPoint()
+    crba_batch = _EntryPoint()
+    fd_batch = _EntryPoint()
+    # the planar fast path (planar.py, planar_lanes.py)
+    planar_rnea = _EntryPoint()
+    planar_rnea_wrench = _EntryPoint()
+    planar_crba = _EntryPoint()
+    planar_rnea_batch = _EntryPoint()
+    planar_crba_batch = _EntryPoint()
+    # derivatives (derivatives.py), the regressor (regressor.py), energy (energy.py)
+    rnea_derivatives = _EntryPoint()
+    fd_derivatives = _EntryPoint()
+    rnea_derivatives_batch = _EntryPoint()
+    fd_derivatives_batch = _EntryPoint()
+    regressor = _EntryPoint()
+    regressor_batch = _EntryPoint()
+    kinetic_energy_gradient = _EntryPoint()
+    symplectic_euler = _EntryPoint()
+    # a free-floating base on the instantaneous chain (floating.py)
+    floating_rnea = _EntryPoint()
+    floating_fd = _EntryPoint()
+    floating_crba = _EntryPoint()
+    floating_rows = _EntryPoint()
+    floating_accelerations = _EntryPoint()
+
+    def load_all(self, names=None):
+        """Compile or load ``names`` (default: every entry point)."""
+        for name in ENTRY_POINTS if names is None else names:
+            getattr(self, name)
+        return self
+
+
+_ATTRIBUTES = {k for k, v in vars(_Kernels).items() if isinstance(v, _EntryPoint)}
+if _ATTRIBUTES != set(ENTRY_POINTS):      # a new entry point needs its attribute, and back
+    raise RuntimeError(f"core.dispatch: K's attributes and ENTRY_POINTS differ: "
+                       f"{sorted(_ATTRIBUTES ^ set(ENTRY_POINTS))}")
+
+K = _Kernels()

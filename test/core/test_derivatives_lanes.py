@@ -1,0 +1,66 @@
+"""core/derivatives_lanes.py: the SIMD-lane batches of d tau/d (q, qd) and of d qdd/d (q, qd,
+tau) give every row bitwise what the single-state kernels give that state alone
+(core/derivatives.py), whatever its place in a block, for revolute and prismatic joints, a
+tip wrench, a moving base, a huge angle."""
+import numpy as np
+import pytest
+
+import serial_dynamics as sd
+from serial_dynamics.core import K
+from serial_dynamics.core import flags as F
+from serial_dynamics.core.derivatives_lanes import DLANES
+from serial_dynamics.core.layout import W_ALL, W_WRENCH
+from serial_dynamics.robots.synthetic import chain_urdf
+
+ROBOTS = {
+    "ur5e": sd.default_robot,
+    "prismatic": lambda: sd.load_urdf(chain_urdf(
+        5, kinds=["prismatic", "revolute", "prismatic", "revolute", "revolute"],
+        masses=[2.0, 1.5, 1.0, 0.7, 0.4], lengths=[0.3, 0.25, 0.2, 0.15, 0.1]),
+        gravity=(0.5, -1.0, -9.81), armature={"joint1": 0.2}),
+}
+
+
+@pytest.mark.parametrize("name", sorted(ROBOTS))
+@pytest.mark.parametrize("flags", [0, F.WRENCH, F.WRENCH | F.BASE])
+def test_every_row_is_the_single_state_bitwise(name, flags):
+    robot = ROBOTS[name]()
+    n, P = robot.dof, robot._P
+    rng = np.random.default_rng(5)
+    N = 3 * DLANES + 5                          # whole blocks and a partial one
+    Q = rng.uniform(-3, 3, (N, n))
+    Q[DLANES + 2, 1] = 3.0e5                    # a huge angle: libm's sine in that lane only
+    V, A = rng.normal(size=(N, n)) * 2, rng.normal(size=(N, n)) * 2
+    W = rng.normal(size=(N, W_ALL if flags & F.BASE else W_WRENCH))
+    dq, dqd = np.full((N, n, n), np.nan), np.full((N, n, n), np.nan)
+    assert K.rnea_derivatives_batch(P, Q, V, A, W, flags, dq, dqd) == 0
+    out = np.empty((2, n, n))
+    for k in range(N):
+        assert K.rnea_derivatives(P, Q[k], V[k], A[k], W[k], flags, out) == 0
+        np.testing.assert_array_equal(dq[k], out[0])
+        np.testing.assert_array_equal(dqd[k], out[1])
+    # forward dynamics: qdd, tau at the same states
+    fq, fqd, fm = (np.full((N, n, n), np.nan) for _ in range(3))
+    assert K.fd_derivatives_batch(P, Q, V, A, W, flags, fq, fqd, fm) == 0
+    out3 = np.empty((3, n, n))
+    for k in range(N):
+        assert K.fd_derivatives(P, Q[k], V[k], A[k], W[k], flags, out3) == 0
+        for a, b in zip((fq[k], fqd[k], fm[k]), out3):
+            np.testing.assert_array_equal(a, b)
+    # broadcast rows (1, n) are the same state in every lane
+    dq1, dqd1 = np.empty((N, n, n)), np.empty((N, n, n))
+    assert K.rnea_derivatives_batch(P, Q[:1], V, A[:1], W[:1], flags, dq1, dqd1) == 0
+    K.rnea_derivatives(P, Q[0], V[N - 1], A[0], W[0], flags, out)
+    np.testing.assert_array_equal(dq1[N - 1], out[0])
+
+
+def test_a_nan_anywhere_is_reported():
+    robot = sd.default_robot()
+    N, n = 2 * DLANES, robot.dof
+    Q, V, A = np.zeros((N, n)), np.zeros((N, n)), np.zeros((N, n))
+    V[DLANES + 3, 2] = np.nan
+    dq, dqd = np.empty((N, n, n)), np.empty((N, n, n))
+    assert K.rnea_derivatives_batch(robot._P, Q, V, A, np.zeros((1, 6)), 0, dq, dqd) == 1
+    assert K.fd_derivatives_batch(robot._P, Q, V, A, np.zeros((1, 6)), 0, dq, dqd, dq.copy()) == 1
+    with pytest.raises(ValueError, match="qd"):
+        robot.inverse_dynamics_derivatives(Q, V, A)

@@ -399,7 +399,7 @@ def test_other_argument_types_get_a_status_not_an_exception():
     """A single-state entry point has one exact signature; any other argument types (a
     list, a batch, another dtype, a read-only or strided array) make it return
     OTHER_TYPES -- the Robot's general path then takes over -- rather than compile a new
-    version or raise (core._Kernels)."""
+    version or raise (core.dispatch._Kernels)."""
     from serial_dynamics.core import K, OTHER_TYPES
     robot = sd.default_robot()
     q, qd, qdd, tau, _ = states(robot, seed=10)

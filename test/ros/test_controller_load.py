@@ -9,7 +9,7 @@ that does not grow after the push. No timing is asserted.
 
 The old controller (M_ii(0) gains, a queue of 10 states) passed this too in the trials
 here: the URDF's joint damping (10 N m s/rad) steadies the plant. The issue's divergence
-was not reproduced by this test; the fix rests on the bound (test_pd_bound.py).
+was not reproduced by this test; the fix rests on the bound (test/test_control_bound.py).
 """
 import os
 import signal

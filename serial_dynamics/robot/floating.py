@@ -40,10 +40,9 @@ from .common import into as _into
 
 FD_METHODS = ("auto", "aba", "cholesky")
 # forward_dynamics(method="auto") on a floating base: articulated bodies from this many
-# joints on. Single compiled calls, bench/bench_floating.py (2026-11-24, two runs on a
-# shared machine): Cholesky of M faster up to 30 joints (ABA / Cholesky 1.3 .. 2.3), even
-# or ABA faster at 40 (1.01, 0.81).
-FD_CROSSOVER = 40
+# joints on. Single compiled calls, bench/bench_floating.py (2026-11-24, load 1.1):
+# ABA / Cholesky 1.25 at 6 joints, 1.03 at 18, 0.89 at 24, 0.61 at 40.
+FD_CROSSOVER = 24
 _FD_FLAGS = {"aba": F.ABA, "cholesky": 0}
 _QD_QDD = F.QD | F.QDD
 _empty = np.empty

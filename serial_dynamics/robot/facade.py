@@ -439,8 +439,8 @@ def _parallel(kernel, P, N, arrays, extra, out):
 
 
 # ----------------------------------------------------------------- the kinds of robot
-# Each kind overrides what it changes (its module says how); nothing outside robot/ asks
-# which kind it holds.
+# Each kind overrides what it changes (its module says how); nothing outside robot/ reads a
+# kind's private state (test/robot/test_kinds.py).
 class FloatingRobot(Floating, Robot):
     """A chain on a free-floating base: q on SE(3) x R^n, v = [base twist; joint rates]
     (floating.py)."""

@@ -13,30 +13,22 @@ from __future__ import annotations
 import numpy as np
 from nav_msgs.msg import Odometry
 
-from .common import MAX_VALUE, finite_vector
+from .common import MAX_VALUE, Rejected
 
 IDENTITY = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0]     # [x, y, z, qx, qy, qz, qw]
 # |1 - |quaternion|| accepted (and normalized) in a message: 4 digits typed by hand pass
 QUAT_TOLERANCE = 1e-3
 
 
-class BaseStateError(ValueError):
-    """A bad base pose or twist; ``cause`` groups repeats (as ``common.Rejected``)."""
-
-    def __init__(self, cause: str, text: str):
-        super().__init__(text)
-        self.cause = cause
-
-
 def _unit(pose, what, tolerance):
-    """pose (7,) with its quaternion of unit length, or BaseStateError naming ``what``."""
+    """pose (7,) with its quaternion of unit length, or Rejected naming ``what``."""
     pose = np.array(pose, dtype=float)
     if pose.shape != (7,) or not np.all(np.isfinite(pose)) or np.any(np.abs(pose) > MAX_VALUE):
-        raise BaseStateError(f"{what} values", f"{what} must be 7 finite numbers [x, y, z, qx, "
+        raise Rejected(f"{what} values", f"{what} must be 7 finite numbers [x, y, z, qx, "
                              f"qy, qz, qw] (m; a quaternion, w last), got {pose.tolist()}")
     norm = float(np.linalg.norm(pose[3:]))
     if norm == 0.0 or (tolerance is not None and abs(norm - 1.0) > tolerance):
-        raise BaseStateError(f"{what} quaternion", f"{what} has a quaternion [qx, qy, qz, qw] = "
+        raise Rejected(f"{what} quaternion", f"{what} has a quaternion [qx, qy, qz, qw] = "
                              f"{pose[3:].tolist()} of length {norm:.6g}; give a unit quaternion "
                              "(identity: [0, 0, 0, 1], w last)")
     pose[3:] /= norm
@@ -73,7 +65,7 @@ def base_state(msg, frame_id, child_frame_id):
     for field, got, want in (("header.frame_id", msg.header.frame_id, frame_id),
                              ("child_frame_id", msg.child_frame_id, child_frame_id)):
         if got not in ("", want):
-            raise BaseStateError(f"set_base_state {field}", f"set_base_state {field} {got!r} is "
+            raise Rejected(f"set_base_state {field}", f"set_base_state {field} {got!r} is "
                                  f"not the simulator's: give '' or {want!r} (pose in "
                                  f"{frame_id!r}, twist in the base frame {child_frame_id!r})")
     p, o = msg.pose.pose.position, msg.pose.pose.orientation
@@ -81,20 +73,6 @@ def base_state(msg, frame_id, child_frame_id):
     lin, ang = msg.twist.twist.linear, msg.twist.twist.angular
     twist = np.array([lin.x, lin.y, lin.z, ang.x, ang.y, ang.z])
     if not np.all(np.isfinite(twist)) or np.any(np.abs(twist) > MAX_VALUE):
-        raise BaseStateError("set_base_state twist", "set_base_state twist must be finite and "
+        raise Rejected("set_base_state twist", "set_base_state twist must be finite and "
                              f"within +-{MAX_VALUE:g}, got {twist.tolist()}")
     return pose, twist
-
-
-def external_wrench(msg, frame_id):
-    """geometry_msgs/WrenchStamped -> (6,) [force; torque] on the tip at its origin, in
-    WORLD coordinates (a floating robot's convention), or None for a zero wrench; frame_id
-    '' or the world frame ``frame_id``."""
-    f, t = msg.wrench.force, msg.wrench.torque
-    w = finite_vector([f.x, f.y, f.z, t.x, t.y, t.z], 6, "external_wrench", "external_wrench")
-    if msg.header.frame_id not in ("", frame_id):
-        raise BaseStateError("external_wrench frame", f"external_wrench frame_id "
-                             f"{msg.header.frame_id!r} is not the world frame: give '' or "
-                             f"{frame_id!r} (on a floating base the wrench on the tip link at "
-                             "its origin is given in world coordinates)")
-    return w if np.any(w) else None

@@ -125,6 +125,7 @@ class Simulator(Node):
         if not (np.all(np.isfinite(self.kp)) and np.all(np.isfinite(self.kd))):
             raise StartupError("parameters 'servo.kp' and 'servo.kd' must be finite")
         self.servo_ok = p["integrator"] in SERVO_METHODS and not robot.is_floating
+        self.wrench_frame = (robot.base_link, "base")   # external_wrench: frame, axes
         if robot.is_floating:
             try:
                 self.q0 = np.concatenate((floating_state.initial_pose(p["initial_base_pose"]),
@@ -133,6 +134,7 @@ class Simulator(Node):
                 raise StartupError(str(exc)) from None
             stops_dropped, p["position_limits"] = p["position_limits"], False
             self.frames = (p["odom_frame"], robot.base_link)   # odom's frame_id, child_frame_id
+            self.wrench_frame = (p["odom_frame"], "world")     # a floating robot's convention
         self.step_count = p["step_count"]
         if p["sim_dt"] > COARSE_DT:
             self.get_logger().warning(
@@ -230,9 +232,8 @@ class Simulator(Node):
 
     def on_wrench(self, msg):
         try:
-            w = (floating_state.external_wrench(msg, self.frames[0]) if self.robot.is_floating
-                 else simulator_inputs.external_wrench(msg, self.robot))
-        except ValueError as exc:   # Rejected, BaseStateError
+            w = simulator_inputs.external_wrench(msg, *self.wrench_frame)
+        except Rejected as exc:
             return self.reject("external_wrench", exc, "; the wrench in force stays")
         with self.lock:
             self.hold.push(self.k, w)
@@ -248,7 +249,7 @@ class Simulator(Node):
     def on_set_base_state(self, msg):
         try:
             pending = floating_state.base_state(msg, *self.frames)
-        except ValueError as exc:
+        except Rejected as exc:
             return self.reject("set_base_state", exc, "; the state is left alone")
         with self.lock:
             self.pending_base = pending

@@ -39,17 +39,18 @@ def joint_command(msg, robot):
     return idx, effort, position, velocity
 
 
-def external_wrench(msg, robot):
-    """geometry_msgs/WrenchStamped -> (6,) [force; torque] in the base frame, or None for
-    a zero wrench (no push). frame_id must be '' or the base link."""
+def external_wrench(msg, frame, axes="base"):
+    """geometry_msgs/WrenchStamped -> (6,) [force; torque] on the tip at its origin, or None
+    for a zero wrench (no push). frame_id must be '' or ``frame``, the robot's ``axes``
+    frame: the base link ("base"), or the world on a floating base ("world")."""
     f, t = msg.wrench.force, msg.wrench.torque
     w = common.finite_vector([f.x, f.y, f.z, t.x, t.y, t.z], 6, "external_wrench",
                              "external_wrench")
-    frame = msg.header.frame_id
-    if frame not in ("", robot.base_link):
-        raise Rejected("external_wrench frame", f"external_wrench frame_id {frame!r} is not the "
-                       f"base frame: give '' or {robot.base_link!r} (the wrench on the tip "
-                       "link at its origin, in base coordinates)")
+    got = msg.header.frame_id
+    if got not in ("", frame):
+        raise Rejected("external_wrench frame", f"external_wrench frame_id {got!r} is not the "
+                       f"{axes} frame: give '' or {frame!r} (the wrench on the tip "
+                       f"link at its origin, in {axes} coordinates)")
     return w if np.any(w) else None
 
 

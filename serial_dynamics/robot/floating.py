@@ -58,7 +58,7 @@ class Floating:
     is_floating = True
 
     def __init__(self, model, dissipation=None, backend=None, **kwargs):
-        if np.any(model.mimic_leader >= 0):
+        if model.has_mimic_joints:
             raise ValueError(f"chain {model.base_link!r} -> {model.tip_link!r} has mimic joints; "
                              "a floating base with mimic joints is not supported: load it with "
                              "floating_base=False, or make the mimic joints independent")
@@ -193,6 +193,11 @@ class Floating:
 
     def forward_dynamics_derivatives(self, *args, **kwargs):
         raise NotImplementedError("dynamics derivatives of a floating base are not available")
+
+    def kinetic_energy_gradient(self, *args, **kwargs):
+        raise NotImplementedError("dT/dq of a floating base is not available")
+
+    compiled_chain = None    # sim/'s whole-step kernels know no floating base (sim/floating.py)
 
     # ------------------------------------------------------------- kinematics, energy, momentum
     def forward_kinematics(self, q, link=None):

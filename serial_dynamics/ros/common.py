@@ -22,7 +22,7 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.signals import SignalHandlerOptions
 
 from .parameters import StartupError
-from .throttle import Throttle
+from .throttle import Rejected, Throttle  # noqa: F401  (Rejected: re-exported)
 
 # Queue depth of every command, request and state topic (reliable, volatile: compatible
 # with the ROS defaults of rclcpp/rclpy publishers, ros2_control and robot_state_publisher).
@@ -37,15 +37,6 @@ MAX_NAMES = 1000        # joint names in a JointState or JointTrajectory
 MAX_POINTS = 10_000     # points in a JointTrajectory (10 s at 1 kHz)
 MAX_VALUE = 1e6         # |position| (rad, m), |velocity|, |acceleration|, |wrench| (N, N m)
 DIAGNOSTICS_PERIOD = 1.0   # s of wall time between two /diagnostics reports
-
-
-
-class Rejected(ValueError):
-    """A message that the node refuses; ``cause`` groups repeats for throttled logging."""
-
-    def __init__(self, cause: str, text: str):
-        super().__init__(text)
-        self.cause = cause
 
 
 # ------------------------------------------------------------------ rejected input

@@ -171,8 +171,7 @@ class Dynamics(Node):
 
     def _serve(self, key, answer):
         """The callback of service ``key``: ``answer(robot, request)`` gives the response's
-        fields, or raises a refusal (requests.Refused, common.Rejected: the field and the
-        fix) or the library's ValueError. Every call is counted and timed; none kills the node."""
+        fields, or raises ``Rejected`` (the field and the fix) or the library's ValueError. Every call is counted and timed; none kills the node."""
         window = self._latency[key]
 
         def callback(request, response):
@@ -181,7 +180,7 @@ class Dynamics(Node):
             try:
                 fields = answer(self.robot, request)        # one model for the whole call
             except (ValueError, ArithmeticError) as exc:
-                refusal = exc if hasattr(exc, "cause") else Rejected("library", str(exc))
+                refusal = exc if isinstance(exc, Rejected) else Rejected("library", str(exc))
                 self.reject(key, refusal, "; answered success: false")
                 response.success, response.message = False, str(exc)
             except Exception as exc:  # noqa: BLE001 -- a node never dies on a request

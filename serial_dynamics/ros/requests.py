@@ -3,7 +3,7 @@ the tests call these functions directly).
 
 Each ``answer_*`` takes the robot and a request of the matching
 ``serial_dynamics_interfaces/srv`` type (anything with the same fields will do) and returns
-the response fields as a dict, or raises ``Refused`` naming the field and the fix. Rules
+the response fields as a dict, or raises ``Rejected`` (its cause: the field) naming the field and the fix. Rules
 (docs/ros.md, "Dynamics services"): ``joint_names`` in any order, or empty for the robot's
 order (``robot.joint_names``); empty velocities, accelerations or efforts mean zeros;
 ``tip_wrench`` is exerted on the tip link at its origin, in base coordinates, and a zero
@@ -13,14 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-
-class Refused(ValueError):
-    """A request the node refuses: ``cause`` is the field (it groups repeated refusals
-    in the node's throttled log); the text names the field and the fix."""
-
-    def __init__(self, cause: str, text: str):
-        super().__init__(text)
-        self.cause = cause
+from .throttle import Rejected
 
 
 def _show(names, at_most=8):
@@ -35,16 +28,16 @@ def joint_order(robot, names):
     fix = (f"name each joint of the chain {robot.joint_names} once, in any order, or leave "
            "joint_names empty for that order")
     if len(names) != robot.dof:
-        raise Refused("joint_names", f"joint_names has {len(names)} names for a chain of "
+        raise Rejected("joint_names", f"joint_names has {len(names)} names for a chain of "
                       f"{robot.dof} joints: {fix}")
     model = {name: j for j, name in enumerate(robot.joint_names)}
     unknown = list(dict.fromkeys(x for x in names if x not in model))
     if unknown:
-        raise Refused("joint_names", f"joint_names {_show(unknown)} are not joints of the "
+        raise Rejected("joint_names", f"joint_names {_show(unknown)} are not joints of the "
                       f"chain: {fix}")
     index = np.array([model[x] for x in names])
     if len(set(index.tolist())) != robot.dof:
-        raise Refused("joint_names", f"joint_names names a joint more than once: {fix}")
+        raise Rejected("joint_names", f"joint_names names a joint more than once: {fix}")
     return index
 
 
@@ -56,12 +49,12 @@ def joint_vector(robot, index, values, field, empty_is_zero=False):
     if len(values) != n:
         order = "of joint_names" if index is not None else f"{robot.joint_names}"
         empty = " (or none, for zeros)" if empty_is_zero else ""
-        raise Refused(field, f"{field} has {len(values)} values: give one per joint, {n}, in "
+        raise Rejected(field, f"{field} has {len(values)} values: give one per joint, {n}, in "
                       f"the order {order}{empty}")
     a = np.asarray(values, dtype=float)
     if not np.all(np.isfinite(a)):
         bad = [int(i) for i in np.flatnonzero(~np.isfinite(a))]
-        raise Refused(field, f"{field} has NaN or Inf at {bad}: give finite numbers")
+        raise Rejected(field, f"{field} has NaN or Inf at {bad}: give finite numbers")
     if index is None:
         return a
     out = np.empty(n)
@@ -73,14 +66,14 @@ def tip_wrench(w):
     """geometry_msgs/Wrench -> (6,) [force; torque] in base coordinates, or None if zero."""
     a = np.array([w.force.x, w.force.y, w.force.z, w.torque.x, w.torque.y, w.torque.z])
     if not np.all(np.isfinite(a)):
-        raise Refused("tip_wrench", f"tip_wrench has NaN or Inf ({a.tolist()}): give finite "
+        raise Rejected("tip_wrench", f"tip_wrench has NaN or Inf ({a.tolist()}): give finite "
                       "numbers, or all zeros for no wrench")
     return a if a.any() else None
 
 
 def _finite(x, what):
     if not np.all(np.isfinite(x)):
-        raise Refused("result", f"the {what} came out non-finite: the state is beyond what "
+        raise Rejected("result", f"the {what} came out non-finite: the state is beyond what "
                       "the model can compute (check the units: rad, rad/s, N m)")
     return x
 

@@ -11,6 +11,7 @@ import pytest
 
 import serial_dynamics as sd
 from serial_dynamics.ros import requests
+from serial_dynamics.ros.throttle import Rejected
 
 ROBOT = sd.default_robot()
 ROBOT.dissipation = ROBOT.dissipation.override(viscous={"elbow_joint": 0.5},
@@ -65,7 +66,7 @@ def test_forward_inverts_inverse_with_the_wrench_and_the_dissipation_compensated
 def test_refusals_name_the_field(fields, field):
     msg = Msg(**{**dict(joint_names=[], positions=[0.0] * 6, velocities=[], accelerations=[],
                         tip_wrench=ZERO), **fields})
-    with pytest.raises(requests.Refused, match=field) as refused:
+    with pytest.raises(Rejected, match=field) as refused:
         requests.answer_inverse_dynamics(ROBOT, msg)
     assert refused.value.cause == field
 

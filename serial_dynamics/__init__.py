@@ -20,11 +20,14 @@ __version__ = "0.1.0"
 
 
 def load_urdf(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
-              armature=None, floating_base=False) -> Robot:
-    """Load the chain ``base_link`` -> ``tip_link`` of a URDF (file path or XML string).
+              armature=None, floating_base=False, tip_links=None) -> Robot:
+    """Load a robot from a URDF (file path or XML string): the chain ``base_link`` ->
+    ``tip_link``, the subtree from ``base_link`` to the links ``tip_links``, or (neither
+    given) every movable joint below ``base_link``: one chain when they form a single path,
+    else the whole tree (two arms, legs, fingers), bodies parents first.
 
-    ``base_link`` defaults to the URDF root, ``tip_link`` to the end of the chain when the
-    movable joints form a single path. ``gravity`` (m/s^2) is given in the URDF root's
+    ``base_link`` defaults to the URDF root. Movable joints outside the model are held at
+    zero and lumped, with a ``HeldJointsWarning`` naming them. ``gravity`` (m/s^2) is given in the URDF root's
     frame and carried into the base frame. ``armature``: {joint name: reflected rotor
     inertia, kg m^2 (kg for a prismatic joint)}, which sets or overrides what the URDF's
     ``<transmission>`` elements give. Raises ``URDFError`` (the file cannot be read) or
@@ -34,5 +37,5 @@ def load_urdf(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
     frame; docs/modelling.md).
     """
     return Robot(load_model(source, base_link, tip_link, gravity, armature=armature,
-                            floating_base=floating_base))
+                            floating_base=floating_base, tip_links=tip_links))
 

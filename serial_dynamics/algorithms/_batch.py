@@ -42,6 +42,16 @@ def as_batch(model, *states):
     return (True if single is None else single), out
 
 
+def require_chain(model, what):
+    """Raise NotImplementedError for ``what`` on a tree: the algorithms written for chains
+    only (the Coriolis matrix, the regressor, the derivatives, dT/dq) name themselves."""
+    if not model.is_chain:
+        branches = sorted({int(l) for l in model.parent if np.sum(model.parent == l) > 1})
+        raise NotImplementedError(
+            f"{what} is computed for chains only so far, and this model is a tree (joints "
+            f"branch at body {branches}); load one chain with tip_link=... for it")
+
+
 def unbatch(single, x):
     return x[0] if single else x
 

@@ -79,14 +79,18 @@ def _aba(model, q, qd, tau, g, w, base=None, root=None):
     c = np.empty((N, n, 6))
     IA = np.empty((N, n, 6, 6))
     pA = np.empty((N, n, 6))
-    for i in range(n):
+    V = [v] * n                                                  # v_i (a list: no strided views)
+    v_base = v
+    for i in range(n):                                           # a tree: from the parent l
         vJ = qd[:, i, None] * S[i]
-        v = mv6(X[:, i], v) + vJ                                 # v_i = X_i v_{i-1} + S_i qd_i
+        l = model.parent[i]
+        v = mv6(X[:, i], v_base if l < 0 else V[l]) + vJ         # v_i = X_i v_l + S_i qd_i
+        V[i] = v
         c[:, i] = mv6(cross_motion(v), vJ)                       # c_i = v_i x S_i qd_i
         IA[:, i] = I[i]
         pA[:, i] = -mtv6(cross_motion(v), mv6(I[i], v))          # v x* I v = -[v]x^T I v
     if w is not None:            # f_ext on the last body: w, in joint frame n-1, about its origin
-        R_tip = _tip_rotation(R)                                 # base <- joint frame n-1
+        R_tip = _tip_rotation(model, R)                                 # base <- joint frame n-1
         f = mtv(R_tip, w[:, :3])
         m = mtv(R_tip, w[:, 3:]) + np.cross(model.Xtip_p, f)
         pA[:, n - 1, :3] -= m
@@ -99,13 +103,14 @@ def _aba(model, q, qd, tau, g, w, base=None, root=None):
         U[:, i] = mv6(IA[:, i], S[i])                            # U_i = IA_i S_i
         D[:, i] = U[:, i] @ S[i] + model.armature[i]             # D_i = S_i^T U_i + I_a,i
         u[:, i] = tau[:, i] - pA[:, i] @ S[i]                    # u_i = tau_i - S_i^T pA_i
-        if i > 0 or root is not None:
+        l = model.parent[i]
+        if l >= 0 or root is not None:
             Ia = IA[:, i] - U[:, i, :, None] * U[:, i, None, :] / D[:, i, None, None]
             pa = pA[:, i] + mv6(Ia, c[:, i]) + U[:, i] * (u[:, i] / D[:, i])[:, None]
             Xi = X[:, i]
-            IA_parent, pA_parent = (IA[:, i - 1], pA[:, i - 1]) if i > 0 else (IA_root, pA_root)
-            IA_parent += np.swapaxes(Xi, -1, -2) @ Ia @ Xi       # IA_{i-1} += X^T Ia X
-            pA_parent += mtv6(Xi, pa)                            # pA_{i-1} += X^T pa
+            IA_parent, pA_parent = (IA[:, l], pA[:, l]) if l >= 0 else (IA_root, pA_root)
+            IA_parent += np.swapaxes(Xi, -1, -2) @ Ia @ Xi       # IA_l += X^T Ia X
+            pA_parent += mtv6(Xi, pa)                            # pA_l += X^T pa
     # --- pass 3, outward
     a = np.zeros((N, 6))
     a[:, 3:] = -g                                                # a_{-1} = (0, -g)
@@ -115,8 +120,11 @@ def _aba(model, q, qd, tau, g, w, base=None, root=None):
         a = -np.linalg.solve(IA_root, pA_root[..., None])[..., 0]
         a_root = a
     qdd = np.empty((N, n))
+    Acc = [a] * n                                                # a_i
+    a_base = a
     for i in range(n):
-        a = mv6(X[:, i], a) + c[:, i]                            # a'_i = X_i a_{i-1} + c_i
+        l = model.parent[i]
+        a = mv6(X[:, i], a_base if l < 0 else Acc[l]) + c[:, i]  # a'_i = X_i a_l + c_i
         qdd[:, i] = (u[:, i] - np.einsum("nk,nk->n", U[:, i], a)) / D[:, i]
-        a = a + qdd[:, i, None] * S[i]                           # a_i = a'_i + S_i qdd_i
+        Acc[i] = a + qdd[:, i, None] * S[i]                      # a_i = a'_i + S_i qdd_i
     return qdd if root is None else (qdd, a_root)

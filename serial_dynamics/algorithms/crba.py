@@ -29,24 +29,30 @@ def crba(model, q, I_root=None):
     """(M (N, n, n), IC_-1 (N, 6, 6), F (N, 6, n)) for q (N, n). With ``I_root`` (6, 6), the
     spatial inertia of a floating root (body -1), IC_-1 is the composite inertia of the root
     and every body and F[:, :, i] = Xup_0^T .. Xup_i^T IC_i S_i, joint i's column of the
-    root's block rows (both in the base frame, angular first); otherwise both are None."""
+    root's block rows (both in the base frame, angular first); otherwise both are None.
+    A tree: IC_i adds to its parent's, and F climbs the ancestors j = parent[j] (Featherstone
+    2008, Table 6.2); M_ij = 0 where neither of i, j is an ancestor of the other."""
     N, n = q.shape
     Xup = motion_transform(*joint_transforms(model, q))            # (N, n, 6, 6)
     S = motion_subspaces(model)                                     # (n, 6)
     IC = np.repeat(rigid_body_inertia(model.mass, model.h, model.I_O)[None], N, axis=0)
-    M = np.empty((N, n, n))
+    M = np.zeros((N, n, n))
     root = I_root is not None
     IC_root, F_root = None, (np.empty((N, 6, n)) if root else None)
     for i in range(n - 1, -1, -1):
-        if i > 0:                                                   # IC_{i-1} += X^T IC_i X
-            IC[:, i - 1] += np.swapaxes(Xup[:, i], -1, -2) @ IC[:, i] @ Xup[:, i]
+        l = model.parent[i]
+        if l >= 0:                                                  # IC_l += X^T IC_i X
+            IC[:, l] += np.swapaxes(Xup[:, i], -1, -2) @ IC[:, i] @ Xup[:, i]
         elif root:                                                  # the root's: IC_-1
-            IC_root = I_root + np.swapaxes(Xup[:, 0], -1, -2) @ IC[:, 0] @ Xup[:, 0]
+            IC_root = (I_root if IC_root is None else IC_root) + (
+                np.swapaxes(Xup[:, i], -1, -2) @ IC[:, i] @ Xup[:, i])
         F = IC[:, i] @ S[i]                                         # F = IC_i S_i
         M[:, i, i] = F @ S[i] + model.armature[i]                   # M_ii = S_i^T F + I_a,i
-        for j in range(i - 1, -1, -1):
-            F = np.einsum("nki,nk->ni", Xup[:, j + 1], F)           # F = Xup_{j+1}^T F
+        j = i
+        while model.parent[j] >= 0:
+            F = np.einsum("nki,nk->ni", Xup[:, j], F)               # F = Xup_j^T F
+            j = model.parent[j]
             M[:, i, j] = M[:, j, i] = F @ S[j]                      # M_ij = S_j^T F
-        if root:                                                    # F = Xup_0^T F, the root's
-            F_root[:, :, i] = np.einsum("nki,nk->ni", Xup[:, 0], F)
+        if root:                                                    # F = Xup_j^T F, the root's
+            F_root[:, :, i] = np.einsum("nki,nk->ni", Xup[:, j], F)
     return M, IC_root, F_root

@@ -35,7 +35,7 @@ d qdd/d qd = -M^-1 d tau/d qd at qdd = FD(q, qd, tau), and d qdd/d tau = M^-1.
 import numpy as np
 
 from ..joints import PRISMATIC
-from ._batch import as_batch, mtv, mv, unbatch
+from ._batch import as_batch, mtv, mv, require_chain, unbatch
 from .crba import mass_matrix
 from .forward import forward_dynamics
 from .kinematics import joint_transforms
@@ -126,6 +126,7 @@ def _body_wrench_tangent(model, i, omega, dw, da, dl):
 
 
 def _derivatives(model, q, qd, qdd, w, base):
+    require_chain(model, "the derivatives of the dynamics")
     N, n = q.shape
     R, p, s = _forward(model, q, qd, qdd, w, base)
     dq, dqd = np.empty((N, n, n)), np.empty((N, n, n))

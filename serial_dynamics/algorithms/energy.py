@@ -3,7 +3,7 @@ docs/conventions.md)."""
 import numpy as np
 
 from ..joints import PRISMATIC
-from ._batch import as_batch, mtv, mv, unbatch
+from ._batch import as_batch, mtv, mv, require_chain, unbatch
 from .crba import mass_matrix
 from .kinematics import body_poses, joint_transforms
 from .rnea import E_Z
@@ -34,6 +34,7 @@ def kinetic_energy_gradient(model, q, qd):
     h_i the momentum of bodies k.., carried inward like the joint forces of Newton-Euler
     (x, x*: the spatial cross products of motions and forces; Featherstone 2008, Sec. 2.9;
     f . (S x u) = S . (u x* f))."""
+    require_chain(model, "dT/dq (the kinetic-energy gradient)")
     single, (q, qd) = as_batch(model, ("q", q), ("qd", qd))
     N, n = q.shape
     R, p = joint_transforms(model, q)

@@ -10,7 +10,7 @@ from ._batch import as_batch, mv, rot_z, unbatch
 
 
 def joint_transforms(model, q):
-    """Body i in body i-1 (N, n, 3, 3), (N, n, 3) for q (N, n) (Featherstone Table 4.1)."""
+    """Body i in its parent body (N, n, 3, 3), (N, n, 3) for q (N, n) (Featherstone Table 4.1)."""
     N, n = q.shape
     R = np.repeat(model.Xtree_R[None], N, axis=0)
     p = np.repeat(model.Xtree_p[None], N, axis=0)
@@ -24,13 +24,16 @@ def joint_transforms(model, q):
 
 def body_poses(model, q):
     """Joint frames of the first k bodies in the base frame: R0 (N, k, 3, 3) and origins
-    o (N, k, 3); q: (N, k), k <= n (a prefix of the chain)."""
+    o (N, k, 3); q: (N, k), k <= n (a prefix of the bodies, which holds each one's parents)."""
     R, p = joint_transforms(model, q)
     R0, o = np.empty_like(R), np.empty_like(p)
-    R0[:, 0], o[:, 0] = R[:, 0], p[:, 0]
-    for i in range(1, q.shape[1]):
-        R0[:, i] = R0[:, i - 1] @ R[:, i]              # R0_i = R0_{i-1} R_i
-        o[:, i] = o[:, i - 1] + mv(R0[:, i - 1], p[:, i])  # o_i = o_{i-1} + R0_{i-1} p_i
+    for i in range(q.shape[1]):
+        l = model.parent[i]
+        if l < 0:
+            R0[:, i], o[:, i] = R[:, i], p[:, i]
+        else:
+            R0[:, i] = R0[:, l] @ R[:, i]                # R0_i = R0_l R_i, l = parent[i]
+            o[:, i] = o[:, l] + mv(R0[:, l], p[:, i])    # o_i = o_l + R0_l p_i
     return R0, o
 
 
@@ -66,7 +69,7 @@ def forward_kinematics(model, q, link=None):
 def jacobian(model, q, link=None):
     """Geometric Jacobian (N, 6, n) of ``link``'s origin, [linear; angular], base frame.
 
-    Column j, with z_j = R0_j e_z the joint axis: revolute [z_j x (o - o_j); z_j],
+    Column j of a joint between the base and the link (zero for the others), with z_j = R0_j e_z the joint axis: revolute [z_j x (o - o_j); z_j],
     prismatic [z_j; 0].
     """
     single, (q,) = as_batch(model, ("q", q))
@@ -75,7 +78,7 @@ def jacobian(model, q, link=None):
     J = np.zeros((N, 6, n))
     if body >= 0:
         R0, o_j = body_poses(model, q[:, : body + 1])
-        for j in range(body + 1):
+        for j in model.ancestors(body):                  # the joints that move it
             z = R0[:, j, :, 2]
             if model.kind[j] == PRISMATIC:
                 J[:, :3, j] = z

@@ -18,11 +18,12 @@ the constraint matrix K, so K T = 0. With M = diag(I_i, m_i 1) and W = diag([ome
 import numpy as np
 
 from ..joints import PRISMATIC
-from ._batch import as_batch, mv, skew, unbatch
+from ._batch import as_batch, mv, skew, require_chain, unbatch
 from .kinematics import body_poses
 
 
 def _geometry(model, q):
+    require_chain(model, "the natural orthogonal complement (Coriolis matrix, QR route)")
     """Joint-frame poses R0, o; joint axes z_i = R0_i e_z; centers of mass c_i; base frame."""
     R0, o = body_poses(model, q)
     return R0, o, R0[..., 2], o + mv(R0, model.c)

@@ -81,8 +81,8 @@ def planar_pack(model, tol=TOL):
     chain does not move in one plane (or has no revolute joint)."""
     n = model.dof
     kind = np.asarray(model.kind)
-    if not np.any(kind != PRISMATIC):
-        return None                                   # no revolute joint: no plane
+    if not np.any(kind != PRISMATIC) or not model.is_chain:
+        return None                                   # no revolute joint (or a tree): no plane
     # joint frame i in the base at q = 0 (R_i = Xtree_R at q = 0 for both kinds)
     R0 = np.empty((n, 3, 3))
     R = np.eye(3)

@@ -29,7 +29,7 @@ The armature (reflected rotor inertia I_a, tau_i += I_a qdd_i) has the column qd
 import numpy as np
 
 from ..joints import PRISMATIC
-from ._batch import as_batch, mv, skew, unbatch
+from ._batch import as_batch, mv, skew, require_chain, unbatch
 from .kinematics import joint_transforms
 from .rnea import into_body, joint_rate
 
@@ -109,6 +109,7 @@ def body_block(omega, alpha, acc):
 
 
 def _regressor_joint_frames(model, q, qd, qdd):
+    require_chain(model, "the regressor")
     """Y (N, n, 10 n) for the parameters (m, h, I_O) of every body in its joint frame."""
     N, n = q.shape
     R, p = joint_transforms(model, q)

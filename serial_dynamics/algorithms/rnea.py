@@ -45,42 +45,49 @@ def _wrench_batch(wrench, N):
 
 
 def _rnea(model, q, qd, qdd, g, w, base=None, root=False):
-    """tau (N, n); with ``root``, also (f, n): the force and moment body 0 receives from the
-    base, in the base frame about its origin (a floating base: ``floating.py``)."""
+    """tau (N, n); with ``root``, also (f, n): the force and moment the bodies hanging from
+    the base receive from it, in the base frame about its origin (a floating base:
+    ``floating.py``). A tree: body i's motion starts from its parent's, l = parent[i], and
+    its joint wrench adds to l's (Featherstone 2008, Table 5.1)."""
     N, n = q.shape
     R, p = joint_transforms(model, q)
-    omega = np.zeros((N, 3))            # angular velocity of body i-1
+    omega = np.zeros((N, 3))            # angular velocity of the base
     alpha = np.zeros((N, 3))            # its angular acceleration
     acc = np.broadcast_to(-g, (N, 3))   # linear acceleration of its origin; base: -g
     if base is not None:                # a moving base: omega_0, alpha_0, acc_0 - g
         omega = np.broadcast_to(base.angular_velocity, (N, 3))
         alpha = np.broadcast_to(base.angular_acceleration, (N, 3))
         acc = np.broadcast_to(base.linear_acceleration - g, (N, 3))
+    motion = [None] * n                 # omega, alpha, acc of each body
     fB = np.empty((N, n, 3))            # rate of change of momentum of body i: force
     nB = np.empty((N, n, 3))            # and moment about its origin
     # --- outward: velocities and accelerations
     for i in range(n):
-        omega, alpha, acc = into_body(R, p, i, omega, alpha, acc)
-        omega, alpha, acc = joint_rate(model, i, omega, alpha, acc, qd[:, i], qdd[:, i])
-        fB[:, i], nB[:, i] = body_wrench(model, i, omega, alpha, acc)
+        l = model.parent[i]
+        m = into_body(R, p, i, *((omega, alpha, acc) if l < 0 else motion[l]))
+        motion[i] = joint_rate(model, i, *m, qd[:, i], qdd[:, i])
+        fB[:, i], nB[:, i] = body_wrench(model, i, *motion[i])
     # --- inward: joint forces; the tip load -w acts on the environment
-    f, nm = np.zeros((N, 3)), np.zeros((N, 3))
+    carried = [None] * n                 # what the children (and the tip load) pass to body i
     if w is not None:                    # -w in joint frame n-1, moment about its origin
-        R_tip = _tip_rotation(R)         # base <- joint frame n-1
+        R_tip = _tip_rotation(model, R)  # base <- joint frame n-1
         f = -mtv(R_tip, w[:, :3])
-        nm = -mtv(R_tip, w[:, 3:]) + np.cross(model.Xtip_p, f)
+        carried[n - 1] = (f, -mtv(R_tip, w[:, 3:]) + np.cross(model.Xtip_p, f))
     tau = np.empty((N, n))
+    into_base = None
     for i in range(n - 1, -1, -1):
-        if i < n - 1:                    # child's load into frame i: f' = R f, n' = R n + p x f'
-            f = mv(R[:, i + 1], f)
-            nm = mv(R[:, i + 1], nm) + np.cross(p[:, i + 1], f)
+        f, nm = carried[i] or (0.0, 0.0)
         f, nm = f + fB[:, i], nm + nB[:, i]
         # tau_i = S_i^T (n; f) + I_a,i qdd_i (the rotor's inertia, reflected through the gear)
         tau[:, i] = (f[:, 2] if model.kind[i] == PRISMATIC else nm[:, 2]) + model.armature[i] * qdd[:, i]
-    if root:                             # into the base frame: f' = R f, n' = R n + p x f'
-        f = mv(R[:, 0], f)
-        return tau, (f, mv(R[:, 0], nm) + np.cross(p[:, 0], f))
-    return tau
+        f = mv(R[:, i], f)               # into the parent's frame: f' = R f, n' = R n + p x f'
+        nm = mv(R[:, i], nm) + np.cross(p[:, i], f)
+        l = model.parent[i]
+        if l >= 0:
+            carried[l] = (f, nm) if carried[l] is None else (carried[l][0] + f, carried[l][1] + nm)
+        elif root:
+            into_base = (f, nm) if into_base is None else (into_base[0] + f, into_base[1] + nm)
+    return (tau, into_base) if root else tau
 
 
 def into_body(R, p, i, omega, alpha, acc):
@@ -111,10 +118,11 @@ def rigid_wrench(m, h, I_O, omega, alpha, acc):
             alpha @ I_O.T + np.cross(omega, omega @ I_O.T) + np.cross(h, acc))
 
 
-def _tip_rotation(R):
+def _tip_rotation(model, R):
     """R0 of the last joint frame (base <- joint frame n-1) from the joint rotations R."""
-    R0 = R[:, 0]
-    for i in range(1, R.shape[1]):
+    path = model.ancestors(model.dof - 1)
+    R0 = R[:, path[0]]
+    for i in path[1:]:
         R0 = R0 @ R[:, i]
     return R0
 

@@ -7,11 +7,13 @@ the algorithms (pure NumPy or compiled) can use it directly.
 Frames and conventions
 ----------------------
 Body ``i`` (0-based, ``i = 0 .. n-1``) is the link moved by joint ``i``; its frame is
-the child frame of that joint in the URDF. The placement of joint ``i`` in body
-``i-1`` (body ``-1`` is the fixed base) is the rotation ``R_parent[i]`` and the
-translation ``p_parent[i]``, so that, with ``E(q)`` the joint motion,
+the child frame of that joint in the URDF. The bodies form a tree in topological order:
+joint ``i`` hangs from body ``parent[i] < i`` (``-1``: the base), Featherstone's parent
+array lambda(i) (2008, Sec. 4.1.2); a chain is the case ``parent[i] = i - 1``. The
+placement of joint ``i`` in its parent body ``l = parent[i]`` is the rotation
+``R_parent[i]`` and the translation ``p_parent[i]``, so that, with ``E(q)`` the joint motion,
 
-    X_{i-1 <- i}(q) = (R_parent[i], p_parent[i]) * E_i(q)
+    X_{l <- i}(q) = (R_parent[i], p_parent[i]) * E_i(q)
 
     revolute:  E = (Rot(axis[i], q), 0)      prismatic: E = (1, axis[i] * q)
 
@@ -32,8 +34,8 @@ once, the chain in **joint frames**, which every algorithm (NumPy reference and 
 core alike) uses: joint frame ``i`` has body ``i``'s origin and its z axis along joint
 ``i``'s axis, ``x_link = A[i] x_joint`` (``A[i] = 1`` when the URDF axis is already +z).
 
-    Xtree_R[i], Xtree_p[i]   joint frame i in joint frame i-1 at q = 0 (frame -1: the base)
-    body i in body i-1       R = Xtree_R Rz(q), p = Xtree_p        (revolute)
+    Xtree_R[i], Xtree_p[i]   joint frame i in joint frame parent[i] at q = 0 (-1: the base)
+    body i in its parent     R = Xtree_R Rz(q), p = Xtree_p        (revolute)
                              R = Xtree_R,       p = Xtree_p + q Xtree_R e_z  (prismatic)
     c[i], I_c[i]             center of mass and rotational inertia about it
     h[i] = m c, I_O[i]       first moment and rotational inertia about the body origin
@@ -105,6 +107,8 @@ class Model:
     # the URDF the model was loaded from: a file's absolute path, or the XML text (None when
     # built by hand); kept across with_payload, read by identification's write_urdf
     source: object = None
+    # the tree: joint i hangs from body parent[i] < i (-1: the base); a chain has i - 1
+    parent: np.ndarray = None            # (n,) int
     # -- derived by build(): the chain in joint frames (the algorithms' convention)
     A: np.ndarray = None        # (n, 3, 3) joint frame i's axes in link frame i
     Xtree_R: np.ndarray = None  # (n, 3, 3)
@@ -129,6 +133,28 @@ class Model:
     def dof(self) -> int:
         """The number of bodies (joints) of the chain, mimic joints included."""
         return len(self.joint_names)
+
+    @property
+    def is_chain(self) -> bool:
+        """Every body hangs from the one before it (parent[i] = i - 1): a serial chain."""
+        return bool(np.array_equal(self.parent, np.arange(self.dof) - 1))
+
+    @cached_property
+    def children(self) -> tuple:
+        """children[i]: the bodies whose joints hang from body i (a tuple of tuples)."""
+        kids = [[] for _ in range(self.dof)]
+        for i, l in enumerate(self.parent):
+            if l >= 0:
+                kids[l].append(i)
+        return tuple(tuple(k) for k in kids)
+
+    def ancestors(self, body) -> list:
+        """The bodies from the root down to ``body`` (included; [] for -1, the base)."""
+        path = []
+        while body >= 0:
+            path.append(int(body))
+            body = self.parent[body]
+        return path[::-1]
 
     @property
     def independent(self) -> np.ndarray:
@@ -164,8 +190,9 @@ class Model:
               tip_R=None, tip_p=None, lower=None, upper=None, velocity_limit=None,
               effort_limit=None, damping=None, friction=None, frames=None, armature=None,
               mimic_leader=None, mimic_multiplier=None, mimic_offset=None, source=None,
-              check_mass_matrix=True, base_inertia=None) -> "Model":
+              check_mass_matrix=True, base_inertia=None, parent=None) -> "Model":
         """Build and validate a model; every array argument is copied and frozen.
+        ``parent``: the body each joint hangs from (parent[i] < i, -1: the base); None: a chain.
         ``base_inertia``: (mass, com, inertia about the com) of a free-floating base, in the
         base frame (None: a fixed base); ``gravity`` is then in the world frame."""
         n = len(joint_names)
@@ -201,7 +228,9 @@ class Model:
             frames=MappingProxyType({link: (int(b), _frozen(R, (3, 3)), _frozen(p, (3,)))
                                      for link, (b, R, p) in (frames or {}).items()}),
             source=source,
+            parent=_frozen(np.arange(n) - 1 if parent is None else parent, (n,), np.int64),
         )
+        _check_parent(model)
         if base_inertia is not None:
             m0, c0, I0 = (np.asarray(x, dtype=float) for x in base_inertia)
             _, _, h0, I_O0 = inertia_in_joint_frames(np.eye(3), m0, c0, I0)
@@ -227,9 +256,10 @@ class Model:
                        if arr.ndim >= 1 and arr.shape[0] == self.dof and arr_name not in
                        ("gravity", "tip_p") else "the model")
                 raise ModelError(f"{who}: {arr_name} has a NaN or Inf entry; fix the number")
-        for i in range(self.dof):      # body i's size: to its center of mass, the next joint
-            reach = self.p_parent[i + 1] if i + 1 < self.dof else self.tip_p
-            length = max(np.linalg.norm(self.com[i]), np.linalg.norm(reach))
+        for i in range(self.dof):      # body i's size: to its center of mass, the next joints
+            reach = [self.p_parent[k] for k in self.children[i]] + (
+                [self.tip_p] if i == self.dof - 1 else [])
+            length = max([np.linalg.norm(self.com[i])] + [np.linalg.norm(r) for r in reach])
             check_inertia(self.link_names[i], self.mass[i], self.inertia[i], length=length)
             R = self.R_parent[i]
             if not np.allclose(R @ R.T, np.eye(3), atol=1e-9):
@@ -326,6 +356,14 @@ class Model:
                     "Check joint axes and link inertias.")
 
 
+def _check_parent(model) -> None:
+    """The parent array lists the bodies in topological order: -1 <= parent[i] < i."""
+    for i, l in enumerate(model.parent):
+        if not -1 <= l < i:
+            raise ModelError(f"joint {model.joint_names[i]!r} hangs from body {l}: bodies must "
+                             "be in topological order, parent[i] in -1 .. i-1 (-1: the base)")
+
+
 def _check_floating_mass_matrix(model, qs) -> None:
     """A floating chain moves as a whole: its (n+6) x (n+6) mass matrix must be positive
     definite too (a base and chain with no mass, or no rotational inertia, is refused)."""
@@ -359,27 +397,26 @@ PIVOT_RTOL = 1e-12
 
 def _diagonal_and_pivots(model, qs):
     """(M_ii, D_i), each (N, n), at the configurations ``qs`` (N, n) in one inward pass:
-    composite inertias IC_{i-1} += X_i^T IC_i X_i (the CRBA's) and articulated inertias
-    IA_{i-1} += X_i^T (IA_i - U_i U_i^T / D_i) X_i (the ABA's), U_i = IA_i S_i."""
+    composite inertias IC_l += X_i^T IC_i X_i (the CRBA's) and articulated inertias
+    IA_l += X_i^T (IA_i - U_i U_i^T / D_i) X_i (the ABA's), U_i = IA_i S_i, l = parent[i]."""
     N, n = qs.shape
     X = motion_transform(*joint_transforms(model, qs))              # (N, n, 6, 6)
     Xt = np.swapaxes(X, -1, -2)
     k = np.where(model.kind == PRISMATIC, 5, 2)                      # S_i = e_k
     I = rigid_body_inertia(model.mass, model.h, model.I_O)          # (n, 6, 6)
     diag, pivot = np.empty((N, n)), np.empty((N, n))
-    IC = np.zeros((N, 6, 6))
-    IA = np.zeros((N, 6, 6))
+    IC = np.repeat(I[None], N, axis=0)
+    IA = IC.copy()
     for i in range(n - 1, -1, -1):
-        IC = IC + I[i]
-        IA = IA + I[i]
-        diag[:, i] = IC[:, k[i], k[i]] + model.armature[i]
-        U = IA[:, :, k[i]]
+        diag[:, i] = IC[:, i, k[i], k[i]] + model.armature[i]
+        U = IA[:, i, :, k[i]]
         D = U[:, k[i]] + model.armature[i]
         pivot[:, i] = D
-        if i > 0:
+        l = model.parent[i]
+        if l >= 0:
             safe = np.where(D > 0, D, np.inf)[:, None, None]         # a zero pivot is refused
-            IC = Xt[:, i] @ IC @ X[:, i]
-            IA = Xt[:, i] @ (IA - U[:, :, None] * U[:, None, :] / safe) @ X[:, i]
+            IC[:, l] += Xt[:, i] @ IC[:, i] @ X[:, i]
+            IA[:, l] += Xt[:, i] @ (IA[:, i] - U[:, :, None] * U[:, None, :] / safe) @ X[:, i]
     return diag, pivot
 
 
@@ -410,10 +447,10 @@ def axis_frame(axis) -> np.ndarray:
 
 
 def _joint_frames(model) -> dict:
-    """The chain in joint frames (module docstring), derived from the chain as given."""
+    """The bodies in joint frames (module docstring), derived from the tree as given."""
     n = model.dof
     A = np.array([axis_frame(a) for a in model.axis])
-    A_prev = np.concatenate([np.eye(3)[None], A[:-1]])          # frame -1 is the base
+    A_prev = np.concatenate([np.eye(3)[None], A])[model.parent + 1]   # the parent's (-1: base)
     At_prev = np.swapaxes(A_prev, 1, 2)
     c, I_c, h, I_O = inertia_in_joint_frames(A, model.mass, model.com, model.inertia)
     jframes = {link: (b, R if b < 0 else A[b].T @ R, p if b < 0 else A[b].T @ p)

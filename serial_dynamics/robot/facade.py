@@ -63,7 +63,8 @@ PLANAR_KERNELS = tuple(k for k in ENTRY_POINTS if k.startswith("planar"))    # a
 
 
 class Robot:
-    """Dynamics of one serial chain. Build it with ``serial_dynamics.load_urdf``."""
+    """Dynamics of one robot: a serial chain or a kinematic tree. Build it with
+    ``serial_dynamics.load_urdf``."""
 
     is_planar = False        # a planar chain on the planar fast path (PlanarRobot)
     is_floating = False      # a free-floating base (FloatingRobot)
@@ -84,7 +85,8 @@ class Robot:
         self._n, self._nn = model.dof, (model.dof, model.dof)
         # forward_dynamics(method="auto"): articulated bodies from aba.CROSSOVER joints on
         self._fd_auto = _FD_FLAGS["aba" if model.dof >= aba.CROSSOVER else "cholesky"]
-        self._compiled = backend == "numba"
+        # the compiled kernels are written for chains; a tree runs the reference (for now)
+        self._compiled = backend == "numba" and model.is_chain
         self._P = _P if _P is not None else layout.pack(model) if self._compiled else None
         self._rnea_batch, self._crba_batch = ("rnea_batch", self._P), ("crba_batch", self._P)
         # with_payload's bookkeeping: the model (and P) as loaded, and the payload attached
@@ -168,8 +170,10 @@ class Robot:
                             self._payload))
 
     def __repr__(self):
-        return (f"Robot({self.model.name!r}, dof={self.dof}, {self.base_link!r} -> "
-                f"{self.tip_link!r}, joints={self.joint_names})")
+        m = self.model
+        ends = (repr(self.tip_link) if m.is_chain else
+                f"tree to {[m.link_names[i] for i in range(m.dof) if not m.children[i]]}")
+        return f"Robot({m.name!r}, dof={self.dof}, {self.base_link!r} -> {ends}, joints={self.joint_names})"
 
     # ------------------------------------------------------------- dynamics
     # Fast path: every call first tries the compiled single-state entry point, whose one

@@ -1,10 +1,12 @@
-"""URDF -> Model: chain extraction from base_link to tip_link, and lumping.
+"""URDF -> Model: the chain or tree of joints the scene needs, and lumping.
 
 Parsed with yourdfpy; meshes are never loaded. The model is the chain of joints from
-``base_link`` to ``tip_link``. Fixed joints on the chain fold into the next joint's
-placement; links hanging off the chain by fixed joints are lumped into the inertia of
-the body they are rigidly attached to; movable joints off the chain are held at zero
-and lumped too, with one warning naming them. The XML is checked first (``xml_checks.py``);
+``base_link`` to ``tip_link``, the subtree from ``base_link`` to ``tip_links``, or by
+default every movable joint below ``base_link`` (a tree where they branch), its bodies in
+depth-first order (parents first, children in the URDF's order, as Pinocchio numbers
+them). Fixed joints in the model fold into the next joint's placement; links hanging off
+it by fixed joints are lumped into the inertia of the body they are rigidly attached to;
+movable joints outside it are held at zero and lumped too, with one warning naming them. The XML is checked first (``xml_checks.py``);
 the tree walks that find cycles and the default tip are in ``tree.py``.
 """
 from __future__ import annotations
@@ -21,7 +23,7 @@ from ..model.inertia import (MAX_INERTIA, MAX_LENGTH, MAX_MASS, check_inertia, c
 from ..model.errors import HeldJointsWarning, URDFError
 from ..model.model import Model
 from .transmissions import reflected_inertias
-from .tree import check_tree, default_tip
+from .tree import check_tree, movable_leaves, path_up, single_chain_tip
 from .xml_checks import (MOVABLE, check_elements, check_well_formed, without_harmless_header,
                          without_undeclared_prefixes)
 
@@ -118,8 +120,11 @@ def _origin(joint):
 
 
 def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
-               armature=None, floating_base=False) -> Model:
-    """Parse a URDF (path or XML string) and build the validated chain model.
+               armature=None, floating_base=False, tip_links=None) -> Model:
+    """Parse a URDF (path or XML string) and build the validated model: the chain from
+    ``base_link`` to ``tip_link``, the subtree from ``base_link`` to the links
+    ``tip_links``, or (neither given) every movable joint below ``base_link``: a chain
+    when they form one path, else the whole tree.
     ``armature``: {joint name: kg m^2}, set or override the transmissions' rotor inertia.
     ``floating_base``: the base link (with everything lumped into it) floats; so does the
     child of a ``type="floating"`` joint at the root, which is then the default base."""
@@ -132,6 +137,7 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
                                 f"{kind} names must be unique: rename or remove one")
             seen.add(item.name)
     links = {link.name: link for link in robot.links}
+    joints = {joint.name: joint for joint in robot.joints}
     parent_joint = {}
     children = {name: [] for name in links}
     for joint in robot.joints:
@@ -162,58 +168,67 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
         if name is not None and name not in links:
             raise URDFError(f"{role} {name!r} is not a link of this URDF; links are "
                             f"{sorted(links)}")
+    if tip_link is not None and tip_links is not None:
+        raise URDFError("give tip_link (one chain) or tip_links (a subtree), not both")
+    if tip_links is None:          # one chain, or the whole tree when the joints branch
+        tip = tip_link if tip_link is not None else single_chain_tip(base_link, children)
+        tips = [tip] if tip is not None else movable_leaves(base_link, children)
+    else:
+        tips = _check_tips(tip_links, links, base_link, parent_joint)
+    paths = [path_up(tip, base_link, parent_joint) for tip in tips]
+    for tip, path in zip(tips, paths):
+        if path is None:
+            raise URDFError(f"tip_link {tip!r} is not below base_link {base_link!r}; "
+                            "choose a tip in the subtree of the base")
+    chain_joints = {j.name for path in paths for j in path}   # the model's joints
+    tip_link = tips[0] if len(tips) == 1 else None
+    movable_chain = {name for name in chain_joints if joints[name].type in MOVABLE}
+    all_joints = set(joints)
+    scope = (f"chain {base_link!r} -> {tip_link!r}" if tip_link is not None else
+             f"tree {base_link!r} -> {tips}")
+    on, off = ("on the chain", "off the chain") if tip_link is not None else (
+        "in the tree", "outside the tree")
 
-    def path_up(link, stop):
-        """Joints from ``stop`` down to ``link`` (base-to-tip order), or None."""
-        path = []
-        while link != stop:
-            if link not in parent_joint:
-                return None
-            path.append(parent_joint[link])
-            link = parent_joint[link].parent
-        return path[::-1]
-
-    if tip_link is None:
-        tip_link = default_tip(base_link, children)
-    chain = path_up(tip_link, base_link)
-    if chain is None:
-        raise URDFError(f"tip_link {tip_link!r} is not below base_link {base_link!r}; "
-                        "choose a tip in the subtree of the base")
-    chain_joints = {j.name for j in chain}
-    chain_links = [base_link] + [j.child for j in chain]    # a list: lumping order is fixed
-    movable_chain = {j.name for j in chain if j.type in MOVABLE}
-    all_joints = {j.name for j in robot.joints}
-
-    # -- walk the chain: fold fixed joints, place links in bodies
+    # -- walk the model's joints depth first (parents before children, Featherstone's
+    # topological order): fold fixed joints, place links in bodies
     bodies = []                                  # dicts per movable joint
     frames = {base_link: (-1, np.eye(3), np.zeros(3))}
-    X_acc = np.eye(4)                            # next frame, in the current body
     parts = {-1: []}                             # inertia parts per body (-1: the base)
     held = []                                    # movable joints held (names, for the warning)
-    for joint in chain:
+    def below(link, body, X_link):       # the model's joints below a link, first on top
+        return [(j, body, X_link) for j in reversed(children[link]) if j.name in chain_joints]
+
+    stack = below(base_link, -1, np.eye(4))      # a joint, its parent's body, link pose there
+    while stack:
+        joint, body, X_acc = stack.pop()
         what = f"joint {joint.name!r}"
         X = X_acc @ _origin(joint)
+        child_body = body
         if joint.type in MOVABLE and joint.mimic is not None \
                 and joint.mimic.joint not in movable_chain:
-            X_acc = X @ _held_at_offset(joint, all_joints, base_link, tip_link)
-            held.append(f"joint {joint.name!r} on the chain is held at its offset "
-                        f"{_float(joint.mimic.offset, 0.0):g}: it mimics {joint.mimic.joint!r}, "
-                        "which is off the chain and held at zero")
-        elif joint.type == "fixed":
-            X_acc = X
+            X = X @ _held_at_offset(joint, all_joints, scope)
+            held.append(f"joint {joint.name!r} {on} is held at its offset "
+                        f"{_float(joint.mimic.offset, 0.0):g}: it mimics "
+                        f"{joint.mimic.joint!r}, which is {off} and held at zero")
         elif joint.type in MOVABLE:
-            bodies.append(_body(joint, X))
-            X_acc = np.eye(4)
-            parts[len(bodies) - 1] = []
+            bodies.append(dict(_body(joint, X), parent=body))
+            child_body, X = len(bodies) - 1, np.eye(4)
+            parts[child_body] = []
         elif joint.type == "floating":
-            raise URDFError(f"{what} on the chain is floating, below the root {root!r}: a "
+            raise URDFError(f"{what} {on} is floating, below the root {root!r}: a "
                             "floating joint may only join the root (the world) to the base; "
                             "make it fixed, or load the chain from its child with "
                             "floating_base=True")
-        else:
-            raise URDFError(f"{what} on the chain is of type {joint.type!r}; only revolute, "
-                            "continuous, prismatic and fixed joints can form a serial chain")
-        frames[joint.child] = (len(bodies) - 1, X_acc[:3, :3].copy(), X_acc[:3, 3].copy())
+        elif joint.type != "fixed":
+            raise URDFError(f"{what} {on} is of type {joint.type!r}; only "
+                            "revolute, continuous, prismatic and fixed joints can form a "
+                            "chain or a tree")
+        frames[joint.child] = (child_body, X[:3, :3].copy(), X[:3, 3].copy())
+        stack.extend(below(joint.child, child_body, X))
+    chain_links = list(frames)                   # the model's links, as met
+    X_acc = _pose(frames[tips[0]]) if tip_link is not None else np.eye(4)
+    if tip_link is None:
+        tip_link = bodies[-1]["link"] if bodies else base_link
 
     # -- lump every link rigidly attached to a body (chain links and off-chain subtrees)
     off_chain, followers = [], []
@@ -235,16 +250,15 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
             frames[joint.child] = (body, X[:3, :3].copy(), X[:3, 3].copy())
             stack.append((joint.child, body, X))
     if off_chain:
-        held.insert(0, f"joints {sorted(off_chain)} are off the chain: held at zero and "
+        held.insert(0, f"joints {sorted(off_chain)} are {off}: held at zero and "
                        "lumped into the link they hang from" + (
-                           f" ({', '.join(sorted(followers))} on the chain but does not "
+                           f" ({', '.join(sorted(followers))} {on} but does not "
                            "follow it: its mass stays where zero puts it; choose a tip_link "
                            "whose chain holds it to model it)" if followers else ""))
     if held:
-        warnings.warn(f"chain {base_link!r} -> {tip_link!r}: " + "; ".join(held),
-                      HeldJointsWarning, stacklevel=3)
-    rotors = _armature(xml, bodies, armature, base_link, tip_link)
-    leader, multiplier, offset = _mimic(bodies, base_link, tip_link)
+        warnings.warn(f"{scope}: " + "; ".join(held), HeldJointsWarning, stacklevel=3)
+    rotors = _armature(xml, bodies, armature, scope)
+    leader, multiplier, offset = _mimic(bodies, scope)
 
     if not bodies:
         raise URDFError(f"no movable joint between {base_link!r} and {tip_link!r}; "
@@ -269,11 +283,37 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
         velocity_limit=[b["velocity"] for b in bodies],
         effort_limit=[b["effort"] for b in bodies],
         damping=[b["damping"] for b in bodies], friction=[b["friction"] for b in bodies],
-        frames=frames, armature=rotors, mimic_leader=leader, mimic_multiplier=multiplier,
+        frames=frames, parent=[b["parent"] for b in bodies], armature=rotors, mimic_leader=leader, mimic_multiplier=multiplier,
         mimic_offset=offset, source=_kept(source), base_inertia=(
             (combine_inertias(parts[-1]) if parts[-1] else (0.0, np.zeros(3), np.zeros((3, 3))))
             if floating_base else None),
     )
+
+
+def _check_tips(tip_links, links, base_link, parent_joint):
+    """``tip_links`` as a list of distinct links of the URDF below ``base_link``, none on
+    another one's path from the base (it would add nothing)."""
+    tips = [tip_links] if isinstance(tip_links, str) else list(tip_links)
+    if not tips:
+        raise URDFError("tip_links is empty; name the links the subtree must reach, or leave "
+                        "it out for the whole tree")
+    for tip in tips:
+        if tip not in links:
+            raise URDFError(f"tip_links entry {tip!r} is not a link of this URDF; links are "
+                            f"{sorted(links)}")
+    for tip in tips:
+        path = path_up(tip, base_link, parent_joint)
+        if path is None:
+            raise URDFError(f"tip_links entry {tip!r} is not below base_link {base_link!r}; "
+                            "choose links in the subtree of the base")
+        above = {j.parent for j in path}
+        for other in tips:
+            if other != tip and other in above:
+                raise URDFError(f"tip_links entry {other!r} is on the path from {base_link!r} "
+                                f"to {tip!r}: it adds nothing; drop it")
+    if len(set(tips)) != len(tips):
+        raise URDFError(f"tip_links {tips} names a link twice; give each once")
+    return tips
 
 
 def _xml_text(source):
@@ -288,7 +328,7 @@ def _kept(source):
     return text if text is not None else os.path.abspath(os.fspath(source))
 
 
-def _mimic(bodies, base_link, tip_link):
+def _mimic(bodies, scope):
     """Per body: the index of the joint it mimics (-1: independent), multiplier, offset."""
     index = {b["name"]: i for i, b in enumerate(bodies)}
     leader, multiplier, offset = [-1] * len(bodies), [1.0] * len(bodies), [0.0] * len(bodies)
@@ -298,7 +338,7 @@ def _mimic(bodies, base_link, tip_link):
         what, lead = f"joint {b['name']!r}", b["mimic"].joint
         if lead not in index:
             raise URDFError(f"{what} on the chain mimics {lead!r}, which is not a movable joint "
-                            f"of the chain {base_link!r} -> {tip_link!r}; choose a base_link and "
+                            f"of the {scope}; choose a base_link and "
                             "tip_link whose chain holds both, or a tip_link above the mimic joint")
         if bodies[index[lead]]["mimic"] is not None:
             raise URDFError(f"{what} mimics {lead!r}, which mimics "
@@ -314,12 +354,12 @@ def _mimic(bodies, base_link, tip_link):
     return leader, multiplier, offset
 
 
-def _held_at_offset(joint, all_joints, base_link, tip_link):
+def _held_at_offset(joint, all_joints, scope):
     """The motion (4, 4) of a mimic joint on the chain whose leader is off it: the leader
     is held at zero like every joint off the chain, so the joint at multiplier * 0 + offset."""
     lead = joint.mimic.joint
     if lead not in all_joints:
-        raise URDFError(f"joint {joint.name!r} on the chain {base_link!r} -> {tip_link!r} "
+        raise URDFError(f"joint {joint.name!r} on the {scope} "
                         f"mimics {lead!r}, which is not a joint of this URDF; fix the name in "
                         "its <mimic joint=...>")
     offset = _float(joint.mimic.offset, 0.0)
@@ -332,19 +372,19 @@ def _held_at_offset(joint, all_joints, base_link, tip_link):
     return X
 
 
-def _armature(xml, bodies, override, base_link, tip_link):
+def _armature(xml, bodies, override, scope):
     """Reflected rotor inertia per chain joint: the transmissions', then ``override``."""
     names = [b["name"] for b in bodies]
     found = reflected_inertias(xml, URDFError)
     off = sorted(j for j in found if j not in names)
     if off:
-        warnings.warn(f"transmissions of joints {off} act off the chain {base_link!r} -> "
-                      f"{tip_link!r}: their rotor inertia is ignored", HeldJointsWarning,
+        warnings.warn(f"transmissions of joints {off} act off the {scope}: their rotor "
+                      "inertia is ignored", HeldJointsWarning,
                       stacklevel=4)
     for joint in override or {}:
         if joint not in names:
             raise URDFError(f"armature given for {joint!r}, which is not a movable joint of the "
-                            f"chain {base_link!r} -> {tip_link!r}; joints are {names}")
+                            f"{scope}; joints are {names}")
     merged = {**found, **(override or {})}
     for joint, value in merged.items():
         try:

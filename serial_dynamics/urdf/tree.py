@@ -1,5 +1,6 @@
-"""Walks of the URDF's link tree: that it is a tree (no cycle), and the default tip_link
-(the end of the single chain of movable joints, or a suggestion naming the longest one)."""
+"""Walks of the URDF's link tree: that it is a tree (no cycle), the path from the base to a
+link, and the default selection (the end of the single chain of movable joints, or the
+tips of the whole tree)."""
 from __future__ import annotations
 
 from ..model.errors import URDFError
@@ -27,11 +28,22 @@ def check_tree(root, links, children, parent_joint):
                         "a URDF must be a tree")
 
 
-def default_tip(base, children):
-    """The end of the chain when the movable joints below ``base`` form a single path: the
-    child of the last movable joint, followed down a unique tail of fixed joints. (A walk
-    with an explicit stack: a chain of any length, in time linear in it.)"""
-    movable = []      # (depth, joint, the nearest movable joint above it, or None)
+def path_up(link, stop, parent_joint):
+    """The joints from ``stop`` down to ``link`` (base-to-tip order), or None if ``link`` is
+    not below ``stop``."""
+    path = []
+    while link != stop:
+        if link not in parent_joint:
+            return None
+        path.append(parent_joint[link])
+        link = parent_joint[link].parent
+    return path[::-1]
+
+
+def _movable(base, children):
+    """(depth, joint, the nearest movable joint above it or None) for every movable joint
+    below ``base`` (a walk with an explicit stack: any depth, linear time)."""
+    movable = []
     stack = [(base, 0, None)]
     while stack:
         link, depth, above = stack.pop()
@@ -43,11 +55,26 @@ def default_tip(base, children):
             stack.append((joint.child, depth + 1, nearest))
     if not movable:
         raise URDFError(f"no movable joint below base_link {base!r}")
-    movable.sort(key=lambda t: (t[0], t[1].name))
+    return movable
+
+
+def single_chain_tip(base, children):
+    """The end of the chain when the movable joints below ``base`` form a single path: the
+    child of the last movable joint, followed down a unique tail of fixed joints; None
+    where they branch (the model is then a tree)."""
+    movable = sorted(_movable(base, children), key=lambda t: (t[0], t[1].name))
     for (_, j1, _), (_, j2, above2) in zip(movable, movable[1:]):
         if above2 != j1.name:        # a single path: each one's nearest movable is the last
-            raise URDFError(_branch_message(base, children, movable, j1, j2))
+            return None
     return _fixed_tail(movable[-1][1].child, children)
+
+
+def movable_leaves(base, children):
+    """The child links of the movable joints below ``base`` with no movable joint below
+    them: the tips of the whole tree."""
+    movable = _movable(base, children)
+    above = {a for _, _, a in movable}
+    return [j.child for _, j, _ in movable if j.name not in above]
 
 
 def _fixed_tail(link, children):
@@ -55,70 +82,3 @@ def _fixed_tail(link, children):
     while len(children[link]) == 1 and children[link][0].type == "fixed":
         link = children[link][0].child
     return link
-
-
-def _branch_message(base, children, movable, j1, j2):
-    """Why no tip_link is chosen, and which to choose: first the end of the longest chain
-    of movable joints (the arm, not a finger of its gripper), then every branch's end.
-
-    The longest chains are the paths of movable joints from ``base`` to the deepest branch
-    ends. Their common part is the suggestion: where they part (a gripper's fingers), it
-    ends after the last common joint, followed down the fixed links to just above the link
-    that carries the parting joints (the flange, not the hand). Chains that part at the base
-    (two arms) give one suggestion each."""
-    joint = {j.name: j for _, j, _ in movable}
-    below = {}
-    for _, j, a in movable:                                  # parents come first (by depth)
-        below.setdefault(a, []).append(j.name)
-    path = {}
-    for _, j, a in movable:
-        path[j.name] = (path[a] if a is not None else ()) + (j.name,)
-    leaves = [name for name in joint if name not in below]
-    longest = max(len(path[name]) for name in leaves)
-    deepest = sorted(path[name] for name in leaves if len(path[name]) == longest)
-    groups = {}
-    for p in deepest:                                        # chains parting at the base
-        groups.setdefault(p[0], []).append(p)
-    ends, how = [], []
-    for paths in groups.values():
-        common = 0
-        while all(len(p) > common and p[common] == paths[0][common] for p in paths):
-            common += 1
-        last = joint[paths[0][common - 1]]
-        span = f"{paths[0][0]!r} .. {last.name!r}, {common} joints"
-        if len(paths) == 1:
-            ends.append(_fixed_tail(last.child, children))
-            how.append(span + ("" if ends[-1] == last.child else ", and down its fixed links"))
-            continue
-        parting = sorted({p[common] for p in paths})
-        carrier = joint[parting[0]].parent
-        route = _links_between(last.child, carrier, children)
-        ends.append(route[-2] if len(route) > 1 else route[-1])
-        parting = " and ".join(repr(name) for name in parting)
-        how.append(span + (f", and down its fixed links to just above {carrier!r}, where "
-                           f"{parting} branch off" if len(route) > 1 else
-                           f"; {parting} branch off there"))
-    others = sorted(joint[name].child for name in leaves)
-    tips = ends + [t for t in others if t not in ends]
-    if len(ends) == 1:
-        why = f"the end of the longest chain of movable joints is {ends[0]!r} ({how[0]})"
-    else:
-        why = ("the longest chains of movable joints end at "
-               + " and ".join(f"{e!r} ({h})" for e, h in zip(ends, how)))
-    return (f"the movable joints below {base!r} branch (at {j1.name!r} and {j2.name!r}), so "
-            f"there is no single chain to pick; choose a tip_link, e.g. one of {tips}: {why}; "
-            "the others end the other branches")
-
-
-def _links_between(top, bottom, children):
-    """The links from ``top`` down to ``bottom`` (both included); ``bottom`` is below ``top``."""
-    route, stack = {}, [top]
-    while stack:
-        link = stack.pop()
-        for joint in children[link]:
-            route[joint.child] = link
-            stack.append(joint.child)
-    links = [bottom]
-    while links[-1] != top:
-        links.append(route[links[-1]])
-    return links[::-1]

@@ -7,6 +7,14 @@ regenerates the file, and says so in its commit:
 
     python test/oracles/test_output_hashes.py --write
 
+What BLAS and LAPACK compute (NumPy's QR and solves, scipy's DOP853 steps: the QR route of
+forward dynamics, the reduced solve of mimic joints, the adaptive simulations) is bitwise
+reproducible on one machine only: OpenBLAS picks its kernels by processor (the same outputs
+differ in their last bits between an AMD EPYC and an Intel Xeon, measured). Those outputs
+(``through_blas``) are compared with their values as computed here before the trees issue
+(``output_values.npz``, from commit 902364f on an Intel Xeon) to 1e-12 of their magnitude;
+every other output, the compiled kernels' own arithmetic, by its hash.
+
 Robots: the default UR5e, the UR5e with armature, a chain with mimic joints, and the
 planar 3R (the planar fast path). Outputs: inverse dynamics (with and without a tip
 wrench and a moving base), bias and gravity torques, the mass matrix, forward dynamics
@@ -26,6 +34,7 @@ import serial_dynamics as sd
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 HASHES = os.path.join(HERE, "output_hashes.json")
+VALUES = os.path.join(HERE, "output_values.npz")
 N = 37          # a batch longer than one SIMD block, with a short tail
 
 MIMIC = (   # j3 mimics j2 (1.5 q2 + 0.2), j4 mimics j1 (-0.7 q1); tilted axes
@@ -107,22 +116,40 @@ def digest(a):
     return hashlib.sha256(repr(a.shape).encode() + a.tobytes()).hexdigest()[:32]
 
 
-def all_digests():
-    return {k: digest(v) for name, robot in robots().items() for k, v in outputs(name, robot).items()}
+def through_blas(key):
+    """The outputs computed through BLAS/LAPACK, whose last bits depend on the processor."""
+    return ("[qr]" in key or "[DOP853]" in key or key.startswith("mimic/forward_dynamics")
+            or key == "mimic/simulate[symplectic_euler]")
+
+
+def all_outputs():
+    return {k: v for name, robot in robots().items() for k, v in outputs(name, robot).items()}
 
 
 def test_every_output_is_bitwise_what_it_was():
     with open(HASHES) as f:
         expected = json.load(f)
-    got = all_digests()
+    got = all_outputs()
     assert sorted(got) == sorted(expected), "the set of outputs changed: regenerate on purpose"
-    changed = [k for k in expected if got[k] != expected[k]]
+    changed = [k for k in expected if not through_blas(k) and digest(got[k]) != expected[k]]
     assert not changed, f"{len(changed)} outputs changed bits: {changed[:20]}"
+
+
+def test_the_outputs_through_blas_are_what_they_were():
+    values = np.load(VALUES)
+    got = all_outputs()
+    keys = sorted(k for k in got if through_blas(k))
+    assert keys == sorted(values.files)
+    for k in keys:
+        scale = np.max(np.abs(values[k]))
+        np.testing.assert_allclose(got[k], values[k], rtol=0, atol=1e-12 * scale, err_msg=k)
 
 
 if __name__ == "__main__":
     if "--write" not in sys.argv:
         sys.exit(pytest.main([__file__, "-q"]))
+    got = all_outputs()
     with open(HASHES, "w") as f:
-        json.dump(all_digests(), f, indent=0, sort_keys=True)
-    print(f"wrote {HASHES}")
+        json.dump({k: digest(v) for k, v in got.items()}, f, indent=0, sort_keys=True)
+    np.savez_compressed(VALUES, **{k: v for k, v in got.items() if through_blas(k)})
+    print(f"wrote {HASHES} and {VALUES}")

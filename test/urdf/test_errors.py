@@ -227,20 +227,6 @@ def test_no_movable_joint_between_base_and_tip():
            tip_link="tool")
 
 
-def test_branches_without_tip_list_the_candidates():
-    xml = urdf(l3=link("link3"), j3=joint("j3", "link1", "link3", axis="1 0 0"),
-               l4=link("link4"), j4=joint("j4", "link3", "link4", axis="0 0 1"))
-    msg = raises(sd.URDFError, xml, "branch", "tip_link", "'j2'", "'j3'", "'link2'", "'link4'")
-    assert "'link3'" not in msg.split("one of")[1]       # not a branch end
-    # the end of the longest movable chain (j1, j3, j4) comes first, and the message says so
-    assert "one of ['link4', 'link2']" in msg
-    assert "the end of the longest chain of movable joints is 'link4'" in msg
-    # naming a tip resolves it, and the other branch is held (with a warning naming it)
-    with pytest.warns(sd.HeldJointsWarning, match="j2"):
-        robot = sd.load_urdf(xml, tip_link="link4")
-    assert robot.joint_names == ["j1", "j3", "j4"]
-
-
 @pytest.mark.parametrize("kind", ["floating", "planar"])
 def test_unsupported_joint_type_on_the_chain(kind):
     raises(sd.URDFError, urdf(j2=joint("j2", "link1", "link2", kind=kind)), "'j2'", kind)
@@ -534,46 +520,6 @@ def test_the_readme_lists_each_error_under_its_class():
     assert "negative mass" in model_part and "negative mass" not in paragraph.split(
         "`sd.ModelError`")[0]
     assert "sd.RobotDescriptionError" in paragraph
-
-
-def test_the_panda_suggests_its_flange_as_tip():
-    """`serial-dynamics info panda.urdf` suggested the fingers (issue 13): the end of the
-    longest movable chain, panda_link8, comes first, and the message says how it was chosen."""
-    from pin_reference import erd
-    msg = raises(sd.URDFError, erd("panda_description/urdf/panda.urdf"), "branch")
-    assert "one of ['panda_link8', 'panda_leftfinger', 'panda_rightfinger']" in msg
-    assert "the end of the longest chain of movable joints is 'panda_link8'" in msg
-    assert "'panda_joint1' .. 'panda_joint7', 7 joints" in msg
-    assert "'panda_finger_joint1' and 'panda_finger_joint2' branch off" in msg
-
-
-def test_the_cli_suggests_the_flange(capsys):
-    from pin_reference import erd
-    from serial_dynamics import cli
-    assert cli.main(["info", erd("panda_description/urdf/panda.urdf")]) == 2
-    err = capsys.readouterr().err
-    assert "one of ['panda_link8'" in err
-
-
-def test_two_arms_suggest_both():
-    """Branches that part at the base (two arms with two fingers each) suggest each arm."""
-    parts = dict(base=link("base_link", mass=None))
-    for side in ("l", "r"):
-        parts.update({
-            f"{side}1": link(f"{side}_upper"), f"{side}2": link(f"{side}_fore"),
-            f"{side}f": link(f"{side}_flange"), f"{side}h": link(f"{side}_hand"),
-            f"{side}a": link(f"{side}_finger_a"), f"{side}b": link(f"{side}_finger_b"),
-            f"j{side}1": joint(f"{side}_shoulder", "base_link", f"{side}_upper", axis="0 0 1"),
-            f"j{side}2": joint(f"{side}_elbow", f"{side}_upper", f"{side}_fore"),
-            f"j{side}f": joint(f"{side}_flange_joint", f"{side}_fore", f"{side}_flange", kind="fixed"),
-            f"j{side}h": joint(f"{side}_hand_joint", f"{side}_flange", f"{side}_hand", kind="fixed"),
-            f"j{side}a": joint(f"{side}_fa", f"{side}_hand", f"{side}_finger_a", kind="prismatic"),
-            f"j{side}b": joint(f"{side}_fb", f"{side}_hand", f"{side}_finger_b", kind="prismatic"),
-        })
-    xml = '<robot name="two">' + "".join(parts.values()) + "</robot>"
-    msg = raises(sd.URDFError, xml, "branch")
-    assert "one of ['l_flange', 'r_flange', 'l_finger_a'" in msg
-    assert "the longest chains of movable joints end at 'l_flange'" in msg
 
 
 def test_a_long_chain_loads_without_the_dense_check():

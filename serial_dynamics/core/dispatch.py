@@ -28,7 +28,7 @@ from numba.core.dispatcher import Dispatcher
 
 from . import crba, derivatives, derivatives_lanes, energy, floating, forward, planar, planar_lanes
 from . import regressor
-from . import rnea, rnea_lanes
+from . import rnea, rnea_lanes, tree
 from .signatures import In2, Mat, Out2, Out3, Pm, Vec, compile_internal, i8
 from .status import BAD_LENGTH, NOT_CONVERGED, NOT_FINITE, OK, OTHER_TYPES   # noqa: F401 (re-exported)
 
@@ -52,10 +52,11 @@ ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core fu
     **regressor.ENTRY_POINTS,      # the torque regressor
     **energy.ENTRY_POINTS,         # dT/dq and the symplectic Euler step
     **floating.ENTRY_POINTS,       # a free-floating base on the instantaneous chain
+    **tree.ENTRY_POINTS,           # kinematic trees on the parent array
 }
 SINGLE_STATE = ("rnea", "rnea_wrench", "crba", "fd", "planar_rnea", "planar_rnea_wrench",
                 "planar_crba", "regressor", "rnea_derivatives", "fd_derivatives",
-                *floating.SINGLE_STATE)
+                *floating.SINGLE_STATE, *tree.SINGLE_STATE)
 
 
 def check_hook(dispatcher_class=Dispatcher, version=numba.__version__):
@@ -136,6 +137,14 @@ class _Kernels:
     floating_crba = _EntryPoint()
     floating_rows = _EntryPoint()
     floating_accelerations = _EntryPoint()
+    # kinematic trees (tree.py)
+    tree_rnea = _EntryPoint()
+    tree_rnea_wrench = _EntryPoint()
+    tree_crba = _EntryPoint()
+    tree_fd = _EntryPoint()
+    tree_rnea_batch = _EntryPoint()
+    tree_crba_batch = _EntryPoint()
+    tree_fd_batch = _EntryPoint()
 
     def load_all(self, names=None):
         """Compile or load ``names`` (default: every entry point)."""
@@ -150,3 +159,19 @@ if _ATTRIBUTES != set(ENTRY_POINTS):      # a new entry point needs its attribut
                        f"{sorted(_ATTRIBUTES ^ set(ENTRY_POINTS))}")
 
 K = _Kernels()
+
+
+class TreeTable:
+    """The kernels ``Robot`` calls, for a tree: the same names and signatures as K's chain
+    kernels (rnea, rnea_wrench, crba, fd and their batches), bound to ``tree.py``'s."""
+    NAMES = ("rnea", "rnea_wrench", "crba", "fd", "rnea_batch", "crba_batch", "fd_batch")
+
+    def __getattr__(self, name):
+        if name not in self.NAMES:
+            raise AttributeError(name)
+        kernel = getattr(K, "tree_" + name)
+        setattr(self, name, kernel)              # found by plain lookup from then on
+        return kernel
+
+
+TREE = TreeTable()

@@ -11,6 +11,8 @@ of bodies is ``n = P.shape[0] - 1``.
     P[i, H:H+3]     h = m c
     P[i, IO:IO+6]   I_O: xx yy zz xy xz yz
     P[i, ARM]       armature (reflected rotor inertia, kg m^2 or kg)
+    P[i, PARENT]    the body joint i hangs from (-1.0: the base); i - 1 in a chain
+    P[i, TIPPATH]   1.0 if body i is on the path from the base to body n-1 (the tip's)
 
 The entry points' external inputs ``w`` (flags.WRENCH, flags.BASE) are one vector:
 
@@ -22,9 +24,9 @@ import numpy as np
 
 from ..joints import PRISMATIC
 
-XR, XP, KIND, MASS, H, IO, ARM = 0, 9, 12, 13, 14, 17, 23
+XR, XP, KIND, MASS, H, IO, ARM, PARENT, TIPPATH = 0, 9, 12, 13, 14, 17, 23, 24, 25
 G, TIPP, TIPR, LANES = 0, 3, 6, 15
-WIDTH = 24
+WIDTH = 26
 B = 32          # samples per block of the lane-parallel batch kernel (rnea_lanes.py)
 W_F, W_M, W_OMEGA, W_ALPHA, W_ACC = 0, 3, 6, 9, 12
 W_WRENCH, W_ALL = 6, 15      # lengths of w: a tip wrench only; wrench and base motion
@@ -40,6 +42,8 @@ def pack(model) -> np.ndarray:
         P[i, XP:XP + 3] = model.Xtree_p[i]
         P[i, KIND] = 1.0 if model.kind[i] == PRISMATIC else 0.0
         P[i, ARM] = model.armature[i]
+        P[i, PARENT] = model.parent[i]
+    P[model.ancestors(n - 1), TIPPATH] = 1.0
     P[n, G:G + 3] = model.gravity
     P[n, TIPP:TIPP + 3] = model.Xtip_p
     P[n, TIPR:TIPR + 9] = model.Xtip_R.ravel()

@@ -40,6 +40,7 @@ from .batches import kernel_rows as _rows
 from .batches import run_split
 from .batches import single_external as _external
 from ..core import ENTRY_POINTS, K, OK, layout
+from ..core.dispatch import TREE
 from ..core import flags as F
 from ..model.dissipation import Dissipation
 from ..model.model import Model
@@ -84,10 +85,15 @@ class Robot:
         self._backend = backend
         self._n, self._nn = model.dof, (model.dof, model.dof)
         # forward_dynamics(method="auto"): articulated bodies from aba.CROSSOVER joints on
-        self._fd_auto = _FD_FLAGS["aba" if model.dof >= aba.CROSSOVER else "cholesky"]
-        # the compiled kernels are written for chains; a tree runs the reference (for now)
-        self._compiled = backend == "numba" and model.is_chain
-        self._P = _P if _P is not None else layout.pack(model) if self._compiled else None
+        # on a tree only the Cholesky route is compiled: method="aba" runs the reference
+        self._fd_flags = _FD_FLAGS if model.is_chain else {"cholesky": F.QD}
+        self._fd_auto = self._fd_flags["aba" if model.dof >= aba.CROSSOVER and model.is_chain
+                                       else "cholesky"]
+        # the compiled kernels: K's for a chain, the tree table (core/tree.py) for a tree;
+        # _compiled says that the chain kernels apply (derivatives, regressor, dT/dq, sim/)
+        self._k = None if backend != "numba" else K if model.is_chain else TREE
+        self._compiled = self._k is K
+        self._P = _P if _P is not None else layout.pack(model) if self._k is not None else None
         self._rnea_batch, self._crba_batch = ("rnea_batch", self._P), ("crba_batch", self._P)
         # with_payload's bookkeeping: the model (and P) as loaded, and the payload attached
         self._loaded, self._payload = _loaded or (model, self._P), _payload
@@ -188,48 +194,52 @@ class Robot:
     # ``base_motion``: a ``BaseMotion`` (a base with known motion), None for a base at rest.
     def inverse_dynamics(self, q, qd, qdd, wrench=None, base_motion=None, out=None):
         """tau = M(q) qdd + b(q, qd) - J^T w  (rigid body; no friction). N m / N."""
-        if self._compiled:
+        k = self._k
+        if k is not None:
             o = _empty(self._n) if out is None else out
             if base_motion is None:
-                if (K.rnea(self._P, q, qd, qdd, _QD_QDD, o) if wrench is None else
-                        K.rnea_wrench(self._P, q, qd, qdd, wrench, _QD_QDD_W, o)) == OK:
+                if (k.rnea(self._P, q, qd, qdd, _QD_QDD, o) if wrench is None else
+                        k.rnea_wrench(self._P, q, qd, qdd, wrench, _QD_QDD_W, o)) == OK:
                     return o
-            elif K.rnea_wrench(self._P, q, qd, qdd, *_external(base_motion, wrench, _QD_QDD), o) == OK:
+            elif k.rnea_wrench(self._P, q, qd, qdd, *_external(base_motion, wrench, _QD_QDD), o) == OK:
                 return o
         return _into(out, self._rnea_general((("q", q), ("qd", qd), ("qdd", qdd)), wrench,
                                              base_motion))
 
     def mass_matrix(self, q, out=None):
         """M(q), the generalized inertia matrix."""
-        if not self._compiled:
+        k = self._k
+        if k is None:
             return _into(out, crba.mass_matrix(self.model, q))
         o = _empty(self._nn) if out is None else out
-        if K.crba(self._P, q, o) == OK:
+        if k.crba(self._P, q, o) == OK:
             return o
         single, (q,) = as_batch(self.model, ("q", q))
         q = _rows(q)
         M = np.empty((q.shape[0], self._n, self._n))
-        _parallel(getattr(K, self._crba_batch[0]), self._crba_batch[1], q.shape[0], (q,), (), M)
+        _parallel(getattr(k, self._crba_batch[0]), self._crba_batch[1], q.shape[0], (q,), (), M)
         return _into(out, M[0] if single else M)
 
     def bias_torques(self, q, qd, wrench=None, base_motion=None, out=None):
         """b(q, qd) - J^T w = C(q, qd) qd + g(q) - J^T w (and the base motion's torques)."""
-        if self._compiled:
+        k = self._k
+        if k is not None:
             o = _empty(self._n) if out is None else out
             if base_motion is None:
-                if (K.rnea(self._P, q, qd, q, _QD, o) if wrench is None else
-                        K.rnea_wrench(self._P, q, qd, q, wrench, _QD_W, o)) == OK:
+                if (k.rnea(self._P, q, qd, q, _QD, o) if wrench is None else
+                        k.rnea_wrench(self._P, q, qd, q, wrench, _QD_W, o)) == OK:
                     return o
-            elif K.rnea_wrench(self._P, q, qd, q, *_external(base_motion, wrench, _QD), o) == OK:
+            elif k.rnea_wrench(self._P, q, qd, q, *_external(base_motion, wrench, _QD), o) == OK:
                 return o
         return _into(out, self._rnea_general((("q", q), ("qd", qd), ("qdd", None)), wrench,
                                              base_motion))
 
     def gravity_torques(self, q, out=None):
         """g(q): the torques that hold the chain still (the textbook's gamma is -g)."""
-        if self._compiled:
+        k = self._k
+        if k is not None:
             o = _empty(self._n) if out is None else out
-            if K.rnea(self._P, q, q, q, 0, o) == OK:
+            if k.rnea(self._P, q, q, q, 0, o) == OK:
                 return o
         return _into(out, self._rnea_general((("q", q), ("qd", None), ("qdd", None)), None, None))
 
@@ -242,16 +252,17 @@ class Robot:
         """qdd for applied torques tau (rigid body). ``method``: "auto" (Cholesky for short
         chains, articulated bodies from ``algorithms.aba.CROSSOVER`` joints on),
         "cholesky", "aba" (O(n)) or "qr" (for ill-conditioned chains)."""
-        flags = self._fd_auto if method == "auto" else _FD_FLAGS.get(method)
-        if flags is not None and self._compiled:
+        flags = self._fd_auto if method == "auto" else self._fd_flags.get(method)
+        k = self._k
+        if flags is not None and k is not None:
             o = _empty(self._n) if out is None else out
             if base_motion is None:
-                if K.fd(self._P, q, qd, tau, _W0 if wrench is None else wrench,
+                if k.fd(self._P, q, qd, tau, _W0 if wrench is None else wrench,
                         flags if wrench is None else flags | F.WRENCH, o) == OK:
                     return o
-            elif K.fd(self._P, q, qd, tau, *_external(base_motion, wrench, flags), o) == OK:
+            elif k.fd(self._P, q, qd, tau, *_external(base_motion, wrench, flags), o) == OK:
                 return o
-        if not self._compiled or flags is None:
+        if k is None or flags is None:
             base_motion = check_base_motion(base_motion)
             if method == "auto":
                 method = "aba" if flags & F.ABA else "cholesky"
@@ -268,14 +279,14 @@ class Robot:
         q, qd, tau = _rows(q), _rows(qd), _rows(tau)
         N = max(q.shape[0], qd.shape[0], tau.shape[0])
         qdd = np.empty((N, self._n))
-        if _parallel(K.fd_batch, self._P, N, (q, qd, tau, w), (flags,), qdd) != OK:
+        if _parallel(k.fd_batch, self._P, N, (q, qd, tau, w), (flags,), qdd) != OK:
             raise ValueError("wrench has a NaN or Inf entry; give finite numbers")
         return _into(out, qdd[0] if single else qdd)
 
     # general path: validate like the reference, then one batch kernel call
     def _rnea_general(self, named, wrench, base_motion):
         base_motion = check_base_motion(base_motion)
-        if not self._compiled:
+        if self._k is None:
             return rnea.inverse_dynamics(self.model, *(x for _, x in named), wrench,
                                          base_motion=base_motion)
         single, (q, qd, qdd) = as_batch(self.model, *named)   # raises the reference's ValueError
@@ -287,7 +298,7 @@ class Robot:
         w, flags = self._external_rows(wrench, base_motion, N, flags)
         out = np.empty((N, self._n))
         kernel, model = self._rnea_batch if base_motion is None else ("rnea_batch", self._P)
-        if _parallel(getattr(K, kernel), model, N, (q, qd, qdd, w), (flags,), out) != OK:
+        if _parallel(getattr(self._k, kernel), model, N, (q, qd, qdd, w), (flags,), out) != OK:
             raise ValueError("wrench has a NaN or Inf entry; give finite numbers")
         return out[0] if single else out
 
@@ -343,8 +354,8 @@ class Robot:
     def compiled_chain(self):
         """The packed model ``P`` that sim/'s compiled whole-step kernels (the semi-implicit
         Euler loop, the symplectic Euler step) run on in this robot's coordinates, or None
-        where they cannot: the NumPy backend, the reduced system of mimic joints."""
-        return self._P
+        where they cannot: the NumPy backend, the reduced system of mimic joints, a tree."""
+        return self._P if self._compiled else None
 
     def dissipation_torques(self, qd):
         """delta(qd) of the current dissipation model (oppose the motion)."""
@@ -361,7 +372,7 @@ class Robot:
 
     def kinetic_energy(self, q, qd):
         """T = 1/2 qd^T M(q) qd (J), with this robot's (compiled) mass matrix."""
-        if not self._compiled:
+        if self._k is None:
             return energy.kinetic_energy(self.model, q, qd)
         single, (q, qd) = as_batch(self.model, ("q", q), ("qd", qd))
         T = 0.5 * np.einsum("ni,nij,nj->n", qd, self.mass_matrix(_rows(q)), qd)
@@ -376,9 +387,11 @@ class Robot:
     def kernels(self, batch=False):
         """The compiled kernels of the dynamics methods (what ``warmup`` loads): those of one
         state a call, and with ``batch`` those of batches too; () on the numpy backend."""
-        if not self._compiled:
+        if self._k is None:
             return ()
         names = SINGLE_KERNELS + (BATCH_KERNELS if batch else ())
+        if self._k is TREE:
+            return tuple("tree_" + name for name in names)
         return names + tuple(k for k in PLANAR_KERNELS if self.is_planar
                              and (batch or not k.endswith("batch")))
 

@@ -62,7 +62,7 @@ def _info(robot):
     info = _INFO.get(robot)
     if info is None:
         m = robot.model
-        L = None if robot._P is None else regressor_layout(robot._P, m.A)
+        L = regressor_layout(robot._P, m.A) if robot._compiled else None   # chains only
         info = _INFO.setdefault(robot, (L, bool(np.any(m.armature > 0))))
     return info
 

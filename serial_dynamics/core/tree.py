@@ -1,0 +1,233 @@
+"""Kinematic trees, compiled: Newton-Euler, the composite-rigid-body algorithm and forward
+dynamics (Cholesky) on the parent array lambda(i) (``P[i, PARENT]``; Featherstone 2008,
+Tables 5.1 and 6.2, whose loops are written for trees).
+
+The same steps as the chain kernels (``rnea.py``'s ``outward_step``, ``body_wrench``,
+``tip_load``; ``spatial.to_parent``), with the recursion on lambda(i): the outward pass
+starts body i from its parent's motion (stored per body, ``mo``; a chain carries it in
+registers), the inward pass adds body i's joint wrench to its parent's, and the CRBA
+climbs the ancestors j = lambda(j) for the off-diagonal entries. A chain keeps the chain
+kernels (``Robot`` picks the table from the model; their bits are the chain's). The tip
+wrench acts on body n-1 (the last leaf) and is carried into its frame along its path
+(``P[i, TIPPATH]``).
+"""
+from numba import njit, types
+
+from . import flags as F
+from .cholesky import cholesky_solve
+from .data import new_chol, new_kin, stack_empty
+from .layout import ARM, H, IO, KIND, MASS, PARENT, TIPPATH, W_ALL, W_WRENCH
+from .rnea import base_state, body_wrench, joint_rates, outward_step, tip_load
+from .signatures import D1, D2, D3, In1, In2, Mat, Out1, Out2, Out3, Pm, Vec, f8, i8, internal
+from .spatial import finite, joint_transforms, rotation, to_child, to_parent
+from .status import BAD_LENGTH, NOT_FINITE, OK, status
+
+
+def tree_rnea_core(P, sc, R, p, f, mo, q, qd, qdd, w, flags, tau):
+    """tau = M qdd + b - J^T w of a tree into ``tau``; fills sc, R, p (the joint transforms),
+    f and mo (each body's omega, alpha, acc). Returns 0.0, or NaN on a NaN/Inf input."""
+    n = tau.shape[0]
+    use_qdd, use_w = (flags & F.QDD) != 0, (flags & F.WRENCH) != 0
+    chk = joint_transforms(P, sc, R, p, q, n)
+    base, (ex, ey, ez, mx, my, mz), chk = base_state(P, w, flags, n, chk)
+    for i in range(n):
+        dq, ddq, c = joint_rates(qd, qdd, i, flags)
+        chk += c
+        l = int(P[i, PARENT])
+        # the parent's omega, alpha, acc (the base's: base_state), carried in and moved
+        wx, wy, wz, ax, ay, az, lx, ly, lz = base if l < 0 else (
+            mo[l, 0], mo[l, 1], mo[l, 2], mo[l, 3], mo[l, 4], mo[l, 5], mo[l, 6], mo[l, 7], mo[l, 8])
+        wx, wy, wz, ax, ay, az, lx, ly, lz = outward_step(P, R, p, i, wx, wy, wz, ax, ay, az,
+                                                          lx, ly, lz, dq, ddq)
+        mo[i, 0], mo[i, 1], mo[i, 2], mo[i, 3], mo[i, 4] = wx, wy, wz, ax, ay
+        mo[i, 5], mo[i, 6], mo[i, 7], mo[i, 8] = az, lx, ly, lz
+        f[i, 0], f[i, 1], f[i, 2], f[i, 3], f[i, 4], f[i, 5] = body_wrench(
+            P, i, wx, wy, wz, ax, ay, az, lx, ly, lz)
+        if use_w and P[i, TIPPATH] != 0.0:          # the tip wrench into frame i
+            ex, ey, ez = to_child(R, i, ex, ey, ez)
+            mx, my, mz = to_child(R, i, mx, my, mz)
+    if use_w:                                        # the load -w on the tip's body
+        k = n - 1
+        f[k, 0], f[k, 1], f[k, 2], f[k, 3], f[k, 4], f[k, 5] = tip_load(
+            P, n, f[k, 0], f[k, 1], f[k, 2], f[k, 3], f[k, 4], f[k, 5], ex, ey, ez, mx, my, mz)
+    # inward: tau_i = S_i^T f_i + I_a,i qdd_i;  f_lambda(i) += Xup_i^T f_i
+    for i in range(n - 1, -1, -1):
+        nx, ny, nz, fx, fy, fz = f[i, 0], f[i, 1], f[i, 2], f[i, 3], f[i, 4], f[i, 5]
+        tau[i] = (nz if P[i, KIND] == 0.0 else fz) + P[i, ARM] * (qdd[i] if use_qdd else 0.0)
+        l = int(P[i, PARENT])
+        if l >= 0:
+            nx, ny, nz, fx, fy, fz = to_parent(R, p, i, nx, ny, nz, fx, fy, fz)
+            f[l, 0], f[l, 1], f[l, 2] = f[l, 0] + nx, f[l, 1] + ny, f[l, 2] + nz
+            f[l, 3], f[l, 4], f[l, 5] = f[l, 3] + fx, f[l, 4] + fy, f[l, 5] + fz
+    return chk
+
+
+tree_rnea_core = internal(f8(Pm, D2, D3, D2, D2, D2, In1, In1, In1, In1, i8, Out1))(tree_rnea_core)
+
+
+@njit(cache=True, inline="always")
+def composite_in_parent(r, px, py, pz, m, hx, hy, hz, Ixx, Iyy, Izz, Ixy, Ixz, Iyz):
+    """A composite body's ten inertial parameters (m, h = m c, I_O), given in body i's frame,
+    in the parent's frame (R_i = r, origin p): h' = R h + m p and, by parallel axes,
+    I' = R I_O R^T + (2 (R h).p + m p.p) 1 - ((R h) p^T + p (R h)^T + m p p^T)
+    (Featherstone 2008, eq. 2.63)."""
+    r0, r1, r2, r3, r4, r5, r6, r7, r8 = r
+    gx, gy, gz = r0 * hx + r1 * hy + r2 * hz, r3 * hx + r4 * hy + r5 * hz, r6 * hx + r7 * hy + r8 * hz
+    t0, t1, t2 = r0 * Ixx + r1 * Ixy + r2 * Ixz, r0 * Ixy + r1 * Iyy + r2 * Iyz, r0 * Ixz + r1 * Iyz + r2 * Izz
+    t3, t4, t5 = r3 * Ixx + r4 * Ixy + r5 * Ixz, r3 * Ixy + r4 * Iyy + r5 * Iyz, r3 * Ixz + r4 * Iyz + r5 * Izz
+    t6, t7, t8 = r6 * Ixx + r7 * Ixy + r8 * Ixz, r6 * Ixy + r7 * Iyy + r8 * Iyz, r6 * Ixz + r7 * Iyz + r8 * Izz
+    d = 2.0 * (gx * px + gy * py + gz * pz) + m * (px * px + py * py + pz * pz)
+    return (m, gx + m * px, gy + m * py, gz + m * pz,
+            t0 * r0 + t1 * r1 + t2 * r2 + d - 2.0 * gx * px - m * px * px,
+            t3 * r3 + t4 * r4 + t5 * r5 + d - 2.0 * gy * py - m * py * py,
+            t6 * r6 + t7 * r7 + t8 * r8 + d - 2.0 * gz * pz - m * pz * pz,
+            t0 * r3 + t1 * r4 + t2 * r5 - gx * py - px * gy - m * px * py,
+            t0 * r6 + t1 * r7 + t2 * r8 - gx * pz - px * gz - m * px * pz,
+            t3 * r6 + t4 * r7 + t5 * r8 - gy * pz - py * gz - m * py * pz)
+
+
+def tree_crba_core(P, R, p, IC, M):
+    """M of a tree into ``M`` (n, n); R, p hold the joint transforms. IC (n, 10): the
+    composite bodies' (m, h, I_O: xx yy zz xy xz yz), each in its joint frame."""
+    n = M.shape[0]
+    for i in range(n):
+        for j in range(n):
+            M[i, j] = 0.0                            # bodies on other branches: no coupling
+        IC[i, 0], IC[i, 1], IC[i, 2], IC[i, 3] = P[i, MASS], P[i, H], P[i, H + 1], P[i, H + 2]
+        for k in range(6):
+            IC[i, 4 + k] = P[i, IO + k]
+    for i in range(n - 1, -1, -1):
+        m, hx, hy, hz = IC[i, 0], IC[i, 1], IC[i, 2], IC[i, 3]
+        Ixx, Iyy, Izz, Ixy, Ixz, Iyz = IC[i, 4], IC[i, 5], IC[i, 6], IC[i, 7], IC[i, 8], IC[i, 9]
+        # F = IC_i S_i; M_ii = S_i^T F + I_a,i
+        if P[i, KIND] == 0.0:       # unit spin about z: n = I_O e_z, f = e_z x h
+            nx, ny, nz, fx, fy, fz = Ixz, Iyz, Izz, -hy, hx, 0.0
+            M[i, i] = nz + P[i, ARM]
+        else:                       # unit slide along z: n = h x e_z, f = m e_z
+            nx, ny, nz, fx, fy, fz = hy, -hx, 0.0, 0.0, 0.0, m
+            M[i, i] = fz + P[i, ARM]
+        j = i
+        while P[j, PARENT] >= 0.0:  # up the ancestors: F = Xup_j^T F, M_ji = S_j^T F
+            nx, ny, nz, fx, fy, fz = to_parent(R, p, j, nx, ny, nz, fx, fy, fz)
+            j = int(P[j, PARENT])
+            M[j, i] = nz if P[j, KIND] == 0.0 else fz
+            M[i, j] = M[j, i]
+        l = int(P[i, PARENT])
+        if l >= 0:                  # IC_lambda(i) += Xup_i^T IC_i Xup_i
+            c = composite_in_parent(rotation(R, i), p[i, 0], p[i, 1], p[i, 2],
+                                    m, hx, hy, hz, Ixx, Iyy, Izz, Ixy, Ixz, Iyz)
+            for k in range(10):
+                IC[l, k] += c[k]
+
+
+tree_crba_core = internal(types.void(Pm, D3, D2, D2, Out2))(tree_crba_core)
+
+
+def tree_fd_core(P, sc, R, p, f, mo, IC, M, b, q, qd, tau, w, flags, out):
+    """qdd of a tree into ``out``: M qdd = tau - b + J^T w by Cholesky (Featherstone 2008,
+    Sec. 6.3). Returns 0.0, or NaN on a NaN/Inf input."""
+    n = out.shape[0]
+    chk = tree_rnea_core(P, sc, R, p, f, mo, q, qd, q, w, flags & (F.QD | F.WRENCH | F.BASE), b)
+    for i in range(n):
+        chk += finite(tau[i])
+        b[i] = tau[i] - b[i]
+    tree_crba_core(P, R, p, IC, M)
+    cholesky_solve(M, b, out)
+    return chk
+
+
+tree_fd_core = internal(f8(Pm, D2, D3, D2, D2, D2, D2, D2, D1, In1, In1, In1, In1, i8, Out1),
+                        calls=("tree_rnea_core", "tree_crba_core", "cholesky_solve"))(tree_fd_core)
+
+
+# ------------------------------------------------------------------ entry points
+# The chain kernels' signatures (dispatch.py), so that ``Robot`` calls either table alike.
+def tree_rnea(P, q, qd, qdd, flags, out):
+    n = P.shape[0] - 1
+    if q.shape[0] != n or qd.shape[0] != n or qdd.shape[0] != n or out.shape[0] != n:
+        return BAD_LENGTH
+    d = new_kin(n)
+    return status(tree_rnea_core(P, d.sc, d.R, d.p, d.f, stack_empty((n, 9)), q, qd, qdd, q,
+                                 flags & (F.QD | F.QDD), out))
+
+
+def tree_rnea_wrench(P, q, qd, qdd, w, flags, out):
+    n = P.shape[0] - 1
+    if (q.shape[0] != n or qd.shape[0] != n or qdd.shape[0] != n or out.shape[0] != n
+            or w.shape[0] != (W_ALL if (flags & F.BASE) != 0 else W_WRENCH)):
+        return BAD_LENGTH
+    d = new_kin(n)
+    return status(tree_rnea_core(P, d.sc, d.R, d.p, d.f, stack_empty((n, 9)), q, qd, qdd, w,
+                                 flags, out))
+
+
+def tree_crba(P, q, out):
+    n = P.shape[0] - 1
+    if q.shape[0] != n or out.shape[0] != n or out.shape[1] != n:
+        return BAD_LENGTH
+    d = new_kin(n)
+    chk = joint_transforms(P, d.sc, d.R, d.p, q, n)
+    tree_crba_core(P, d.R, d.p, stack_empty((n, 10)), out)
+    return status(chk)
+
+
+def tree_fd(P, q, qd, tau, w, flags, out):
+    n = P.shape[0] - 1
+    if (q.shape[0] != n or qd.shape[0] != n or tau.shape[0] != n or out.shape[0] != n
+            or w.shape[0] != (W_ALL if (flags & F.BASE) != 0 else W_WRENCH)):
+        return BAD_LENGTH
+    d, c = new_kin(n), new_chol(n)
+    return status(tree_fd_core(P, d.sc, d.R, d.p, d.f, stack_empty((n, 9)),
+                               stack_empty((n, 10)), c.M, c.b, q, qd, tau, w, flags, out))
+
+
+def tree_rnea_batch(P, q, qd, qdd, w, flags, out):
+    """Inverse dynamics of N states (a row of 1 broadcasts). Returns OK or NOT_FINITE."""
+    N, n = out.shape[0], P.shape[0] - 1
+    d, mo = new_kin(n), stack_empty((n, 9))
+    nq, nv, na, nw = q.shape[0] > 1, qd.shape[0] > 1, qdd.shape[0] > 1, w.shape[0] > 1
+    bad = OK
+    for k in range(N):
+        if tree_rnea_core(P, d.sc, d.R, d.p, d.f, mo, q[k if nq else 0], qd[k if nv else 0],
+                          qdd[k if na else 0], w[k if nw else 0], flags, out[k]) != 0.0:
+            bad = NOT_FINITE
+    return bad
+
+
+def tree_crba_batch(P, q, out):
+    N, n = out.shape[0], P.shape[0] - 1
+    d, IC = new_kin(n), stack_empty((n, 10))
+    bad = OK
+    for k in range(N):
+        if joint_transforms(P, d.sc, d.R, d.p, q[k], n) != 0.0:
+            bad = NOT_FINITE
+        tree_crba_core(P, d.R, d.p, IC, out[k])
+    return bad
+
+
+def tree_fd_batch(P, q, qd, tau, w, flags, out):
+    N, n = out.shape[0], P.shape[0] - 1
+    d, c, mo, IC = new_kin(n), new_chol(n), stack_empty((n, 9)), stack_empty((n, 10))
+    nq, nv, nt, nw = q.shape[0] > 1, qd.shape[0] > 1, tau.shape[0] > 1, w.shape[0] > 1
+    bad = OK
+    for k in range(N):
+        if tree_fd_core(P, d.sc, d.R, d.p, d.f, mo, IC, c.M, c.b, q[k if nq else 0],
+                        qd[k if nv else 0], tau[k if nt else 0], w[k if nw else 0],
+                        flags & ~F.DAMPING, out[k]) != 0.0:
+            bad = NOT_FINITE
+    return bad
+
+
+_FD = ("tree_fd_core",)
+ENTRY_POINTS = {
+    "tree_rnea": (tree_rnea, i8(Pm, Vec, Vec, Vec, i8, Vec), False, ("tree_rnea_core",)),
+    "tree_rnea_wrench": (tree_rnea_wrench, i8(Pm, Vec, Vec, Vec, Vec, i8, Vec), False,
+                         ("tree_rnea_core",)),
+    "tree_crba": (tree_crba, i8(Pm, Vec, Mat), False, ("tree_crba_core",)),
+    "tree_fd": (tree_fd, i8(Pm, Vec, Vec, Vec, Vec, i8, Vec), False, _FD),
+    "tree_rnea_batch": (tree_rnea_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True,
+                        ("tree_rnea_core",)),
+    "tree_crba_batch": (tree_crba_batch, i8(Pm, In2, Out3), True, ("tree_crba_core",)),
+    "tree_fd_batch": (tree_fd_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True, _FD),
+}
+SINGLE_STATE = ("tree_rnea", "tree_rnea_wrench", "tree_crba", "tree_fd")

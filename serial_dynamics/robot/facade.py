@@ -45,6 +45,7 @@ from ..core import flags as F
 from ..model.dissipation import Dissipation
 from ..model.model import Model
 from ..model.payload import Payload, attach
+from .wrenches import generalized_forces
 from .common import FD_METHODS, PARALLEL_MIN, QD, QD_QDD, QD_QDD_W, QD_W
 from .common import into as _into
 from .floating import Floating
@@ -192,8 +193,12 @@ class Robot:
     # instead of a new one, as NumPy's out= (a 1 kHz loop then allocates nothing); returned.
     # After an error its contents are undefined.
     # ``base_motion``: a ``BaseMotion`` (a base with known motion), None for a base at rest.
-    def inverse_dynamics(self, q, qd, qdd, wrench=None, base_motion=None, out=None):
+    def inverse_dynamics(self, q, qd, qdd, wrench=None, base_motion=None, out=None,
+                         wrenches=None):
         """tau = M(q) qdd + b(q, qd) - J^T w  (rigid body; no friction). N m / N."""
+        if wrenches is not None:     # wrenches on links: - sum_k J_k^T w_k (robot/wrenches.py)
+            return _into(out, self.inverse_dynamics(q, qd, qdd, wrench, base_motion)
+                         - generalized_forces(self, q, wrenches))
         k = self._k
         if k is not None:
             o = _empty(self._n) if out is None else out
@@ -220,8 +225,11 @@ class Robot:
         _parallel(getattr(k, self._crba_batch[0]), self._crba_batch[1], q.shape[0], (q,), (), M)
         return _into(out, M[0] if single else M)
 
-    def bias_torques(self, q, qd, wrench=None, base_motion=None, out=None):
+    def bias_torques(self, q, qd, wrench=None, base_motion=None, out=None, wrenches=None):
         """b(q, qd) - J^T w = C(q, qd) qd + g(q) - J^T w (and the base motion's torques)."""
+        if wrenches is not None:
+            return _into(out, self.bias_torques(q, qd, wrench, base_motion)
+                         - generalized_forces(self, q, wrenches))
         k = self._k
         if k is not None:
             o = _empty(self._n) if out is None else out
@@ -248,10 +256,14 @@ class Robot:
         return noc.coriolis_matrix(self.model, q, qd)
 
     def forward_dynamics(self, q, qd, tau, wrench=None, method="auto", base_motion=None,
-                         out=None):
+                         out=None, wrenches=None):
         """qdd for applied torques tau (rigid body). ``method``: "auto" (Cholesky for short
         chains, articulated bodies from ``algorithms.aba.CROSSOVER`` joints on),
         "cholesky", "aba" (O(n)) or "qr" (for ill-conditioned chains)."""
+        if wrenches is not None:     # wrenches on links: tau + sum_k J_k^T w_k
+            return _into(out, self.forward_dynamics(
+                q, qd, np.asarray(tau, dtype=float) + generalized_forces(self, q, wrenches),
+                wrench, method, base_motion))
         flags = self._fd_auto if method == "auto" else self._fd_flags.get(method)
         k = self._k
         if flags is not None and k is not None:

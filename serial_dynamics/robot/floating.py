@@ -35,6 +35,7 @@ from ..core.layout import B, W_ALL
 from ..core.layout import pack as layout_pack
 from ..model import Model
 from .batches import kernel_rows, run_split
+from .wrenches import generalized_forces
 from .common import PARALLEL_MIN
 from .common import into as _into
 
@@ -81,9 +82,13 @@ class Floating:
     # straight to the single-state entry point, which answers 3 for other argument types
     # and 1 or 2 for a bad value or length; those calls, and batches, take the general
     # path: validation with the reference's messages, then one batch kernel call.
-    def inverse_dynamics(self, q, qd, qdd, wrench=None, base_motion=None, out=None):
+    def inverse_dynamics(self, q, qd, qdd, wrench=None, base_motion=None, out=None,
+                         wrenches=None):
         """tau (n+6,): [base force; base moment] (base frame) and joint torques for the
         accelerations qdd = dv/dt (n+6); ``wrench`` on the tip, world coordinates."""
+        if wrenches is not None:     # wrenches on links: - sum_k J_k^T w_k (robot/wrenches.py)
+            return _into(out, self.inverse_dynamics(q, qd, qdd, wrench, base_motion)
+                         - generalized_forces(self, q, wrenches))
         if self._compiled and base_motion is None:        # the single-state fast path
             o = _empty(self._nv) if out is None else out
             if wrench is None:
@@ -134,8 +139,11 @@ class Floating:
                                               self._gw[None]), (0, "crba"), (M,), PARALLEL_MIN, B)
         return _into(out, M[0] if single else M)
 
-    def bias_torques(self, q, qd, wrench=None, base_motion=None, out=None):
+    def bias_torques(self, q, qd, wrench=None, base_motion=None, out=None, wrenches=None):
         """b (n+6,) = inverse_dynamics(q, v, 0, wrench)."""
+        if wrenches is not None:
+            return _into(out, self.bias_torques(q, qd, wrench, base_motion)
+                         - generalized_forces(self, q, wrenches))
         _no_base_motion(base_motion)
         if not self._compiled:
             return _into(out, fb.bias(self.model, q, qd, wrench))
@@ -150,10 +158,14 @@ class Floating:
         return self.inverse_dynamics(q, zero, zero, out=out)
 
     def forward_dynamics(self, q, qd, tau, wrench=None, method="auto", base_motion=None,
-                         out=None):
+                         out=None, wrenches=None):
         """a = dv/dt (n+6,) for joint torques ``tau`` (n,) (the base free) or generalized
         forces (n+6,). ``method``: "auto", "aba" (articulated bodies through the floating
         root, FDfb) or "cholesky" (M a = tau - b)."""
+        if wrenches is not None:     # wrenches on links: tau + sum_k J_k^T w_k
+            return _into(out, self.forward_dynamics(
+                q, qd, np.asarray(tau, dtype=float) + generalized_forces(self, q, wrenches),
+                wrench, method, base_motion))
         flags = self._fd_auto if method == "auto" else _FD_FLAGS.get(method)
         if self._compiled and base_motion is None and flags is not None:   # the fast path
             o = _empty(self._nv) if out is None else out

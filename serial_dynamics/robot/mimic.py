@@ -24,6 +24,7 @@ from numba import njit
 from ..algorithms._batch import as_batch
 from ..model.dissipation import Dissipation
 from . import derivatives, regressor
+from .wrenches import generalized_forces
 from .common import FD_METHODS
 from .common import into as _into
 
@@ -122,12 +123,19 @@ class Mimic:
         return single, reduced, full
 
     # ------------------------------------------------------------- dynamics
-    def inverse_dynamics(self, q, qd, qdd, wrench=None, base_motion=None, out=None):
+    def inverse_dynamics(self, q, qd, qdd, wrench=None, base_motion=None, out=None,
+                         wrenches=None):
+        if wrenches is not None:     # wrenches on links: - sum_k J_k^T w_k (robot/wrenches.py)
+            return _into(out, self.inverse_dynamics(q, qd, qdd, wrench, base_motion)
+                         - generalized_forces(self, q, wrenches))
         _, _, (q, qd, qdd) = self._all(("q", q), ("qd", qd), ("qdd", qdd))
         tau = super().inverse_dynamics(q, qd, qdd, wrench, base_motion)
         return _into(out, self._reduce(tau))             # tau = G^T tau_all
 
-    def bias_torques(self, q, qd, wrench=None, base_motion=None, out=None):
+    def bias_torques(self, q, qd, wrench=None, base_motion=None, out=None, wrenches=None):
+        if wrenches is not None:
+            return _into(out, self.bias_torques(q, qd, wrench, base_motion)
+                         - generalized_forces(self, q, wrenches))
         _, _, (q, qd) = self._all(("q", q), ("qd", qd))
         return _into(out, self._reduce(super().bias_torques(q, qd, wrench, base_motion)))
 
@@ -144,9 +152,13 @@ class Mimic:
         return self._reduce2(super().coriolis_matrix(q, qd))
 
     def forward_dynamics(self, q, qd, tau, wrench=None, method="auto", base_motion=None,
-                         out=None):
+                         out=None, wrenches=None):
         """qdd of the reduced system, (G^T M G) qdd = tau - G^T b, for every ``method``
         (the articulated-body recursion has no mimic constraint)."""
+        if wrenches is not None:     # wrenches on links: tau + sum_k J_k^T w_k
+            return _into(out, self.forward_dynamics(
+                q, qd, np.asarray(tau, dtype=float) + generalized_forces(self, q, wrenches),
+                wrench, method, base_motion))
         if method not in FD_METHODS:
             raise ValueError(f"forward-dynamics method {method!r} unknown; use one of "
                              f"{FD_METHODS}")

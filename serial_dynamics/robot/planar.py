@@ -17,7 +17,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..core import K, OK
+from .wrenches import generalized_forces
 from .common import QD as _QD
+from .common import into as _into
 from .common import QD_QDD as _QD_QDD
 from .common import QD_QDD_W as _QD_QDD_W
 from .common import QD_W as _QD_W
@@ -37,7 +39,11 @@ class Planar:
             self._rnea_batch = ("planar_rnea_batch", self._Q)
             self._crba_batch = ("planar_crba_batch", self._Q)
 
-    def inverse_dynamics(self, q, qd, qdd, wrench=None, base_motion=None, out=None):
+    def inverse_dynamics(self, q, qd, qdd, wrench=None, base_motion=None, out=None,
+                         wrenches=None):
+        if wrenches is not None:     # wrenches on links: - sum_k J_k^T w_k (robot/wrenches.py)
+            return _into(out, self.inverse_dynamics(q, qd, qdd, wrench, base_motion)
+                         - generalized_forces(self, q, wrenches))
         if self._compiled and base_motion is None:
             o = _empty(self._n) if out is None else out
             if (K.planar_rnea(self._Q, q, qd, qdd, _QD_QDD, o) if wrench is None else
@@ -45,7 +51,10 @@ class Planar:
                 return o
         return super().inverse_dynamics(q, qd, qdd, wrench, base_motion, out)
 
-    def bias_torques(self, q, qd, wrench=None, base_motion=None, out=None):
+    def bias_torques(self, q, qd, wrench=None, base_motion=None, out=None, wrenches=None):
+        if wrenches is not None:
+            return _into(out, self.bias_torques(q, qd, wrench, base_motion)
+                         - generalized_forces(self, q, wrenches))
         if self._compiled and base_motion is None:
             o = _empty(self._n) if out is None else out
             if (K.planar_rnea(self._Q, q, qd, q, _QD, o) if wrench is None else

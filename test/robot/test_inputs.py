@@ -79,3 +79,46 @@ def test_unknown_link_in_kinematics(robot):
 def test_unknown_forward_dynamics_method(robot):
     with pytest.raises(ValueError, match="'lu'"):
         robot.forward_dynamics(np.zeros(6), np.zeros(6), np.zeros(6), method="lu")
+
+
+# ---------------------------------------------------------------- wrenches on links (issue 25)
+def test_wrenches_on_links_are_minus_j_transpose_w():
+    """tau = M a + b - sum_k J_k^T w_k, on a chain, a tree with mimic fingers and a floating
+    tree; forward dynamics inverts it; the tip's wrench is the one-link case."""
+    import warnings
+    from pin_reference import erd
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", sd.HeldJointsWarning)
+        robots = [sd.default_robot(), sd.load_urdf(erd("panda_description/urdf/panda.urdf")),
+                  sd.load_urdf(erd("solo_description/robots/solo12.urdf"), floating_base=True)]
+    for robot in robots:
+        rng = np.random.default_rng(1)
+        q = robot.random_state(rng)[0] if not robot.is_floating else np.concatenate(
+            [[0.1, 0.2, 0.3, 0.0, 0.0, 0.6, 0.8], rng.uniform(-1, 1, robot.dof)])
+        v, a = rng.uniform(-1, 1, (2, robot.nv))
+        leaves = [robot.model.link_names[i] for i in range(robot.model.dof)
+                  if not robot.model.children[i]][:2]
+        w = {link: rng.uniform(-10, 10, 6) for link in leaves}
+        tau = robot.inverse_dynamics(q, v, a, wrenches=w)
+        expected = robot.inverse_dynamics(q, v, a) - sum(robot.jacobian(q, k).T @ x
+                                                         for k, x in w.items())
+        np.testing.assert_allclose(tau, expected, rtol=1e-12, atol=1e-12)
+        assert not np.allclose(tau, robot.inverse_dynamics(q, v, a))
+        np.testing.assert_allclose(robot.forward_dynamics(q, v, tau, wrenches=w), a,
+                                   rtol=1e-9, atol=1e-9)
+        np.testing.assert_allclose(robot.bias_torques(q, v, wrenches=w),
+                                   robot.inverse_dynamics(q, v, 0 * a, wrenches=w), atol=1e-10)
+    ur5e = robots[0]
+    q, v = ur5e.random_state(2)
+    w = np.arange(1.0, 7.0)
+    np.testing.assert_allclose(ur5e.inverse_dynamics(q, v, v, wrenches={ur5e.tip_link: w}),
+                               ur5e.inverse_dynamics(q, v, v, wrench=w), rtol=1e-12, atol=1e-12)
+
+
+def test_a_wrench_on_a_link_not_in_the_model_names_it():
+    robot = sd.default_robot()
+    q = np.zeros(robot.dof)
+    with pytest.raises(ValueError, match="'l_foot' is not a link of the model"):
+        robot.inverse_dynamics(q, q, q, wrenches={"l_foot": np.zeros(6)})
+    with pytest.raises(ValueError, match=r"wrenches\['tool0'\] must be 6 finite"):
+        robot.forward_dynamics(q, q, q, wrenches={"tool0": [1.0, 2.0]})

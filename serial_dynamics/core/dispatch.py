@@ -145,6 +145,9 @@ class _Kernels:
     tree_rnea_batch = _EntryPoint()
     tree_crba_batch = _EntryPoint()
     tree_fd_batch = _EntryPoint()
+    floating_tree_rnea = _EntryPoint()
+    floating_tree_fd = _EntryPoint()
+    floating_tree_crba = _EntryPoint()
 
     def load_all(self, names=None):
         """Compile or load ``names`` (default: every entry point)."""
@@ -163,13 +166,19 @@ K = _Kernels()
 
 class TreeTable:
     """The kernels ``Robot`` calls, for a tree: the same names and signatures as K's chain
-    kernels (rnea, rnea_wrench, crba, fd and their batches), bound to ``tree.py``'s."""
-    NAMES = ("rnea", "rnea_wrench", "crba", "fd", "rnea_batch", "crba_batch", "fd_batch")
+    kernels (rnea, rnea_wrench, crba, fd and their batches; a floating base's floating_rnea,
+    floating_fd, floating_crba), bound to ``tree.py``'s; the floating base's conversions
+    (floating_rows, floating_accelerations) are K's own."""
+    NAMES = {"rnea": "tree_rnea", "rnea_wrench": "tree_rnea_wrench", "crba": "tree_crba",
+             "fd": "tree_fd", "rnea_batch": "tree_rnea_batch", "crba_batch": "tree_crba_batch",
+             "fd_batch": "tree_fd_batch", "floating_rnea": "floating_tree_rnea",
+             "floating_fd": "floating_tree_fd", "floating_crba": "floating_tree_crba",
+             "floating_rows": "floating_rows", "floating_accelerations": "floating_accelerations"}
 
     def __getattr__(self, name):
         if name not in self.NAMES:
             raise AttributeError(name)
-        kernel = getattr(K, "tree_" + name)
+        kernel = getattr(K, self.NAMES[name])
         setattr(self, name, kernel)              # found by plain lookup from then on
         return kernel
 

@@ -8,7 +8,7 @@ of bodies is ``n = P.shape[0] - 1``.
     P[i, XP:XP+3]   Xtree_p                     P[n, TIPP:TIPP+3] Xtip_p
     P[i, KIND]      1.0 prismatic, 0.0 revolute P[n, TIPR:TIPR+9] Xtip_R, row-major
     P[i, MASS]      m                           P[n, LANES]       lanes of the batch kernels
-    P[i, H:H+3]     h = m c
+    P[i, H:H+3]     h = m c                     P[n, TREE]        1.0 a tree, 0.0 a chain
     P[i, IO:IO+6]   I_O: xx yy zz xy xz yz
     P[i, ARM]       armature (reflected rotor inertia, kg m^2 or kg)
     P[i, PARENT]    the body joint i hangs from (-1.0: the base); i - 1 in a chain
@@ -25,7 +25,7 @@ import numpy as np
 from ..joints import PRISMATIC
 
 XR, XP, KIND, MASS, H, IO, ARM, PARENT, TIPPATH = 0, 9, 12, 13, 14, 17, 23, 24, 25
-G, TIPP, TIPR, LANES = 0, 3, 6, 15
+G, TIPP, TIPR, LANES, TREE = 0, 3, 6, 15, 16
 WIDTH = 26
 B = 32          # samples per block of the lane-parallel batch kernel (rnea_lanes.py)
 W_F, W_M, W_OMEGA, W_ALPHA, W_ACC = 0, 3, 6, 9, 12
@@ -48,6 +48,7 @@ def pack(model) -> np.ndarray:
     P[n, TIPP:TIPP + 3] = model.Xtip_p
     P[n, TIPR:TIPR + 9] = model.Xtip_R.ravel()
     P[n, LANES] = B
+    P[n, TREE] = 0.0 if model.is_chain else 1.0
     return P        # writable on purpose: numba's dispatcher types a read-only array ~100 ns slower
 
 

@@ -15,6 +15,7 @@ from numba import njit, types
 
 from . import flags as F
 from .cholesky import cholesky_solve
+from .floating import GW, _chain_inputs, _products
 from .data import new_chol, new_kin, stack_empty
 from .layout import ARM, H, IO, KIND, MASS, PARENT, TIPPATH, W_ALL, W_WRENCH
 from .rnea import base_state, body_wrench, joint_rates, outward_step, tip_load
@@ -218,6 +219,58 @@ def tree_fd_batch(P, q, qd, tau, w, flags, out):
     return bad
 
 
+# ------------------------------------------------------------------ a floating base on a tree
+# core/floating.py's entry points on the instantaneous tree (robot/floating.virtual_chain of a
+# tree: the six virtual joints, then the tree hanging from the last): the same conversions
+# (_chain_inputs, _products) around the tree kernels; forward dynamics by Cholesky.
+def floating_tree_rnea(P, q, v, a, gw, flags, out):
+    nv = P.shape[0] - 1
+    if (q.shape[0] != nv + 1 or v.shape[0] != nv or a.shape[0] != nv or gw.shape[0] != GW
+            or out.shape[0] != nv):
+        return BAD_LENGTH
+    d = new_kin(nv)
+    qv, w, qddv = stack_empty((nv,)), stack_empty((W_ALL,)), stack_empty((nv,))
+    chk = _chain_inputs(q, gw, flags, qv, w)
+    for i in range(nv):
+        qddv[i] = a[i] if (flags & F.QDD) != 0 else 0.0
+    if (flags & F.QD) != 0:
+        _products(v, 1.0, qddv)
+    chk += tree_rnea_core(P, d.sc, d.R, d.p, d.f, stack_empty((nv, 9)), qv, v, qddv, w,
+                          flags | F.BASE | F.QDD, out)
+    return status(chk)
+
+
+def floating_tree_fd(P, q, v, tau, gw, flags, out):
+    nv = P.shape[0] - 1
+    if (q.shape[0] != nv + 1 or v.shape[0] != nv or (tau.shape[0] != nv and tau.shape[0] != nv - 6)
+            or gw.shape[0] != GW or out.shape[0] != nv):
+        return BAD_LENGTH
+    d, c = new_kin(nv), new_chol(nv)
+    qv, w, tv = stack_empty((nv,)), stack_empty((W_ALL,)), stack_empty((nv,))
+    chk = _chain_inputs(q, gw, flags, qv, w)
+    k = nv - tau.shape[0]                                    # 6: joint torques only
+    for i in range(nv):
+        tv[i] = 0.0 if i < k else tau[i - k]
+    chk += tree_fd_core(P, d.sc, d.R, d.p, d.f, stack_empty((nv, 9)), stack_empty((nv, 10)),
+                        c.M, c.b, qv, v, tv, w, (flags | F.QD | F.BASE) & ~F.ABA, out)
+    _products(v, -1.0, out)
+    return status(chk)
+
+
+def floating_tree_crba(P, q, out):
+    nv = P.shape[0] - 1
+    if q.shape[0] != nv + 1 or out.shape[0] != nv or out.shape[1] != nv:
+        return BAD_LENGTH
+    d = new_kin(nv)
+    qv, w, gw = stack_empty((nv,)), stack_empty((W_ALL,)), stack_empty((GW,))
+    for i in range(GW):
+        gw[i] = 0.0
+    chk = _chain_inputs(q, gw, 0, qv, w)
+    chk += joint_transforms(P, d.sc, d.R, d.p, qv, nv)
+    tree_crba_core(P, d.R, d.p, stack_empty((nv, 10)), out)
+    return status(chk)
+
+
 _FD = ("tree_fd_core",)
 ENTRY_POINTS = {
     "tree_rnea": (tree_rnea, i8(Pm, Vec, Vec, Vec, i8, Vec), False, ("tree_rnea_core",)),
@@ -229,5 +282,10 @@ ENTRY_POINTS = {
                         ("tree_rnea_core",)),
     "tree_crba_batch": (tree_crba_batch, i8(Pm, In2, Out3), True, ("tree_crba_core",)),
     "tree_fd_batch": (tree_fd_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True, _FD),
+    "floating_tree_rnea": (floating_tree_rnea, i8(Pm, Vec, Vec, Vec, Vec, i8, Vec), False,
+                           ("tree_rnea_core",)),
+    "floating_tree_fd": (floating_tree_fd, i8(Pm, Vec, Vec, Vec, Vec, i8, Vec), False, _FD),
+    "floating_tree_crba": (floating_tree_crba, i8(Pm, Vec, Mat), False, ("tree_crba_core",)),
 }
-SINGLE_STATE = ("tree_rnea", "tree_rnea_wrench", "tree_crba", "tree_fd")
+SINGLE_STATE = ("tree_rnea", "tree_rnea_wrench", "tree_crba", "tree_fd", "floating_tree_rnea",
+                "floating_tree_fd", "floating_tree_crba")

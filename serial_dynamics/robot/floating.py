@@ -29,7 +29,10 @@ from ..algorithms import floating as fb
 from ..algorithms import kinematics
 from ..algorithms._batch import skew
 from ..algorithms.rnea import _wrench_batch as rnea_wrench_rows
-from ..core import ENTRY_POINTS, K, OK
+from ..core import ENTRY_POINTS, OK
+from ..core import K as CHAIN
+from ..core.dispatch import TREE
+from ..core.layout import TREE as TREE_FLAG
 from ..core import flags as F
 from ..core.layout import B, W_ALL
 from ..core.layout import pack as layout_pack
@@ -66,7 +69,13 @@ class Floating:
         super().__init__(model, dissipation, backend, **kwargs)
         self._nq, self._nv = model.dof + 7, model.dof + 6
         self._nvnv = (self._nv, self._nv)
-        self._fd_auto = _FD_FLAGS["aba" if model.dof >= FD_CROSSOVER else "cholesky"]
+        # the floating kernels of the table self._k (K, or the tree table whose forward
+        # dynamics is Cholesky: method="aba" on a tree runs the reference), on the
+        # instantaneous chain or tree
+        self._compiled = self._k is not None
+        self._fd_flags = _FD_FLAGS if model.is_chain else {"cholesky": F.QD}
+        self._fd_auto = self._fd_flags["aba" if model.dof >= FD_CROSSOVER and model.is_chain
+                                       else "cholesky"]
         self._chain = layout_pack(virtual_chain(model)) if self._compiled else None
         self._gw = np.concatenate((np.zeros(6), model.gravity))   # core/floating.py's gw
 
@@ -92,9 +101,9 @@ class Floating:
         if self._compiled and base_motion is None:        # the single-state fast path
             o = _empty(self._nv) if out is None else out
             if wrench is None:
-                if K.floating_rnea(self._chain, q, qd, qdd, self._gw, _QD_QDD, o) == OK:
+                if self._k.floating_rnea(self._chain, q, qd, qdd, self._gw, _QD_QDD, o) == OK:
                     return o
-            elif K.floating_rnea(self._chain, q, qd, qdd, *self._gw_single(wrench, _QD_QDD),
+            elif self._k.floating_rnea(self._chain, q, qd, qdd, *self._gw_single(wrench, _QD_QDD),
                                  o) == OK:
                 return o
         _no_base_motion(base_motion)
@@ -128,7 +137,7 @@ class Floating:
         """M (n+6, n+6), in the order of v."""
         if self._compiled:
             o = _empty(self._nvnv) if out is None else out
-            if K.floating_crba(self._chain, q, o) == OK:
+            if self._k.floating_crba(self._chain, q, o) == OK:
                 return o
         else:
             return _into(out, fb.mass_matrix(self.model, q))
@@ -166,20 +175,20 @@ class Floating:
             return _into(out, self.forward_dynamics(
                 q, qd, np.asarray(tau, dtype=float) + generalized_forces(self, q, wrenches),
                 wrench, method, base_motion))
-        flags = self._fd_auto if method == "auto" else _FD_FLAGS.get(method)
+        flags = self._fd_auto if method == "auto" else self._fd_flags.get(method)
         if self._compiled and base_motion is None and flags is not None:   # the fast path
             o = _empty(self._nv) if out is None else out
             if wrench is None:
-                if K.floating_fd(self._chain, q, qd, tau, self._gw, flags, o) == OK:
+                if self._k.floating_fd(self._chain, q, qd, tau, self._gw, flags, o) == OK:
                     return o
-            elif K.floating_fd(self._chain, q, qd, tau, *self._gw_single(wrench, flags), o) == OK:
+            elif self._k.floating_fd(self._chain, q, qd, tau, *self._gw_single(wrench, flags), o) == OK:
                 return o
         _no_base_motion(base_motion)
-        if flags is None:
+        if flags is None and method not in _FD_FLAGS:
             raise ValueError(f"forward-dynamics method {method!r} unknown for a floating base; "
                              f"use one of {FD_METHODS}")
-        if not self._compiled:
-            method = "aba" if flags & F.ABA else "cholesky"
+        if not self._compiled or flags is None:               # flags None: "aba" on a tree
+            method = "aba" if flags is None or flags & F.ABA else "cholesky"
             return _into(out, fb.forward_dynamics(self.model, q, qd, tau, wrench, method))
         single, q, _, s = fb.as_batch(self.model, q, False, v=qd, tau=tau)
         N = q.shape[0]
@@ -291,7 +300,7 @@ class Floating:
         """Compile or load the floating-base kernels (core/floating.py) and call each once,
         single state and batch, so that the first real call is fast. Returns self."""
         if self._compiled:
-            K.load_all(FLOATING_KERNELS)
+            CHAIN.load_all(k for k in FLOATING_KERNELS if ("tree" in k) != self.model.is_chain)
         for q, v in (self.random_state(0), self.random_state(0, batch=2)):
             self.inverse_dynamics(q, v, v)
             self.mass_matrix(q)
@@ -320,7 +329,8 @@ def virtual_chain(model) -> Model:
         com=np.concatenate([np.zeros((5, 3)), [model.base_com], model.com]),
         inertia=np.concatenate([np.zeros((5, 3, 3)), [model.base_inertia], model.inertia]),
         gravity=zero, tip_R=model.tip_R, tip_p=model.tip_p, frames=frames,
-        armature=np.r_[np.zeros(6), model.armature], check_mass_matrix=False)
+        armature=np.r_[np.zeros(6), model.armature], check_mass_matrix=False,
+        parent=np.r_[np.arange(6) - 1, np.where(model.parent < 0, 5, model.parent + 6)])
 
 
 def _on_chain(P, q, v, a, tau, gw, flags, kind, out):
@@ -331,6 +341,7 @@ def _on_chain(P, q, v, a, tau, gw, flags, kind, out):
     converted back. Every state as in one call (chunks are whole SIMD blocks). Returns the
     largest status (run_split calls it once per thread)."""
     N, nv = out.shape[0], P.shape[0] - 1
+    K = TREE if P[nv, TREE_FLAG] != 0.0 else CHAIN     # the instantaneous chain, or tree
     c = min(N, CHUNK)
     qv, w = np.empty((c, nv)), np.empty((c, W_ALL))
     qdd = np.empty((c if kind == "rnea" else 0, nv))

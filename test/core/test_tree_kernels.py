@@ -69,3 +69,32 @@ def test_bad_states_on_a_tree_name_the_joint():
         fast.inverse_dynamics(q, q * 0, q * 0)
     with pytest.raises(ValueError, match=r"expected \(12,\)"):
         fast.mass_matrix(np.zeros(11))
+
+
+def test_a_floating_tree_compiled_matches_the_reference():
+    """The floating kernels on the instantaneous tree (core/tree.py floating_tree_*) and the
+    batches through it, against the reference's 6-DoF root (algorithms/floating.py)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", sd.HeldJointsWarning)
+        fast = sd.load_urdf(erd(ROBOTS[0]), floating_base=True)
+    ref = sd.Robot(fast.model, backend="numpy")
+    rng = np.random.default_rng(9)
+    quat = rng.normal(size=(4, 4))
+    q = np.hstack([rng.uniform(-1, 1, (4, 3)), quat / np.linalg.norm(quat, axis=1, keepdims=True),
+                   rng.uniform(-1, 1, (4, fast.dof))])
+    v, a = rng.uniform(-1, 1, (2, 4, fast.nv))
+    w = rng.uniform(-5, 5, 6)
+    for k in range(2):
+        close(fast.inverse_dynamics(q[k], v[k], a[k]), ref.inverse_dynamics(q[k], v[k], a[k]))
+        close(fast.inverse_dynamics(q[k], v[k], a[k], wrench=w),
+              ref.inverse_dynamics(q[k], v[k], a[k], wrench=w))
+        close(fast.mass_matrix(q[k]), ref.mass_matrix(q[k]))
+        tau = fast.inverse_dynamics(q[k], v[k], a[k])
+        close(fast.forward_dynamics(q[k], v[k], tau), a[k])
+        close(fast.forward_dynamics(q[k], v[k], tau, method="aba"), a[k])
+    for name, args in (("inverse_dynamics", (q, v, a)), ("mass_matrix", (q,)),
+                       ("forward_dynamics", (q, v, a[:, 6:]))):
+        batch = getattr(fast, name)(*args)
+        close(batch, getattr(ref, name)(*args))
+        for k in range(4):
+            assert batch[k].tobytes() == getattr(fast, name)(*(x[k] for x in args)).tobytes()

@@ -1,0 +1,120 @@
+"""Trees (issue 25): single calls and 10,000-state batches against Pinocchio from Python, in
+one process, on whole robots from example-robot-data: Talos (arms, legs, head; its
+grippers' mimic fingers held), Solo12, Baxter (two arms and the head; grippers held) on a
+fixed base, and Solo12 and Talos on a free-floating base (Pinocchio's free-flyer root).
+
+    python bench/bench_trees.py            # writes the "trees" section of bench/BENCHMARKS.md
+    python bench/bench_trees.py --quick    # fewer rounds
+
+The rows and their timing are bench_speed.py's (each answer checked against Pinocchio
+before it is timed; min over interleaved rounds; ratio = ours / Pinocchio's, lower is
+better; targets from the issue: single calls <= 1.0, 10,000-state batches <= 0.3 of a
+Python loop over pinocchio.rnea).
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import warnings
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+
+from bench_speed import PinModel, agree, batch_calls, erd_path, fmt_t, pair, pin, single_calls  # noqa: E402
+from _report import stamp, write_section                                        # noqa: E402
+
+import serial_dynamics as sd                                                     # noqa: E402
+
+TALOS_TIPS = ["arm_left_7_link", "arm_right_7_link", "leg_left_6_link", "leg_right_6_link",
+              "head_2_link"]
+FIXED = {"Talos (30 joints)": ("talos_data/robots/talos_full_v2.urdf", TALOS_TIPS),
+         "Solo12": ("solo_description/robots/solo12.urdf", None),
+         "Baxter (15 joints)": ("baxter_description/urdf/baxter.urdf",
+                                ["left_wrist", "right_wrist", "head"])}
+FLOATING = {"Solo12, floating": ("solo_description/robots/solo12.urdf", None),
+            "Talos (30 joints), floating": ("talos_data/robots/talos_full_v2.urdf", TALOS_TIPS)}
+
+
+def load(rel, tips, **kw):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", sd.HeldJointsWarning)
+        return sd.load_urdf(erd_path(rel), tip_links=tips, **kw)
+
+
+def floating_rows(name, robot, path, rounds):
+    """Single calls on a free-floating base against Pinocchio's free-flyer root."""
+    full = pin.buildModelFromUrdf(path, pin.JointModelFreeFlyer())
+    keep = set(robot.joint_names) | {"root_joint"}
+    lock = [full.getJointId(n) for n in full.names[1:] if n not in keep]
+    m = pin.buildReducedModel(full, lock, pin.neutral(full)) if lock else full
+    m.gravity.linear[:] = robot.gravity
+    d = m.createData()
+    jid = [m.getJointId(n) for n in robot.joint_names]
+    idx = list(range(6)) + [m.idx_vs[j] for j in jid]
+    rng = np.random.default_rng(0)
+    quat = rng.normal(size=4)
+    q = np.concatenate([[0.1, -0.2, 0.3], quat / np.linalg.norm(quat),
+                        rng.uniform(-1, 1, robot.dof)])
+    v, a = rng.uniform(-1, 1, (2, robot.nv))
+    pq = pin.neutral(m)
+    pq[:7], pq[[m.idx_qs[j] for j in jid]] = q[:7], q[7:]
+    pv, pa = np.zeros(m.nv), np.zeros(m.nv)
+    pv[idx], pa[idx] = v, a
+    tau = robot.inverse_dynamics(q, v, a)
+    agree(tau, pin.rnea(m, d, pq, pv, pa)[idx], "rnea")
+    pt = np.zeros(m.nv)
+    pt[idx] = tau
+    agree(robot.forward_dynamics(q, v, tau), pin.aba(m, d, pq, pv, pt)[idx], "aba", 1e-8)
+    rows = []
+    for label, ours, peer, peer_name in [
+            ("inverse dynamics, one state", lambda: robot.inverse_dynamics(q, v, a),
+             lambda: pin.rnea(m, d, pq, pv, pa), "pinocchio.rnea"),
+            ("mass matrix, one state", lambda: robot.mass_matrix(q),
+             lambda: pin.crba(m, d, pq), "pinocchio.crba (upper triangle only)"),
+            ("forward dynamics, one state", lambda: robot.forward_dynamics(q, v, tau),
+             lambda: pin.aba(m, d, pq, pv, pt), "pinocchio.aba")]:
+        ta, tb = pair(ours, peer, 50, rounds)
+        rows.append((name, label, ta, tb, peer_name, 1.0))
+    return rows
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--no-write", action="store_true")
+    args = ap.parse_args()
+    rounds = 3 if args.quick else 7
+    rows = []
+    for name, (rel, tips) in FIXED.items():
+        robot = load(rel, tips)
+        robot.warmup(batch=True)
+        pm = PinModel(robot, erd_path(rel))
+        print(f"{name}: {robot.dof} joints", flush=True)
+        rows += [r for r in single_calls(name, robot, pm, rounds) if "`out=`" not in r[1]]
+        rows += [r for r in batch_calls(name, robot, pm, rounds)]
+    for name, (rel, tips) in FLOATING.items():
+        robot = load(rel, tips, floating_base=True)
+        print(f"{name}: {robot.dof} joints", flush=True)
+        rows += floating_rows(name, robot, erd_path(rel), rounds)
+    lines = ["## Trees against Pinocchio", "", stamp(),
+             "`python bench/bench_trees.py`. Fixed bases run the compiled tree kernels "
+             "(`core/tree.py`); a floating base under a tree runs the NumPy reference today "
+             "(docs/modelling.md, *Trees*). Ratio = ours / Pinocchio's; target: the issue's.",
+             "", "| robot | call | ours | Pinocchio | ratio | peer | target | verdict |",
+             "|---|---|---:|---:|---:|---|---:|---|"]
+    for name, label, a, b, peer, target in rows:
+        ratio = a / b
+        verdict = "" if target is None else ("met" if ratio <= target else
+                                             f"missed by {100 * (ratio / target - 1):.0f} %")
+        lines.append(f"| {name} | {label} | {fmt_t(a)} | {fmt_t(b)} | {ratio:.2f} | {peer} | "
+                     f"{'' if target is None else target} | {verdict} |")
+        print(lines[-1], flush=True)
+    if not args.no_write:
+        write_section("trees", "\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()

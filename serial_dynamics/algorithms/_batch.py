@@ -46,10 +46,13 @@ def require_chain(model, what):
     """Raise NotImplementedError for ``what`` on a tree: the algorithms written for chains
     only (the Coriolis matrix, the regressor, the derivatives, dT/dq) name themselves."""
     if not model.is_chain:
-        branches = sorted({int(l) for l in model.parent if np.sum(model.parent == l) > 1})
+        forks = sorted({int(l) for l in model.parent if np.sum(model.parent == l) > 1})
+        at = [model.base_link if l < 0 else model.link_names[l] for l in forks]
         raise NotImplementedError(
-            f"{what} is computed for chains only so far, and this model is a tree (joints "
-            f"branch at body {branches}); load one chain with tip_link=... for it")
+            f"{what} is computed for chains only so far, and this model is a tree (its joints "
+            f"branch at {at}); load one chain with tip_link=... for it (a simulation: "
+            "jacobian='finite_differences' for the implicit methods, another method for "
+            "symplectic_euler)")
 
 
 def unbatch(single, x):

@@ -23,8 +23,8 @@ from .kinematics import body_poses
 
 
 def _geometry(model, q):
-    require_chain(model, "the natural orthogonal complement (Coriolis matrix, QR route)")
     """Joint-frame poses R0, o; joint axes z_i = R0_i e_z; centers of mass c_i; base frame."""
+    require_chain(model, "the natural orthogonal complement (Coriolis matrix, QR route)")
     R0, o = body_poses(model, q)
     return R0, o, R0[..., 2], o + mv(R0, model.c)
 

@@ -29,7 +29,7 @@ The armature (reflected rotor inertia I_a, tau_i += I_a qdd_i) has the column qd
 import numpy as np
 
 from ..joints import PRISMATIC
-from ._batch import as_batch, mv, skew, require_chain, unbatch
+from ._batch import as_batch, mv, skew, unbatch
 from .kinematics import joint_transforms
 from .rnea import into_body, joint_rate
 
@@ -109,24 +109,25 @@ def body_block(omega, alpha, acc):
 
 
 def _regressor_joint_frames(model, q, qd, qdd):
-    require_chain(model, "the regressor")
-    """Y (N, n, 10 n) for the parameters (m, h, I_O) of every body in its joint frame."""
+    """Y (N, n, 10 n) for the parameters (m, h, I_O) of every body in its joint frame. On a
+    tree body i's block reaches the joints on its path to the base (its ancestors j)."""
     N, n = q.shape
     R, p = joint_transforms(model, q)
-    omega, alpha = np.zeros((N, 3)), np.zeros((N, 3))
-    acc = np.broadcast_to(-model.gravity, (N, 3))        # gravity as a base acceleration
-    blocks = []
+    base = (np.zeros((N, 3)), np.zeros((N, 3)),
+            np.broadcast_to(-model.gravity, (N, 3)))    # gravity as a base acceleration
+    motion, blocks = [], []
     for i in range(n):                                   # outward, as rnea.py
-        omega, alpha, acc = into_body(R, p, i, omega, alpha, acc)
-        omega, alpha, acc = joint_rate(model, i, omega, alpha, acc, qd[:, i], qdd[:, i])
-        blocks.append(body_block(omega, alpha, acc))
+        l = model.parent[i]
+        omega, alpha, acc = into_body(R, p, i, *(base if l < 0 else motion[l]))
+        motion.append(joint_rate(model, i, omega, alpha, acc, qd[:, i], qdd[:, i]))
+        blocks.append(body_block(*motion[i]))
     Y = np.zeros((N, n, 10 * n))
     row = np.where(model.kind == PRISMATIC, 5, 2)        # tau_j = S_j^T (n; f): n_z or f_z
-    for i in range(n):                                   # inward: body i's block to joints j <= i
+    for i in range(n):                                   # inward: body i's block to joints j
         B = blocks[i]
-        for j in range(i, -1, -1):
+        for j in model.ancestors(i)[::-1]:               # i, its parent, ..., up to the base
             Y[:, j, 10 * i:10 * i + 10] = B[:, row[j]]
-            if j > 0:                                    # into frame j-1: f' = R f, n' = R n + p x f'
+            if model.parent[j] >= 0:                     # to the parent: f' = R f, n' = R n + p x f'
                 f = mv(R[:, j, None], np.swapaxes(B[:, 3:], 1, 2))             # (N, 10, 3)
                 m = mv(R[:, j, None], np.swapaxes(B[:, :3], 1, 2)) + np.cross(p[:, j, None], f)
                 B = np.concatenate([np.swapaxes(m, 1, 2), np.swapaxes(f, 1, 2)], axis=1)

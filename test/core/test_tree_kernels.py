@@ -53,7 +53,7 @@ def test_compiled_trees_match_the_reference(rel):
 def test_a_tree_refuses_what_is_written_for_chains_only():
     fast, _ = pair(ROBOTS[0])
     q, qd = fast.random_state(0)
-    for call in (lambda: fast.coriolis_matrix(q, qd), lambda: fast.regressor(q, qd, qd),
+    for call in (lambda: fast.coriolis_matrix(q, qd),
                  lambda: fast.inverse_dynamics_derivatives(q, qd, qd),
                  lambda: fast.kinetic_energy_gradient(q, qd)):
         with pytest.raises(NotImplementedError, match="chains only so far.*tip_link"):
@@ -98,3 +98,20 @@ def test_a_floating_tree_compiled_matches_the_reference():
         close(batch, getattr(ref, name)(*args))
         for k in range(4):
             assert batch[k].tobytes() == getattr(fast, name)(*(x[k] for x in args)).tobytes()
+
+
+@pytest.mark.parametrize("rel", [ROBOTS[0], ROBOTS[2]])
+def test_the_regressor_of_a_tree_gives_its_torques(rel):
+    """tau = Y(q, qd, qdd) phi on a tree (each body's columns reach the joints on its path
+    to the base), with mimic fingers (Baxter) reduced through G, single and batch."""
+    fast, _ = pair(rel)
+    rng = np.random.default_rng(4)
+    q, qd = fast.random_state(rng, batch=3)
+    qdd = rng.uniform(-2, 2, q.shape)
+    Y = fast.regressor(q, qd, qdd)
+    close(np.einsum("nij,j->ni", Y, fast.inertial_parameters()), fast.inverse_dynamics(q, qd, qdd))
+    assert Y[1].tobytes() == fast.regressor(q[1], qd[1], qdd[1]).tobytes()
+    leaf = fast.dof - 1                          # the last leaf's columns miss other branches
+    off = [j for j in range(fast.dof) if j not in fast.model.ancestors(leaf)]
+    if not fast.model.has_mimic_joints:
+        assert off and np.all(Y[:, off, 10 * leaf:10 * leaf + 10] == 0.0)

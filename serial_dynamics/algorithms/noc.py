@@ -24,7 +24,6 @@ from .kinematics import body_poses
 
 def _geometry(model, q):
     """Joint-frame poses R0, o; joint axes z_i = R0_i e_z; centers of mass c_i; base frame."""
-    require_chain(model, "the natural orthogonal complement (Coriolis matrix, QR route)")
     R0, o = body_poses(model, q)
     return R0, o, R0[..., 2], o + mv(R0, model.c)
 
@@ -33,19 +32,29 @@ def _body_velocities(model, o, z, qd):
     """Angular velocities omega_i and origin velocities odot_i of the bodies, base frame."""
     N, n = qd.shape
     omega, odot = np.zeros((N, n, 3)), np.zeros((N, n, 3))
-    w, v, o_prev = np.zeros((N, 3)), np.zeros((N, 3)), np.zeros((N, 3))
+    zero = np.zeros((N, 3))
     for i in range(n):
-        v = v + np.cross(w, o[:, i] - o_prev)                 # transport along body i-1
+        l = model.parent[i]                                   # the parent (the base: at rest)
+        w, v, o_prev = (zero, zero, zero) if l < 0 else (omega[:, l], odot[:, l], o[:, l])
+        v = v + np.cross(w, o[:, i] - o_prev)                 # transport along the parent
         if model.kind[i] == PRISMATIC:
             v = v + z[:, i] * qd[:, i, None]
         else:
             w = w + z[:, i] * qd[:, i, None]
-        omega[:, i], odot[:, i], o_prev = w, v, o[:, i]
+        omega[:, i], odot[:, i] = w, v
     return omega, odot
 
 
+def _subtree(model, j):
+    """The bodies that joint j moves: j and its descendants (a slice for a chain)."""
+    if model.is_chain:
+        return slice(j, None)
+    return [i for i in range(j, model.dof) if j in model.ancestors(i)]
+
+
 def twist_shaping(model, q):
-    """T (N, 6n, n): column j, body i >= j: revolute [z_j; z_j x (c_i - o_j)], prismatic [0; z_j]."""
+    """T (N, 6n, n): column j, body i that joint j moves (i >= j in a chain): revolute
+    [z_j; z_j x (c_i - o_j)], prismatic [0; z_j]; zero elsewhere."""
     single, (q,) = as_batch(model, ("q", q))
     _, o, z, c = _geometry(model, q)
     return unbatch(single, _T(model, o, z, c))
@@ -55,11 +64,12 @@ def _T(model, o, z, c):
     N, n = o.shape[:2]
     T = np.zeros((N, n, 6, n))
     for j in range(n):
+        s, Tj = _subtree(model, j), T[..., j]                 # Tj: column j, a view
         if model.kind[j] == PRISMATIC:
-            T[:, j:, 3:, j] = z[:, None, j]
+            Tj[:, s, 3:] = z[:, None, j]
         else:
-            T[:, j:, :3, j] = z[:, None, j]
-            T[:, j:, 3:, j] = np.cross(z[:, None, j], c[:, j:] - o[:, None, j])
+            Tj[:, s, :3] = z[:, None, j]
+            Tj[:, s, 3:] = np.cross(z[:, None, j], c[:, s] - o[:, None, j])
     return T.reshape(N, 6 * n, n)
 
 
@@ -73,12 +83,13 @@ def twist_shaping_dot(model, q, qd):
     N, n = q.shape
     Td = np.zeros((N, n, 6, n))
     for j in range(n):
+        s, Tj = _subtree(model, j), Td[..., j]
         if model.kind[j] == PRISMATIC:
-            Td[:, j:, 3:, j] = zdot[:, None, j]
+            Tj[:, s, 3:] = zdot[:, None, j]
         else:
-            Td[:, j:, :3, j] = zdot[:, None, j]
-            Td[:, j:, 3:, j] = (np.cross(zdot[:, None, j], c[:, j:] - o[:, None, j])
-                                + np.cross(z[:, None, j], cdot[:, j:] - odot[:, None, j]))
+            Tj[:, s, :3] = zdot[:, None, j]
+            Tj[:, s, 3:] = (np.cross(zdot[:, None, j], c[:, s] - o[:, None, j])
+                            + np.cross(z[:, None, j], cdot[:, s] - odot[:, None, j]))
     return unbatch(single, Td.reshape(N, 6 * n, n))
 
 
@@ -125,6 +136,7 @@ def constraint_matrix(model, q):
     The velocity of point o_i on body k: cdot_k + omega_k x (o_i - c_k) = cdot_k - [o_i - c_k]x omega_k.
     """
     single, (q,) = as_batch(model, ("q", q))
+    require_chain(model, "the constraint matrix K")
     _, o, z, c = _geometry(model, q)
     N, n = q.shape
     K = np.zeros((N, n, 6, n, 6))

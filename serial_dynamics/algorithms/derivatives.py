@@ -6,9 +6,10 @@ for the angular velocity omega, angular acceleration alpha and classical acceler
 of each body origin, the body wrench (fB; nB), and an inward recursion for the joint wrench
 (f; n), tau_i = S_i^T (n_i; f_i). Each recursion is differentiated along one direction at a
 time (a tangent, written d.): a change of q_j or qd_j touches nothing inboard of body j, so
-its tangents start at body j (the seeds below), travel outward through bodies j+1 .. n-1
-with the linearized outward equations, and inward through every body with the linearized
-inward equations, where joint j's own transform also turns the wrench it carries. One
+its tangents start at body j (the seeds below), travel outward through the bodies below it
+(j+1 .. n-1 in a chain; on a tree j's descendants, each from its parent) with the
+linearized outward equations, and inward through every body with the linearized inward
+equations, where joint j's own transform also turns the wrench it carries. One
 direction costs O(n); all 2n directions O(n^2), like Carpentier & Mansard, "Analytical
 derivatives of rigid body dynamics algorithms" (RSS 2018), which obtain them in spatial
 algebra. Every equation is the derivative of the ``rnea.py`` line it names.
@@ -23,7 +24,7 @@ prismatic p_j = Xtree_p + q_j R_j e_z):
     d/dqd_j, revolute:  d omega = e_z,  d alpha = omega' x e_z
     d/dqd_j, prismatic: d acc = 2 omega' x e_z
 
-and inward, into body j-1, the turn of joint j itself (d/dq_j only):
+and inward, into joint j's parent body, the turn of joint j itself (d/dq_j only):
     revolute:  d f += R_j (e_z x f_j),  d n += R_j (e_z x n_j) + p_j x R_j (e_z x f_j)
     prismatic: d n += R_j (e_z x f_j)           (d p_j = R_j e_z: (R_j e_z) x (R_j f_j))
 
@@ -35,7 +36,7 @@ d qdd/d qd = -M^-1 d tau/d qd at qdd = FD(q, qd, tau), and d qdd/d tau = M^-1.
 import numpy as np
 
 from ..joints import PRISMATIC
-from ._batch import as_batch, mtv, mv, require_chain, unbatch
+from ._batch import as_batch, mtv, mv, unbatch
 from .crba import mass_matrix
 from .forward import forward_dynamics
 from .kinematics import joint_transforms
@@ -90,10 +91,13 @@ def _forward(model, q, qd, qdd, w, base):
         acc = np.broadcast_to(base.linear_acceleration - g, (N, 3))
     s = {k: np.zeros((N, n, 3)) for k in ("omp", "alp", "omega", "alpha", "acc", "ef", "em",
                                           "f", "n")}
-    ef = np.zeros((N, 3)) if w is None else w[:, :3]   # the tip wrench, carried outward
-    em = np.zeros((N, 3)) if w is None else w[:, 3:]
+    start = (omega, alpha, acc, np.zeros((N, 3)) if w is None else w[:, :3],
+             np.zeros((N, 3)) if w is None else w[:, 3:])   # the tip wrench, carried outward
     fB, nB = np.empty((N, n, 3)), np.empty((N, n, 3))
     for i in range(n):                                           # rnea.py: outward
+        l = model.parent[i]
+        omega, alpha, acc, ef, em = start if l < 0 else (
+            s["omega"][:, l], s["alpha"][:, l], s["acc"][:, l], s["ef"][:, l], s["em"][:, l])
         omega, alpha, acc = into_body(R, p, i, omega, alpha, acc)
         ef, em = mtv(R[:, i], ef), mtv(R[:, i], em)
         s["omp"][:, i], s["alp"][:, i] = omega, alpha
@@ -101,16 +105,18 @@ def _forward(model, q, qd, qdd, w, base):
         s["omega"][:, i], s["alpha"][:, i], s["acc"][:, i] = omega, alpha, acc
         s["ef"][:, i], s["em"][:, i] = ef, em
         fB[:, i], nB[:, i] = body_wrench(model, i, omega, alpha, acc)
-    f, nm = np.zeros((N, 3)), np.zeros((N, 3))
     if w is not None:                                            # rnea.py: the tip load -w
-        f = -ef
-        nm = -em + np.cross(model.Xtip_p, f)
+        f = -s["ef"][:, n - 1]
+        fB[:, n - 1] += f
+        nB[:, n - 1] += -s["em"][:, n - 1] + np.cross(model.Xtip_p, f)
     for i in range(n - 1, -1, -1):                               # rnea.py: inward
-        if i < n - 1:
-            f = mv(R[:, i + 1], f)
-            nm = mv(R[:, i + 1], nm) + np.cross(p[:, i + 1], f)
-        f, nm = f + fB[:, i], nm + nB[:, i]
+        f, nm = fB[:, i], nB[:, i]                               # with the children's, below
         s["f"][:, i], s["n"][:, i] = f, nm
+        l = model.parent[i]
+        if l >= 0:
+            f = mv(R[:, i], f)
+            fB[:, l] += f
+            nB[:, l] += mv(R[:, i], nm) + np.cross(p[:, i], f)
     return R, p, s
 
 
@@ -126,7 +132,6 @@ def _body_wrench_tangent(model, i, omega, dw, da, dl):
 
 
 def _derivatives(model, q, qd, qdd, w, base):
-    require_chain(model, "the derivatives of the dynamics")
     N, n = q.shape
     R, p, s = _forward(model, q, qd, qdd, w, base)
     dq, dqd = np.empty((N, n, n)), np.empty((N, n, n))
@@ -151,14 +156,20 @@ def _derivatives(model, q, qd, qdd, w, base):
 
 
 def _sweep(model, R, p, s, qd, j, seed, turn, wrench):
-    """d tau (N, n) along one direction seeded at body j: outward through bodies j..n-1,
-    inward through every body; ``turn``: joint j's own transform turns (d/dq_j)."""
+    """d tau (N, n) along one direction seeded at body j: outward through the bodies below
+    joint j (j and its descendants; the others do not move), inward through every body;
+    ``turn``: joint j's own transform turns (d/dq_j)."""
     N, n = R.shape[0], R.shape[1]
-    dw, da, dl, def_, dem = seed
+    moved = np.zeros(n, dtype=bool)
+    t = np.zeros((5, N, n, 3))                           # d omega, d alpha, d acc, d e (f, m)
     dfB, dnB = np.zeros((N, n, 3)), np.zeros((N, n, 3))
     for i in range(j, n):
-        if i > j:   # rnea.py outward, linearized: acc + alpha x p + w x (w x p), into frame i
-            w0 = s["omega"][:, i - 1]
+        l = model.parent[i]
+        if i == j:
+            dw, da, dl, def_, dem = seed
+        elif l >= 0 and moved[l]:   # rnea.py outward, linearized: acc + alpha x p + w x (w x p)
+            dw, da, dl, def_, dem = t[:, :, l]
+            w0 = s["omega"][:, l]
             dl = dl + np.cross(da, p[:, i]) + np.cross(dw, np.cross(w0, p[:, i])) \
                 + np.cross(w0, np.cross(dw, p[:, i]))
             dl, dw, da = mtv(R[:, i], dl), mtv(R[:, i], dw), mtv(R[:, i], da)
@@ -168,24 +179,31 @@ def _sweep(model, R, p, s, qd, j, seed, turn, wrench):
                 dl = dl + 2.0 * np.cross(dw, qd_z)
             else:                                         # alpha += d omega' x qd e_z
                 da = da + np.cross(dw, qd_z)
+        else:
+            continue
+        moved[i] = True
+        t[:, :, i] = dw, da, dl, def_, dem
         dfB[:, i], dnB[:, i] = _body_wrench_tangent(model, i, s["omega"][:, i], dw, da, dl)
-    df, dn = np.zeros((N, 3)), np.zeros((N, 3))
-    if wrench:                                            # the tip load -e, turned
-        df = -def_
-        dn = -dem + np.cross(model.Xtip_p, df)
+    if wrench and moved[n - 1]:                           # the tip load -e, turned
+        df = -t[3, :, n - 1]
+        dfB[:, n - 1] += df
+        dnB[:, n - 1] += -t[4, :, n - 1] + np.cross(model.Xtip_p, df)
     dtau = np.empty((N, n))
-    for i in range(n - 1, -1, -1):
-        if i < n - 1:                                     # rnea.py inward, linearized
-            df = mv(R[:, i + 1], df)
-            dn = mv(R[:, i + 1], dn) + np.cross(p[:, i + 1], df)
-            if turn and i + 1 == j:                       # joint j's own turn (docstring)
-                g = mv(R[:, j], _zc(s["f"][:, j]))        # R_j (e_z x f_j)
-                if model.kind[j] == PRISMATIC:
-                    dn = dn + g
-                else:
-                    df = df + g
-                    dn = dn + mv(R[:, j], _zc(s["n"][:, j])) + np.cross(p[:, j], g)
-        df, dn = df + dfB[:, i], dn + dnB[:, i]
+    for i in range(n - 1, -1, -1):                        # rnea.py inward, linearized
+        df, dn = dfB[:, i], dnB[:, i]                     # with the children's, below
         dtau[:, i] = df[:, 2] if model.kind[i] == PRISMATIC else dn[:, 2]
+        l = model.parent[i]
+        if l < 0:
+            continue
+        df = mv(R[:, i], df)
+        dn = mv(R[:, i], dn) + np.cross(p[:, i], df)
+        if turn and i == j:                               # joint j's own turn (docstring)
+            g = mv(R[:, j], _zc(s["f"][:, j]))            # R_j (e_z x f_j)
+            if model.kind[j] == PRISMATIC:
+                dn = dn + g
+            else:
+                df = df + g
+                dn = dn + mv(R[:, j], _zc(s["n"][:, j])) + np.cross(p[:, j], g)
+        dfB[:, l] += df
+        dnB[:, l] += dn
     return dtau
-

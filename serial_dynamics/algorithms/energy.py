@@ -3,7 +3,7 @@ docs/conventions.md)."""
 import numpy as np
 
 from ..joints import PRISMATIC
-from ._batch import as_batch, mtv, mv, require_chain, unbatch
+from ._batch import as_batch, mtv, mv, unbatch
 from .crba import mass_matrix
 from .kinematics import body_poses, joint_transforms
 from .rnea import E_Z
@@ -31,18 +31,20 @@ def kinetic_energy_gradient(model, q, qd):
     (base) frame the joint axes beyond joint k and the bodies' inertias turn with it:
     dV_i/dq_k = S_k x (V_i - V_k) and dI_i/dq_k = S_k x* I_i - I_i S_k x for k <= i, so
     dT/dq_k = sum_{i >= k} h_i . (V_k x S_k) = -S_k . (V_k x* H_k), with H_k = sum_{i >= k}
-    h_i the momentum of bodies k.., carried inward like the joint forces of Newton-Euler
+    h_i the momentum of bodies k.. (on a tree: k and the bodies below it), carried inward
+    like the joint forces of Newton-Euler
     (x, x*: the spatial cross products of motions and forces; Featherstone 2008, Sec. 2.9;
     f . (S x u) = S . (u x* f))."""
-    require_chain(model, "dT/dq (the kinetic-energy gradient)")
     single, (q, qd) = as_batch(model, ("q", q), ("qd", qd))
     N, n = q.shape
     R, p = joint_transforms(model, q)
-    omega, v = np.zeros((N, 3)), np.zeros((N, 3))
+    zero = np.zeros((N, 3))
     W, U = np.empty((N, n, 3)), np.empty((N, n, 3))          # omega_i, v_i (frame i)
     hn, hf = np.empty((N, n, 3)), np.empty((N, n, 3))        # h_i: angular, linear momentum
     for i in range(n):
-        # body i-1's velocity at body i's origin, in frame i; then the joint's rate
+        # the parent's velocity at body i's origin, in frame i; then the joint's rate
+        l = model.parent[i]
+        omega, v = (zero, zero) if l < 0 else (W[:, l], U[:, l])
         v = mtv(R[:, i], v + np.cross(omega, p[:, i]))
         omega = mtv(R[:, i], omega)
         if model.kind[i] == PRISMATIC:
@@ -53,15 +55,18 @@ def kinetic_energy_gradient(model, q, qd):
         hf[:, i] = m * v + np.cross(omega, h)                # momentum, linear
         hn[:, i] = omega @ I_O.T + np.cross(h, v)            # angular, about the origin
         W[:, i], U[:, i] = omega, v
-    Hn, Hf = np.zeros((N, 3)), np.zeros((N, 3))
+    carried = [None] * n                                     # H of the bodies below, carried in
     grad = np.empty((N, n))
     for k in range(n - 1, -1, -1):
-        if k < n - 1:      # H of bodies k+1.. into frame k: f' = R f, n' = R n + p x f'
-            Hf = mv(R[:, k + 1], Hf)
-            Hn = mv(R[:, k + 1], Hn) + np.cross(p[:, k + 1], Hf)
-        Hn, Hf = Hn + hn[:, k], Hf + hf[:, k]
+        Hn, Hf = carried[k] or (0.0, 0.0)
+        Hn, Hf = Hn + hn[:, k], Hf + hf[:, k]                # H_k: bodies k and below
         # -V_k x* H_k = -(omega x Hn + v x Hf; omega x Hf), projected on the joint axis S_k
         yn = -np.cross(W[:, k], Hn) - np.cross(U[:, k], Hf)
         yf = -np.cross(W[:, k], Hf)
         grad[:, k] = yf[:, 2] if model.kind[k] == PRISMATIC else yn[:, 2]
+        l = model.parent[k]
+        if l >= 0:         # H_k into the parent's frame: f' = R f, n' = R n + p x f'
+            Hf = mv(R[:, k], Hf)
+            Hn = mv(R[:, k], Hn) + np.cross(p[:, k], Hf)
+            carried[l] = (Hn, Hf) if carried[l] is None else (carried[l][0] + Hn, carried[l][1] + Hf)
     return unbatch(single, grad)

@@ -50,14 +50,12 @@ def test_compiled_trees_match_the_reference(rel):
             assert batch[k].tobytes() == getattr(fast, name)(*(a[k] for a in args)).tobytes()
 
 
-def test_a_tree_refuses_what_is_written_for_chains_only():
+def test_a_tree_takes_the_general_paths_of_sim():
     fast, _ = pair(ROBOTS[0])
+    assert fast.compiled_chain is None        # sim/'s whole-step kernels are the chain's
     q, qd = fast.random_state(0)
-    for call in (lambda: fast.inverse_dynamics_derivatives(q, qd, qd),
-                 lambda: fast.kinetic_energy_gradient(q, qd)):
-        with pytest.raises(NotImplementedError, match="chains only so far.*tip_link"):
-            call()
-    assert fast.compiled_chain is None        # sim/ takes the general path
+    # dT/dq = C^T qd (the symplectic Euler step's gradient) on the tree
+    close(fast.kinetic_energy_gradient(q, qd), fast.coriolis_matrix(q, qd).T @ qd)
 
 
 def test_bad_states_on_a_tree_name_the_joint():

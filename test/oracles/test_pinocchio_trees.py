@@ -136,3 +136,31 @@ def test_a_floating_tree_agrees_with_pinocchios_free_flyer(rel):
     assert rel_err(robot.mass_matrix(q), Mp[np.ix_(idx, idx)]) < RTOL
     for method in ("cholesky", "aba"):
         assert rel_err(robot.forward_dynamics(q, v, tau, method=method), a) < 1e3 * RTOL
+
+
+@pytest.mark.parametrize("rel", ["solo_description/robots/solo12.urdf",
+                                 "talos_data/robots/talos_reduced.urdf",
+                                 "baxter_description/urdf/baxter.urdf"])
+def test_the_derivatives_on_a_tree_agree_with_pinocchio(rel):
+    """d tau/d q and d tau/d qd against pinocchio.computeRNEADerivatives (Baxter's mimic
+    fingers through G: d tau/d q = G^T (d tau_all/d q_all) G), and those of forward dynamics
+    (-M^-1 d tau/d x, M^-1)."""
+    robot = load(rel)
+    model = robot.model
+    full = types.SimpleNamespace(joint_names=list(model.joint_names), gravity=model.gravity)
+    ref = PinReference(full, erd(rel))
+    G, o = model.mimic_matrix
+    rng = np.random.default_rng(11)
+    q, qd = robot.random_state(rng)
+    qdd = rng.uniform(-2, 2, robot.dof)
+    dq, dqd = robot.inverse_dynamics_derivatives(q, qd, qdd)
+    pq, pv, pa = ref.q(G @ q + o), ref.v(G @ qd), ref.v(G @ qdd)
+    Pq, Pv, _ = pin.computeRNEADerivatives(ref.model, ref.data, pq, pv, pa)
+    iv = np.ix_(ref.iv, ref.iv)
+    assert rel_err(dq, G.T @ Pq[iv] @ G) < RTOL
+    assert rel_err(dqd, G.T @ Pv[iv] @ G) < RTOL
+    tau = robot.inverse_dynamics(q, qd, qdd)
+    aq, av, at = robot.forward_dynamics_derivatives(q, qd, tau)
+    Minv = np.linalg.inv(robot.mass_matrix(q))
+    assert rel_err(at, Minv) < RTOL and rel_err(aq, -Minv @ dq) < 1e3 * RTOL
+    assert rel_err(av, -Minv @ dqd) < 1e3 * RTOL

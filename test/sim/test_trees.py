@@ -46,7 +46,7 @@ def test_a_floating_humanoid_keeps_its_momentum_in_zero_gravity():
 def test_every_fixed_step_method_runs_a_tree(method):
     """0.3 s at 1 ms from rest under gravity: each method stays within 20 mJ of the energy it
     started with (no dissipation) and within 0.1 rad of DOP853's end state (the first-order
-    methods at 1 ms on Solo12's light legs, which reach 20 rad/s: 0.06 rad, measured)."""
+    methods at 1 ms on Solo12's light, fast-swinging legs: 0.06 rad, measured)."""
     robot = load("solo_description/robots/solo12.urdf")
     robot.dissipation = robot.dissipation.override(viscous=0.0, coulomb=0.0)
     q0 = 0.3 * robot.random_state(0)[0]

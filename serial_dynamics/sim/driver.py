@@ -31,6 +31,7 @@ import numpy as np
 
 from ..model.errors import SimulationError
 from ..robot.base_motion import BaseMotion
+from ..robot.wrenches import generalized_forces
 from .adaptive import run_adaptive
 from .equations import Inputs
 from .fixed_step import run_compiled, run_fixed
@@ -119,11 +120,29 @@ def interp_fn(ts, vals):
     return fn
 
 
+def with_link_wrenches(robot, torque_fn, wrenches, q0, qd0):
+    """``torque_fn`` plus the generalized forces sum_k J_k(q)^T w_k of ``wrenches`` (each a
+    (6,) wrench or a callable of (t, q, qd)), checked once at the initial state."""
+    if robot.is_floating:
+        raise ValueError("wrenches= in a simulation of a floating base is not available yet: "
+                         "give the base's generalized forces through a fixed-base model, or "
+                         "the tip's wrench with wrench=")
+    if not isinstance(wrenches, dict):
+        raise ValueError(f"wrenches must be a dict {{link: wrench or callable}}; got "
+                         f"{type(wrenches).__name__}")
+
+    def at(t, q, qd):
+        return {k: (w(t, q, qd) if callable(w) else w) for k, w in wrenches.items()}
+
+    generalized_forces(robot, q0, at(0.0, q0, qd0))      # names a bad link or wrench now
+    return lambda t, q, qd: torque_fn(t, q, qd) + generalized_forces(robot, q, at(t, q, qd))
+
+
 def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853", rtol=None,
              atol=None, dt=None, dissipation=True, wrench=None, output_dt=None,
              max_step=np.inf, first_step=None, friction_smoothing=1e-4, check_energy=True,
              position_limits=False, progress=False, base_motion=None,
-             jacobian="analytical") -> SimulationResult:
+             jacobian="analytical", wrenches=None) -> SimulationResult:
     """Simulate ``duration`` seconds of motion from (q0, qd0) (zeros by default).
 
     torque: None (zero), a scalar or (n,) constant, (K, n) samples uniformly spaced over
@@ -131,6 +150,9 @@ def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853"
         ``torque(t, q, qd) -> (n,)`` (a controller closed around the robot; adaptive and
         RK methods call it at trial states, so it must be a pure function of its arguments).
     wrench: None, (6,) [fx, fy, fz, mx, my, mz] on the tip (base frame), or a callable.
+    wrenches: {link: w} with w a (6,) wrench or a callable ``w(t, q, qd) -> (6,)``, each on
+        that link at its origin, base frame (a fixed base): their generalized forces
+        sum_k J_k^T w_k add to the torque (``robot/wrenches.py``; counted with its work).
     method: "RK45", "DOP853", "Radau", "BDF", "LSODA" (adaptive: rtol, atol, default 1e-6,
         1e-9) or "semi_implicit_euler", "symplectic_euler", "rk4", "implicit_midpoint"
         (fixed step: dt, default 1e-3 s).
@@ -180,6 +202,8 @@ def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853"
                          f"[{robot.lower[j]:g}, {robot.upper[j]:g}]; start inside them, or "
                          "simulate without position_limits")
     torque_fn, torque_kind = input_fn(torque, n, "torque", duration, robot.joint_names)
+    if wrenches is not None:
+        torque_fn, torque_kind = with_link_wrenches(robot, torque_fn, wrenches, q0, qd0), "fn"
     wrench_fn, wrench_kind = input_fn(wrench, 6, "wrench", duration, robot.joint_names)
     inputs = Inputs(torque_fn, None if wrench_kind == "zero" else wrench_fn,
                     base_fn(base_motion), "fn" in (torque_kind, wrench_kind))
@@ -204,7 +228,8 @@ def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853"
             args = (robot, duration, q0, qd0, inputs, method, dt, dissipation, output_dt,
                     check_energy, bar)
             if (method == "semi_implicit_euler" and robot.compiled_chain is not None
-                    and not callable(torque) and inputs.wrench is None and inputs.base is None
+                    and not callable(torque) and wrenches is None and inputs.wrench is None
+                    and inputs.base is None
                     and not position_limits):
                 out = run_compiled(*args)           # the compiled loop has no stops
             else:

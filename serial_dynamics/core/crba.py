@@ -13,7 +13,7 @@ from .data import new_kin
 from .status import BAD_LENGTH, NOT_FINITE, OK, status
 from .signatures import D2, D3, Out2, Pm, internal
 from .layout import ARM, H, IO, KIND, MASS
-from .spatial import joint_transforms, to_parent
+from .spatial import joint_transforms, rotation, to_parent
 
 
 def crba_core(P, R, p, M):
@@ -47,40 +47,49 @@ def crba_core(P, R, p, M):
                 else:
                     M[0, i] = R[1, 2, 0] * fx + R[1, 2, 1] * fy + R[1, 2, 2] * fz
                 M[i, 0] = M[0, i]
-            # composite i-1 = body i-1 + composite i carried into frame i-1:
-            # h_R = R h, I_R = R I_O R^T (T = R I_O, then T R^T)
-            r0, r1, r2 = R[i, 0, 0], R[i, 0, 1], R[i, 0, 2]
-            r3, r4, r5 = R[i, 1, 0], R[i, 1, 1], R[i, 1, 2]
-            r6, r7, r8 = R[i, 2, 0], R[i, 2, 1], R[i, 2, 2]
-            px, py, pz = p[i, 0], p[i, 1], p[i, 2]
-            gx, gy, gz = r0 * hx + r1 * hy + r2 * hz, r3 * hx + r4 * hy + r5 * hz, r6 * hx + r7 * hy + r8 * hz
+            # composite i-1 = body i-1 + composite i carried into frame i-1
             if i == 1:              # of composite 0 only S_0^T IC_0 S_0 is needed
+                r6, r7, r8 = R[1, 2, 0], R[1, 2, 1], R[1, 2, 2]
                 if P[0, KIND] == 0.0:
+                    px, py = p[1, 0], p[1, 1]
+                    gx = R[1, 0, 0] * hx + R[1, 0, 1] * hy + R[1, 0, 2] * hz
+                    gy = R[1, 1, 0] * hx + R[1, 1, 1] * hy + R[1, 1, 2] * hz
                     t6, t7, t8 = r6 * Ixx + r7 * Ixy + r8 * Ixz, r6 * Ixy + r7 * Iyy + r8 * Iyz, r6 * Ixz + r7 * Iyz + r8 * Izz
                     d = 2.0 * (gx * px + gy * py) + m * (px * px + py * py)
                     M[0, 0] = P[0, IO + 2] + t6 * r6 + t7 * r7 + t8 * r8 + d + P[0, ARM]
                 else:
                     M[0, 0] = P[0, MASS] + m + P[0, ARM]
                 return
-            t0, t1, t2 = r0 * Ixx + r1 * Ixy + r2 * Ixz, r0 * Ixy + r1 * Iyy + r2 * Iyz, r0 * Ixz + r1 * Iyz + r2 * Izz
-            t3, t4, t5 = r3 * Ixx + r4 * Ixy + r5 * Ixz, r3 * Ixy + r4 * Iyy + r5 * Iyz, r3 * Ixz + r4 * Iyz + r5 * Izz
-            t6, t7, t8 = r6 * Ixx + r7 * Ixy + r8 * Ixz, r6 * Ixy + r7 * Iyy + r8 * Iyz, r6 * Ixz + r7 * Iyz + r8 * Izz
-            Jxx, Jyy, Jzz = t0 * r0 + t1 * r1 + t2 * r2, t3 * r3 + t4 * r4 + t5 * r5, t6 * r6 + t7 * r7 + t8 * r8
-            Jxy, Jxz, Jyz = t0 * r3 + t1 * r4 + t2 * r5, t0 * r6 + t1 * r7 + t2 * r8, t3 * r6 + t4 * r7 + t5 * r8
-            # parallel axes to the parent origin (Featherstone 2008, eq. 2.63):
-            # I' = I_R + (2 h_R.p + m p.p) 1 - (h_R p^T + p h_R^T + m p p^T),  h' = h_R + m p
-            d = 2.0 * (gx * px + gy * py + gz * pz) + m * (px * px + py * py + pz * pz)
             k = i - 1
-            Ixx = P[k, IO] + Jxx + d - 2.0 * gx * px - m * px * px
-            Iyy = P[k, IO + 1] + Jyy + d - 2.0 * gy * py - m * py * py
-            Izz = P[k, IO + 2] + Jzz + d - 2.0 * gz * pz - m * pz * pz
-            Ixy = P[k, IO + 3] + Jxy - gx * py - px * gy - m * px * py
-            Ixz = P[k, IO + 4] + Jxz - gx * pz - px * gz - m * px * pz
-            Iyz = P[k, IO + 5] + Jyz - gy * pz - py * gz - m * py * pz
-            hx = P[k, H] + gx + m * px
-            hy = P[k, H + 1] + gy + m * py
-            hz = P[k, H + 2] + gz + m * pz
-            m = P[k, MASS] + m
+            m, hx, hy, hz, Ixx, Iyy, Izz, Ixy, Ixz, Iyz = add_in_parent(
+                P[k, MASS], P[k, H], P[k, H + 1], P[k, H + 2], P[k, IO], P[k, IO + 1],
+                P[k, IO + 2], P[k, IO + 3], P[k, IO + 4], P[k, IO + 5], rotation(R, i),
+                p[i, 0], p[i, 1], p[i, 2], m, hx, hy, hz, Ixx, Iyy, Izz, Ixy, Ixz, Iyz)
+
+
+@njit(cache=True, inline="always")
+def add_in_parent(bm, bhx, bhy, bhz, bxx, byy, bzz, bxy, bxz, byz, r, px, py, pz,
+                  m, hx, hy, hz, Ixx, Iyy, Izz, Ixy, Ixz, Iyz):
+    """(bm, bh, bI) + a composite body (m, h = m c, I_O about its origin, in body i's frame)
+    carried into the parent's frame (R_i = r, origin p): the ten parameters of the sum.
+    h_R = R h, I_R = R I_O R^T (T = R I_O, then T R^T); parallel axes to the parent origin
+    (Featherstone 2008, eq. 2.63):
+    I' = I_R + (2 h_R.p + m p.p) 1 - (h_R p^T + p h_R^T + m p p^T),  h' = h_R + m p."""
+    r0, r1, r2, r3, r4, r5, r6, r7, r8 = r
+    gx, gy, gz = r0 * hx + r1 * hy + r2 * hz, r3 * hx + r4 * hy + r5 * hz, r6 * hx + r7 * hy + r8 * hz
+    t0, t1, t2 = r0 * Ixx + r1 * Ixy + r2 * Ixz, r0 * Ixy + r1 * Iyy + r2 * Iyz, r0 * Ixz + r1 * Iyz + r2 * Izz
+    t3, t4, t5 = r3 * Ixx + r4 * Ixy + r5 * Ixz, r3 * Ixy + r4 * Iyy + r5 * Iyz, r3 * Ixz + r4 * Iyz + r5 * Izz
+    t6, t7, t8 = r6 * Ixx + r7 * Ixy + r8 * Ixz, r6 * Ixy + r7 * Iyy + r8 * Iyz, r6 * Ixz + r7 * Iyz + r8 * Izz
+    Jxx, Jyy, Jzz = t0 * r0 + t1 * r1 + t2 * r2, t3 * r3 + t4 * r4 + t5 * r5, t6 * r6 + t7 * r7 + t8 * r8
+    Jxy, Jxz, Jyz = t0 * r3 + t1 * r4 + t2 * r5, t0 * r6 + t1 * r7 + t2 * r8, t3 * r6 + t4 * r7 + t5 * r8
+    d = 2.0 * (gx * px + gy * py + gz * pz) + m * (px * px + py * py + pz * pz)
+    return (bm + m, bhx + gx + m * px, bhy + gy + m * py, bhz + gz + m * pz,
+            bxx + Jxx + d - 2.0 * gx * px - m * px * px,
+            byy + Jyy + d - 2.0 * gy * py - m * py * py,
+            bzz + Jzz + d - 2.0 * gz * pz - m * pz * pz,
+            bxy + Jxy - gx * py - px * gy - m * px * py,
+            bxz + Jxz - gx * pz - px * gz - m * px * pz,
+            byz + Jyz - gy * pz - py * gz - m * py * pz)
 
 
 crba_inline = njit(cache=True, inline="always")(crba_core)   # into the single-state entry

@@ -15,6 +15,7 @@ from numba import njit, types
 
 from . import flags as F
 from .cholesky import cholesky_solve
+from .crba import add_in_parent
 from .floating import GW, _chain_inputs, _products
 from .data import new_chol, new_kin, stack_empty
 from .layout import ARM, H, IO, KIND, MASS, PARENT, TIPPATH, W_ALL, W_WRENCH
@@ -66,27 +67,6 @@ def tree_rnea_core(P, sc, R, p, f, mo, q, qd, qdd, w, flags, tau):
 tree_rnea_core = internal(f8(Pm, D2, D3, D2, D2, D2, In1, In1, In1, In1, i8, Out1))(tree_rnea_core)
 
 
-@njit(cache=True, inline="always")
-def composite_in_parent(r, px, py, pz, m, hx, hy, hz, Ixx, Iyy, Izz, Ixy, Ixz, Iyz):
-    """A composite body's ten inertial parameters (m, h = m c, I_O), given in body i's frame,
-    in the parent's frame (R_i = r, origin p): h' = R h + m p and, by parallel axes,
-    I' = R I_O R^T + (2 (R h).p + m p.p) 1 - ((R h) p^T + p (R h)^T + m p p^T)
-    (Featherstone 2008, eq. 2.63)."""
-    r0, r1, r2, r3, r4, r5, r6, r7, r8 = r
-    gx, gy, gz = r0 * hx + r1 * hy + r2 * hz, r3 * hx + r4 * hy + r5 * hz, r6 * hx + r7 * hy + r8 * hz
-    t0, t1, t2 = r0 * Ixx + r1 * Ixy + r2 * Ixz, r0 * Ixy + r1 * Iyy + r2 * Iyz, r0 * Ixz + r1 * Iyz + r2 * Izz
-    t3, t4, t5 = r3 * Ixx + r4 * Ixy + r5 * Ixz, r3 * Ixy + r4 * Iyy + r5 * Iyz, r3 * Ixz + r4 * Iyz + r5 * Izz
-    t6, t7, t8 = r6 * Ixx + r7 * Ixy + r8 * Ixz, r6 * Ixy + r7 * Iyy + r8 * Iyz, r6 * Ixz + r7 * Iyz + r8 * Izz
-    d = 2.0 * (gx * px + gy * py + gz * pz) + m * (px * px + py * py + pz * pz)
-    return (m, gx + m * px, gy + m * py, gz + m * pz,
-            t0 * r0 + t1 * r1 + t2 * r2 + d - 2.0 * gx * px - m * px * px,
-            t3 * r3 + t4 * r4 + t5 * r5 + d - 2.0 * gy * py - m * py * py,
-            t6 * r6 + t7 * r7 + t8 * r8 + d - 2.0 * gz * pz - m * pz * pz,
-            t0 * r3 + t1 * r4 + t2 * r5 - gx * py - px * gy - m * px * py,
-            t0 * r6 + t1 * r7 + t2 * r8 - gx * pz - px * gz - m * px * pz,
-            t3 * r6 + t4 * r7 + t5 * r8 - gy * pz - py * gz - m * py * pz)
-
-
 def tree_crba_core(P, R, p, IC, M):
     """M of a tree into ``M`` (n, n); R, p hold the joint transforms. IC (n, 10): the
     composite bodies' (m, h, I_O: xx yy zz xy xz yz), each in its joint frame."""
@@ -115,10 +95,11 @@ def tree_crba_core(P, R, p, IC, M):
             M[i, j] = M[j, i]
         l = int(P[i, PARENT])
         if l >= 0:                  # IC_lambda(i) += Xup_i^T IC_i Xup_i
-            c = composite_in_parent(rotation(R, i), p[i, 0], p[i, 1], p[i, 2],
-                                    m, hx, hy, hz, Ixx, Iyy, Izz, Ixy, Ixz, Iyz)
-            for k in range(10):
-                IC[l, k] += c[k]
+            (IC[l, 0], IC[l, 1], IC[l, 2], IC[l, 3], IC[l, 4], IC[l, 5], IC[l, 6], IC[l, 7],
+             IC[l, 8], IC[l, 9]) = add_in_parent(
+                IC[l, 0], IC[l, 1], IC[l, 2], IC[l, 3], IC[l, 4], IC[l, 5], IC[l, 6], IC[l, 7],
+                IC[l, 8], IC[l, 9], rotation(R, i), p[i, 0], p[i, 1], p[i, 2],
+                m, hx, hy, hz, Ixx, Iyy, Izz, Ixy, Ixz, Iyz)
 
 
 tree_crba_core = internal(types.void(Pm, D3, D2, D2, Out2))(tree_crba_core)

@@ -20,6 +20,8 @@ from ..core.aba import aba_core
 from ..core.data import heap_empty, new_art, new_chol, new_kin, stack_empty
 from ..core.forward import cholesky_core
 from ..core.signatures import In1, In2, Out2, Pm, compile_internal, f8, i8
+from .equations import SimulationError
+from .fixed_step import FixedStepIntegrator
 from .steps import semi_implicit_euler_step
 
 
@@ -123,8 +125,6 @@ def _stepped(robot, q0, qd0, tau, dt, nsteps, viscous, w, implicit_damping):
     """``simulate_fixed_step`` by ``FixedStepIntegrator`` (semi-implicit Euler, no other
     dissipation), one step at a time; implicit damping is its implicit servo with Kp = 0,
     Kd = viscous, qd* = 0: (M + dt Kd) qd1 = M qd0 + dt (tau - b), the same equations."""
-    from .fixed_step import FixedStepIntegrator      # fixed_step imports this module
-    from .equations import SimulationError
     from .servo import Servo
     n, nq, nv = robot.dof, robot.nq, robot.nv
     implicit = implicit_damping and np.any(viscous != 0.0)

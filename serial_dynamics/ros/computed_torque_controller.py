@@ -41,10 +41,10 @@ from . import common, parameters
 from .common import Rejected
 from .parameters import StartupError
 
-MODES = ("computed_torque", "pd_gravity", "gravity_compensation")
+MODES = control.MODES        # the laws, written once (control.py)
 PARAMETERS = {
-    "mode": ("string", "computed_torque", "control law: computed_torque, pd_gravity or "
-             "gravity_compensation. Settable while running"),
+    "mode": ("string", "computed_torque", f"control law: {', '.join(MODES)}. Settable while "
+             "running"),
     **parameters.ROBOT_PARAMETERS,
     "control_rate": ("double", 500.0, "effort_commands rate (Hz, of the node's clock: "
                      "simulated time with use_sim_time)"),

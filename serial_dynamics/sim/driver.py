@@ -1,6 +1,6 @@
 """``simulate``: checks and normalises its inputs (initial state; torque and wrench given
 as constants, samples or callables, made functions of (t, q, qd)) and runs the loop of the
-method: ``fixed_step.run_compiled`` or ``run_fixed``, or ``adaptive.run_adaptive``.
+method: ``compiled_run.run_compiled`` or ``run_fixed``, or ``adaptive.run_adaptive``.
 
 Methods (see docs/simulation.md):
 
@@ -34,7 +34,8 @@ from ..robot.base_motion import BaseMotion
 from ..robot.wrenches import generalized_forces
 from .adaptive import run_adaptive
 from .equations import Inputs
-from .fixed_step import run_compiled, run_fixed
+from .compiled_run import run_compiled
+from .fixed_step import run_fixed
 from .floating import FLOATING_FIXED_STEP, FLOATING_METHODS, run_floating
 from .jacobians import check_jacobian
 from .methods import DEFAULT_ATOL, DEFAULT_DT, DEFAULT_RTOL, FIXED_STEP, METHODS

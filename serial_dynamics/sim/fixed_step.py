@@ -3,8 +3,8 @@ by the simulator node) and the fixed-step run loops of ``simulate``.
 
 Owns the frame of a step (friction modes and stops at the start, the method's step from
 ``STEPPERS``, a sliding joint stopping where its speed crosses zero, the state check and
-the impacts at the end), ``run_fixed`` (step by step) and ``run_compiled`` (semi-implicit
-Euler in one compiled loop, ``loop.simulate_fixed_step``).
+the impacts at the end) and ``run_fixed`` (step by step); ``compiled_run.run_compiled`` is
+semi-implicit Euler in one compiled loop.
 """
 from __future__ import annotations
 
@@ -14,7 +14,6 @@ from .equations import EnergyGuard, Equations, Inputs, StepStart
 from .explicit import euler_update, rk4, semi_implicit_euler
 from .implicit import implicit_midpoint
 from .jacobians import analytical
-from .loop import simulate_fixed_step
 from .methods import FIXED_STEP
 from .result import SolverStats, finish
 from .stops import JointStops
@@ -207,43 +206,3 @@ def run_fixed(robot, duration, q0, qd0, inputs, method, dt, dissipation, output_
                         + (f"; a joint reached a stop in {integ.impacts} steps"
                            if integ.impacts else ""))
     return finish(eq, ts, Q, QD, QDD, TAU, DELTA, WS, stats, robot.joint_names)
-
-
-def run_compiled(robot, duration, q0, qd0, inputs, method, dt, dissipation, output_dt,
-                 check_energy, bar):
-    """Semi-implicit Euler in one compiled loop (``loop.simulate_fixed_step``), for torques
-    known in advance (not state feedback), no tip wrench and no Coulomb friction; the same
-    steps, explicit damping and work quadrature as FixedStepIntegrator. Falls back to the
-    step-by-step loop otherwise."""
-    eq = Equations(robot, dissipation)
-    if eq.coulomb_on:   # stick-slip needs the step-by-step integrator
-        return run_fixed(robot, duration, q0, qd0, inputs, method, dt, dissipation,
-                         output_dt, check_energy, bar)
-    nsteps = int(np.ceil(duration / dt - 1e-9))
-    ts = np.arange(nsteps + 1) * dt
-    tau = np.array([inputs.torque(t, None, None) for t in ts])   # (nsteps + 1, n)
-    Q, QD = simulate_fixed_step(robot, q0, qd0, tau[:-1], dt, nsteps, eq.beta, None,
-                                implicit_damping=False)
-    eq.calls += nsteps
-    eq.states += nsteps
-    delta = -eq.beta * QD                                         # viscous only here
-    # discrete work, as in FixedStepIntegrator: torques held over a step times the new speed
-    dW = dt * np.stack([np.einsum("ki,ki->k", tau[:-1], QD[1:]),
-                        np.einsum("ki,ki->k", delta[:-1], QD[1:]), np.zeros(nsteps)], axis=1)
-    W = np.vstack([np.zeros(3), np.cumsum(dW, axis=0)])
-    # the checks of the step-by-step loop, at its check points, in time order
-    guard = EnergyGuard(eq, q0, qd0, method, dt, check_energy)
-    bad = np.flatnonzero(~np.all(np.isfinite(QD) & np.isfinite(Q), axis=1))
-    last = nsteps if bad.size == 0 else bad[0]
-    for k in np.unique(np.r_[np.arange(0, last + 1, max(1, min(200, nsteps // 50))), last]):
-        eq.check_state(ts[k], Q[k], QD[k], method, dt)            # raises at the first bad row
-        guard(ts[k], Q[k], QD[k], W[k])
-    bar(duration)
-    qdd_end, _ = eq.accel(Q[-1], QD[-1], tau[-1])
-    QDD = np.vstack([np.diff(QD, axis=0) / dt, qdd_end])          # qd1 = qd + dt qdd
-    keep = np.unique(np.r_[np.arange(0, nsteps, 1 if output_dt is None else
-                                     max(1, int(round(output_dt / dt)))), nsteps])
-    stats = SolverStats(method, steps=nsteps, nfev=nsteps,
-                        message=f"fixed step dt = {dt:g} s (compiled loop)")
-    return finish(eq, ts[keep], Q[keep], QD[keep], QDD[keep], tau[keep], delta[keep], W[keep],
-                  stats, robot.joint_names)

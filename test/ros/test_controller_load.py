@@ -10,6 +10,11 @@ that does not grow after the push. No timing is asserted.
 The old controller (M_ii(0) gains, a queue of 10 states) passed this too in the trials
 here: the URDF's joint damping (10 N m s/rad) steadies the plant. The issue's divergence
 was not reproduced by this test; the fix rests on the bound (test/test_control_bound.py).
+
+A race against the machine (it failed once on a loaded machine, issue 26 item 5), so it is a
+benchmark, not a test: skipped in the suite, run by ``python bench/bench_controller_load.py``
+(which sets SERIAL_DYNAMICS_LOAD_SCENARIOS=1). The suite's deterministic version, with the
+test's clock driving plant and controller, is test/test_control_starved.py.
 """
 import os
 import signal
@@ -32,6 +37,11 @@ import serial_dynamics as sd
 
 from conftest import Latest, wait_for_log
 from pin_reference import erd
+
+pytestmark = pytest.mark.skipif(
+    not os.environ.get("SERIAL_DYNAMICS_LOAD_SCENARIOS"),
+    reason="a load scenario (races the machine): python bench/bench_controller_load.py; "
+           "the deterministic test is test/test_control_starved.py")
 
 NS = "/load"
 PUSH = 17.0          # N along the base y axis, on the tip (it turns joints 1, 3 and 5)

@@ -300,12 +300,12 @@ def test_controller_huge_gains_send_nothing_and_say_why(controller):
                       values(6)))
 def test_simulator_effort_commands(nodes, data):
     node = nodes["simulator"]
-    before = node.hold.tau.copy()
+    before = node.session.hold.tau.copy()
     good = len(data) == 6 and ok_numbers(data, bound=None)
     msg = Float64MultiArray(data=data)
     assert outcome(node, "effort_commands", lambda: node.on_effort(msg)) == \
         ("accepted" if good else "rejected")
-    np.testing.assert_array_equal(node.hold.tau, np.clip(data, -node.limit, node.limit) if good
+    np.testing.assert_array_equal(node.session.hold.tau, np.clip(data, -node.session.limit, node.session.limit) if good
                                   else before)
 
 
@@ -313,7 +313,7 @@ def test_simulator_effort_commands(nodes, data):
 @given(names=joint_names, data=st.data())
 def test_simulator_joint_commands(nodes, names, data):
     node = nodes["simulator"]
-    before = node.hold.tau.copy()
+    before = node.session.hold.tau.copy()
     msg = JointState(name=names, effort=data.draw(values(len(names), tame.map(lambda x: 100 * x))))
     good = (ok_names(names, all_=False) is not None and len(msg.effort) == len(names)
             and ok_numbers(msg.effort, bound=None))
@@ -323,8 +323,8 @@ def test_simulator_joint_commands(nodes, names, data):
     if good:
         for x, e in zip(names, msg.effort):
             j = NAMES.index(x)
-            expected[j] = np.clip(e, -node.limit[j], node.limit[j])
-    np.testing.assert_array_equal(node.hold.tau, expected)
+            expected[j] = np.clip(e, -node.session.limit[j], node.session.limit[j])
+    np.testing.assert_array_equal(node.session.hold.tau, expected)
 
 
 # ------------------------------------------------------------------ bounds, before looking

@@ -1,9 +1,9 @@
 """The simulator's wall-clock pacing (``ros/pacing.py``) and command hold
-(``ros/command_hold.py``): plain Python, tested without rclpy and without waiting (the
+(``sim/command_hold.py``): plain Python, tested without rclpy and without waiting (the
 pacer reads a clock given here)."""
 import numpy as np
 
-from serial_dynamics.ros.command_hold import CommandHold
+from serial_dynamics.sim.command_hold import CommandHold
 from serial_dynamics.ros.pacing import Pacer
 
 

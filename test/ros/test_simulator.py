@@ -53,6 +53,7 @@ class Sim:
     def __init__(self, ros, **params):
         self.ros = ros
         self.proc = ros.start("simulator", {"publish_clock": True, "initial_positions": HOME,
+                                            "command_timeout_action": "limp",
                                             **params})
         self.robot = sd.default_robot()
         self.states = Latest(ros, JointState, "joint_states", depth=100)

@@ -4,8 +4,10 @@ the tests call these functions directly).
 Each ``answer_*`` takes the robot and a request of the matching
 ``serial_dynamics_interfaces/srv`` type (anything with the same fields will do) and returns
 the response fields as a dict, or raises ``Rejected`` (its cause: the field) naming the field and the fix. Rules
-(docs/ros.md, "Dynamics services"): ``joint_names`` in any order, or empty for the robot's
-order (``robot.joint_names``); empty velocities, accelerations or efforts mean zeros;
+(docs/ros.md, "Dynamics services"): ``joint_names`` any of the robot's joints (a subset of a
+tree's: two arms' joints, one leg's) in any order, the joints not named at zero position,
+velocity, acceleration and effort, or empty for every joint in the robot's order
+(``robot.joint_names``); empty velocities, accelerations or efforts mean zeros;
 ``tip_wrench`` is exerted on the tip link at its origin, in base coordinates, and a zero
 wrench means none. Answers list the joints in the robot's order.
 """
@@ -22,42 +24,42 @@ def _show(names, at_most=8):
 
 
 def joint_order(robot, names):
-    """Model index of each of the request's joints, or None for the robot's own order."""
+    """Model index of each of the request's joints (any of the robot's, each once), or None
+    for every joint in the robot's own order."""
     if len(names) == 0:
         return None
-    fix = (f"name each joint of the chain {robot.joint_names} once, in any order, or leave "
-           "joint_names empty for that order")
-    if len(names) != robot.dof:
-        raise Rejected("joint_names", f"joint_names has {len(names)} names for a chain of "
-                      f"{robot.dof} joints: {fix}")
+    fix = (f"name joints of the robot {_show(robot.joint_names)}, each once, in any order "
+           "(those not named are at zero), or leave joint_names empty for all in that order")
     model = {name: j for j, name in enumerate(robot.joint_names)}
     unknown = list(dict.fromkeys(x for x in names if x not in model))
     if unknown:
         raise Rejected("joint_names", f"joint_names {_show(unknown)} are not joints of the "
-                      f"chain: {fix}")
+                      f"robot: {fix}")
     index = np.array([model[x] for x in names])
-    if len(set(index.tolist())) != robot.dof:
+    if len(set(index.tolist())) != len(index):
         raise Rejected("joint_names", f"joint_names names a joint more than once: {fix}")
     return index
 
 
 def joint_vector(robot, index, values, field, empty_is_zero=False):
-    """One value per joint, in the model's order: a float array of length robot.dof."""
+    """One value per joint, in the model's order: a float array of length robot.dof (the
+    joints the request does not name at zero)."""
     n = robot.dof
     if len(values) == 0 and empty_is_zero:
         return np.zeros(n)
-    if len(values) != n:
+    size = n if index is None else len(index)
+    if len(values) != size:
         order = "of joint_names" if index is not None else f"{robot.joint_names}"
         empty = " (or none, for zeros)" if empty_is_zero else ""
-        raise Rejected(field, f"{field} has {len(values)} values: give one per joint, {n}, in "
-                      f"the order {order}{empty}")
+        raise Rejected(field, f"{field} has {len(values)} values: give one per joint, {size}, "
+                      f"in the order {order}{empty}")
     a = np.asarray(values, dtype=float)
     if not np.all(np.isfinite(a)):
         bad = [int(i) for i in np.flatnonzero(~np.isfinite(a))]
         raise Rejected(field, f"{field} has NaN or Inf at {bad}: give finite numbers")
     if index is None:
         return a
-    out = np.empty(n)
+    out = np.zeros(n)
     out[index] = a
     return out
 

@@ -57,7 +57,8 @@ def test_forward_inverts_inverse_with_the_wrench_and_the_dissipation_compensated
 
 @pytest.mark.parametrize("fields, field", [
     (dict(joint_names=["a"] * 6), "joint_names"),
-    (dict(joint_names=ROBOT.joint_names[:3]), "joint_names"),
+    (dict(joint_names=ROBOT.joint_names[:3] + ["nose"]), "joint_names"),
+    (dict(joint_names=ROBOT.joint_names[:3]), "positions"),     # 6 positions for 3 names
     (dict(positions=[0.0] * 7), "positions"),
     (dict(velocities=[0.0, float("nan")] * 3), "velocities"),
     (dict(accelerations=[1.0]), "accelerations"),
@@ -69,6 +70,25 @@ def test_refusals_name_the_field(fields, field):
     with pytest.raises(Rejected, match=field) as refused:
         requests.answer_inverse_dynamics(ROBOT, msg)
     assert refused.value.cause == field
+
+
+def test_a_subset_of_the_joints_in_any_order_the_rest_at_zero():
+    """Issue 25: a tree's services take any of its joints; those not named are at zero, and
+    the answer lists every joint. Here two of a two-arm robot's joints, named backwards."""
+    from test_trees import two_arms
+    robot = sd.load_urdf(two_arms())
+    names = ["r_elbow", "l_shoulder"]
+    q = np.zeros(robot.dof)
+    q[[robot.joint_names.index(x) for x in names]] = [0.7, -0.4]
+    ans = requests.answer_inverse_dynamics(robot, Msg(
+        joint_names=names, positions=[0.7, -0.4], velocities=[], accelerations=[1.0, 2.0],
+        tip_wrench=ZERO))
+    qdd = np.zeros(robot.dof)
+    qdd[[robot.joint_names.index(x) for x in names]] = [1.0, 2.0]
+    assert ans["joint_names"] == robot.joint_names
+    assert ans["efforts"] == robot.inverse_dynamics(q, np.zeros(robot.dof), qdd).tolist()
+    M = requests.answer_mass_matrix(robot, Msg(joint_names=names, positions=[0.7, -0.4]))
+    assert M["mass_matrix"] == robot.mass_matrix(q).ravel().tolist()
 
 
 def test_the_request_rules_import_no_ros():

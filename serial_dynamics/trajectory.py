@@ -1,6 +1,6 @@
 """Joint trajectories, the torques along them, their feasibility, the minimum-time
 maneuver under torque (and speed) limits, and the time-optimal timing of a path
-(``time_parameterize``; TOPP-RA, ``time_parameterization.py``).
+(``time_parameterize``; TOPP-RA, ``algorithms/time_parameterization.py``).
 
 Shape functions s(x) on x in [0, 1] with s(0) = 0, s(1) = 1 and zero end rates:
 
@@ -348,14 +348,14 @@ def time_parameterize(robot, path, velocity_limit=None, acceleration_limit=None,
     one per joint; inf: none), with the full dynamics: gravity, the payload, and the robot's
     joint friction with ``dissipation`` when it is enabled. TOPP-RA (the ``toppra``
     package) on ``grid`` intervals of the path plus the waypoints
-    (``time_parameterization.py``). Returns ``Waypoints`` at the grid points with positions,
+    (``algorithms/time_parameterization.py``). Returns ``Waypoints`` at the grid points with positions,
     velocities and accelerations (first and last at rest; sampled as cubic Hermite, which
     holds the solver's constant path acceleration on each interval), checked on a grid
     ``check`` times finer (stretched uniformly in time, ``.stretch``, where the
     interpolation exceeds a limit).
     ValueError naming the joint and the waypoint when no timing is feasible (gravity
     alone exceeds an effort limit)."""
-    from . import time_parameterization as tp
+    from .algorithms import time_parameterization as tp
     if robot.is_floating:
         raise NotImplementedError("time_parameterize needs a fixed base")
     t, q, qd, qdd, limits = tp.solve(robot, path, velocity_limit, acceleration_limit,

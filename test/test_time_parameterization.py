@@ -1,4 +1,4 @@
-"""trajectory.time_parameterize (TOPP-RA through toppra, time_parameterization.py): no
+"""trajectory.time_parameterize (TOPP-RA through toppra, algorithms/time_parameterization.py): no
 sample exceeds a limit (checked with the robot's inverse dynamics on a grid ten times finer
 than the solver's), the time-optimal closed forms (bang-bang; the 1/T^2 law of the
 textbook's minimum-time maneuver, shared/reference section E) within the grid's error, no

@@ -107,7 +107,8 @@ def task_space():
     return rows
 
 
-def services(calls):
+def services(calls, blas_threads=None):
+    """Round trips against a dynamics node (its BLAS limited to ``blas_threads``, if given)."""
     import rclpy
     from builtin_interfaces.msg import Time
     from rclpy.executors import SingleThreadedExecutor
@@ -125,8 +126,13 @@ def services(calls):
     node = rclpy.create_node("bench_ros_users")
     ex_ = SingleThreadedExecutor()
     ex_.add_node(node)
+    saved = dict(os.environ)
+    if blas_threads:
+        os.environ.update(OPENBLAS_NUM_THREADS=str(blas_threads), OMP_NUM_THREADS=str(blas_threads))
     proc = NodeProcess("dynamics", {"robot_description_timeout": 0.0},
                        ros_args=["-r", "__ns:=/bench_users"])
+    os.environ.clear()
+    os.environ.update(saved)
     try:
         def spin_until(done, timeout=120.0):
             deadline = time.monotonic() + timeout
@@ -167,6 +173,8 @@ def services(calls):
                     ms.append(1e3 * (time.perf_counter() - t0))
             assert answer.success, answer.message
             rows.append((key, np.percentile(ms, 50), np.percentile(ms, 99), len(ms)))
+            if key == "estimate_payload":
+                print("the node's estimate:", answer.message, answer.samples)
         # the library calls behind them, in this process
         lib = {"estimate_payload": lambda: ident.estimate_payload(robot, t, q, tau),
                "time_parameterize": lambda: tj.time_parameterize(robot, PATH, effort_limit=EFFORT,
@@ -184,6 +192,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
     load0 = os.getloadavg()[0]
     svc, lib, samples = services(args.calls)
+    svc1, _, _ = services(args.calls, blas_threads=1)
     grid = topp_vs_grid()
     book = textbook()
     ts = task_space()
@@ -201,6 +210,11 @@ def main(argv=None):
     for key, p50, p99, _ in svc:
         alone = f"{lib[key]:.1f}" if key in lib else "-"
         lines.append(f"| `~/{key}` ({what[key]}) | {p50:.2f} | {p99:.2f} | {alone} |")
+    lines += ["", "The same node started with one BLAS thread (`OPENBLAS_NUM_THREADS=1`), in the "
+              "same run: " + ", ".join(f"`~/{k}` p50 {a:.2f} ms, p99 {b:.2f} ms" for k, a, b, _ in svc1)
+              + ". The fit's least squares (NumPy's `lstsq`, `pinv`) run on OpenBLAS's threads, "
+              "which contend for the two shared cores with the node's executor and the other "
+              "processes: on a loaded machine give the node one BLAS thread."]
     lines += ["", "### Time-parameterization against the grid size (pick-and-place path, UR5e "
               "with 2 kg, effort limits 60/90/45/12/12/12 N m, velocity limits of the URDF)", "",
               "Ours: `trajectory.time_parameterize` (the path torques in three batched "

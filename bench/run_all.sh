@@ -12,6 +12,7 @@ PY=${PYTHON:-.venv/bin/python}
 "$PY" bench/bench_planar.py
 "$PY" bench/bench_simulate.py
 "$PY" bench/bench_ros_latency.py
+"$PY" bench/bench_ros_users.py
 "$PY" bench/bench_regressor.py
 "$PY" bench/bench_derivatives.py
 "$PY" bench/bench_servo.py

@@ -1,5 +1,6 @@
-"""Joint trajectories, the torques along them, their feasibility, and the minimum-time
-maneuver under torque (and speed) limits.
+"""Joint trajectories, the torques along them, their feasibility, the minimum-time
+maneuver under torque (and speed) limits, and the time-optimal timing of a path
+(``time_parameterize``; TOPP-RA, ``algorithms/time_parameterization.py``).
 
 Shape functions s(x) on x in [0, 1] with s(0) = 0, s(1) = 1 and zero end rates:
 
@@ -268,14 +269,20 @@ def _smallest_root(h, T_guess, xtol):
 # controller node samples trajectory_msgs/JointTrajectory with it.
 class Waypoints:
     """Waypoints at times ``t`` (N,) (s, strictly increasing) with ``q`` (N, n) and
-    optional ``qd``, ``qdd`` (N, n)."""
+    optional ``qd``, ``qdd`` (N, n). ``interpolation``: None (by what is given, as above),
+    or "cubic" (cubic Hermite from q and qd even when qdd is given: a time-optimal timing's
+    accelerations jump at its switching points, which a quintic overshoots)."""
 
-    def __init__(self, t, q, qd=None, qdd=None):
+    def __init__(self, t, q, qd=None, qdd=None, interpolation=None):
         self.t = np.asarray(t, dtype=float)
         self.q = np.atleast_2d(np.asarray(q, dtype=float))
         if self.t.shape != (self.q.shape[0],) or np.any(np.diff(self.t) <= 0):
             raise ValueError("waypoint times must be strictly increasing, one per point")
         self.order = 1 if qd is None else (3 if qdd is None else 5)
+        if interpolation not in (None, "cubic") or (interpolation and qd is None):
+            raise ValueError(f"interpolation {interpolation!r}: None, or 'cubic' with qd")
+        if interpolation == "cubic":
+            self.order = 3
         zero = np.zeros_like(self.q)
         self.qd = zero if qd is None else np.asarray(qd, dtype=float)
         self.qdd = zero if qdd is None else np.asarray(qdd, dtype=float)
@@ -330,6 +337,45 @@ class Waypoints:
         qd = sum(h_ * c for h_, c in zip(dh, coef)) / T
         qdd = sum(h_ * c for h_, c in zip(ddh, coef)) / T**2
         return q, qd, qdd
+
+
+# ------------------------------------------------------------------ time-parameterization
+def time_parameterize(robot, path, velocity_limit=None, acceleration_limit=None,
+                      effort_limit=None, grid=200, dissipation=True, check=8) -> Waypoints:
+    """The fastest timing of ``path`` (N, n) joint positions (``robot.joint_names`` order)
+    from rest to rest within the velocity, acceleration and effort limits (the robot's
+    ``velocity_limit`` and ``effort_limit`` by default, none on acceleration; a number or
+    one per joint; inf: none), with the full dynamics: gravity, the payload, and the robot's
+    joint friction with ``dissipation`` when it is enabled. TOPP-RA (the ``toppra``
+    package) on ``grid`` intervals of the path plus the waypoints
+    (``algorithms/time_parameterization.py``). Returns ``Waypoints`` at the grid points with positions,
+    velocities and accelerations (first and last at rest; sampled as cubic Hermite, which
+    holds the solver's constant path acceleration on each interval), checked on a grid
+    ``check`` times finer (stretched uniformly in time, ``.stretch``, where the
+    interpolation exceeds a limit).
+    ValueError naming the joint and the waypoint when no timing is feasible (gravity
+    alone exceeds an effort limit)."""
+    from .algorithms import time_parameterization as tp
+    if robot.is_floating:
+        raise NotImplementedError("time_parameterize needs a fixed base")
+    t, q, qd, qdd, limits = tp.solve(robot, path, velocity_limit, acceleration_limit,
+                                     effort_limit, grid, dissipation)
+    check = max(int(check), 1)
+    k = 1.0
+    for _ in range(60):
+        w = Waypoints(k * t, q, qd / k, qdd / k**2, interpolation="cubic")
+        fine = np.linspace(0.0, 1.0, check + 1)[:-1]
+        # and each segment's end from its own side (a cubic's acceleration peaks at its ends)
+        ts = np.concatenate([(w.t[:-1, None] + fine * np.diff(w.t)[:, None]).ravel(), w.t[-1:],
+                             w.t[1:] - 1e-9 * np.diff(w.t)])
+        rv, ra, re = tp.limit_ratios(robot, *w.sample(ts), limits)
+        worst = max(rv, np.sqrt(ra), np.sqrt(re))
+        if worst <= 1.0:
+            w.stretch = k
+            return w
+        k *= worst * (1 + 1e-9) if re <= 1.0 else max(worst, 1.0 + 1e-4)
+    raise ValueError("the timed path still exceeds a limit between grid points after "
+                     f"stretching it {k:.3g} times; give a finer grid (now {grid})")
 
 
 # ------------------------------------------------------------------ the demo's task

@@ -20,6 +20,8 @@ Jacobians, the NOC's base-frame twists) do not depend on that choice.
     kinematics  joint transforms, body and link poses, Jacobians
     noc         natural orthogonal complement (Angeles), base-frame twists
     energy      kinetic and potential energy
+    task_space  frame acceleration, J-dot qd, operational-space inertia (Khatib)
+    time_parameterization  TOPP-RA (toppra) of a path: trajectory.time_parameterize
 
 ``serial_dynamics/core/`` holds the compiled equivalents, in the same frames and under
 the same names; the ``Robot`` facade uses them for speed and the tests compare the two.

@@ -11,6 +11,7 @@
     batches.py      what every batch call shares (kernel rows, the split over the cores)
     regressor.py    Robot.regressor / inertial_parameters: batching, kernels, column names
     derivatives.py  Robot's dynamics derivatives: batching and kernels
+    task_space.py   frame acceleration, J-dot qd, Lambda, J-bar for every kind
 """
 from .base_motion import BaseMotion
 from .facade import FloatingRobot, MimicRobot, PlanarRobot, Robot, kind_of

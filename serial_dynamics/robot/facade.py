@@ -33,6 +33,7 @@ import numpy as np
 
 from . import derivatives as _derivatives
 from . import regressor as _regressor
+from . import task_space as _task_space
 from ..algorithms import aba, crba, energy, forward, kinematics, noc, rnea
 from ..algorithms._batch import as_batch
 from .base_motion import check_base_motion
@@ -381,6 +382,23 @@ class Robot:
     def jacobian(self, q, link=None):
         """6 x n geometric Jacobian of ``link``'s origin, [linear; angular], base frame."""
         return kinematics.jacobian(self.model, q, link)
+
+    # task space (task_space.py: every kind, batches; rows as jacobian's)
+    def frame_acceleration(self, q, qd, qdd, link=None):
+        """[linear; angular] acceleration of ``link``'s origin (classical), = J qdd + J-dot qd."""
+        return _task_space.frame_acceleration(self, q, qd, qdd, link)
+
+    def jacobian_dot_qd(self, q, qd, link=None):
+        """J-dot qd (6,), the frame's bias acceleration: frame_acceleration at qdd = 0."""
+        return _task_space.jacobian_dot_qd(self, q, qd, link)
+
+    def operational_space_inertia(self, q, link=None, damping=0.0):
+        """Lambda = (J M^-1 J^T + damping^2 1)^-1, 6 x 6 (undamped: refused where singular)."""
+        return _task_space.operational_space_inertia(self, q, link, damping)
+
+    def dynamically_consistent_inverse(self, q, link=None, damping=0.0):
+        """J-bar = M^-1 J^T Lambda, n x 6 (Lambda damped as given)."""
+        return _task_space.dynamically_consistent_inverse(self, q, link, damping)
 
     def kinetic_energy(self, q, qd):
         """T = 1/2 qd^T M(q) qd (J), with this robot's (compiled) mass matrix."""

@@ -5,7 +5,9 @@ trajectory as ROS 2 services, and the inverse-dynamics request/response topic pa
     ros2 run serial_dynamics dynamics
 
 Services (types in serial_dynamics_interfaces/srv; checked and answered by ``requests.py``):
-``~/inverse_dynamics``, ``~/forward_dynamics``, ``~/mass_matrix``, ``~/trajectory_torques``.
+``~/inverse_dynamics``, ``~/forward_dynamics``, ``~/mass_matrix``, ``~/trajectory_torques``;
+``~/estimate_payload`` (from the ``joint_states`` with efforts it has seen; on request it sets
+its own payload.*) and ``~/time_parameterize`` (``payload_timing.py``).
 A refused request is answered with ``success: false`` and a message naming the field and
 the fix; the node carries on.
 
@@ -27,11 +29,13 @@ import numpy as np
 from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
-from serial_dynamics_interfaces.srv import (ForwardDynamics, InverseDynamics, MassMatrix,
-                                            TrajectoryTorques)
+from rclpy.parameter import Parameter
+from sensor_msgs.msg import JointState
+from serial_dynamics_interfaces.srv import (EstimatePayload, ForwardDynamics, InverseDynamics,
+                                            MassMatrix, TimeParameterize, TrajectoryTorques)
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-from . import common, parameters, requests
+from . import common, parameters, payload_timing, requests
 from .common import Rejected
 
 PARAMETERS = {
@@ -72,7 +76,10 @@ class Dynamics(Node):
                 ("inverse_dynamics", InverseDynamics, self._inverse_dynamics),
                 ("forward_dynamics", ForwardDynamics, self._forward_dynamics),
                 ("mass_matrix", MassMatrix, requests.answer_mass_matrix),
-                ("trajectory_torques", TrajectoryTorques, self._trajectory_torques)):
+                ("trajectory_torques", TrajectoryTorques, self._trajectory_torques),
+                ("estimate_payload", EstimatePayload, self._estimate_payload),
+                ("time_parameterize", TimeParameterize, lambda robot, req:
+                 payload_timing.answer_time_parameterize(robot, req, self.compensate))):
             self._latency[f"~/{name}"] = [0, 0.0, 0.0]
             self.create_service(srv_type, f"~/{name}", self._serve(f"~/{name}", answer),
                                 qos_profile=SERVICE_QOS)
@@ -82,6 +89,10 @@ class Dynamics(Node):
                          self.on_wrench)
         common.subscribe(self, self.reject, JointTrajectory, "inverse_dynamics/request",
                          self.on_request, common.REQUEST_DEPTH)
+        self.joint_log = payload_timing.JointStateLog(self.robot)     # for ~/estimate_payload
+        common.subscribe(self, self.reject, JointState, "joint_states", lambda m: self.joint_log.add(
+            m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec or self.get_clock().now().nanoseconds
+            * 1e-9, m.name, m.position, m.effort), common.REQUEST_DEPTH)
 
     def on_wrench(self, msg):
         f, m = msg.wrench.force, msg.wrench.torque
@@ -168,6 +179,16 @@ class Dynamics(Node):
             msg.joint_names = robot.joint_names
         q, qd, qdd, tau = self._torques(robot, msg, "trajectory", lambda q: None)
         return {"trajectory": self._trajectory(msg, robot, q, qd, qdd, tau)}
+
+    def _estimate_payload(self, robot, request):
+        """The estimate's fields; with ``apply``, payload.* set on this node (all or none)."""
+        fields, apply = payload_timing.answer_estimate_payload(robot, self.joint_log, request)
+        if apply is not None:
+            result = self.set_parameters_atomically([Parameter(k, value=v) for k, v in apply.items()])
+            if not result.successful:
+                raise Rejected("apply", f"the estimate was not applied: {result.reason}")
+            fields["message"] += "; applied to payload.*"
+        return fields
 
     def _serve(self, key, answer):
         """The callback of service ``key``: ``answer(robot, request)`` gives the response's

@@ -1,0 +1,157 @@
+"""The dynamics node's ``~/estimate_payload`` and ``~/time_parameterize``, checked and
+answered in plain Python (no rclpy: the tests call these directly), and the log of
+``joint_states`` the payload is estimated from.
+
+- ``JointStateLog``: the node's recent ``sensor_msgs/JointState`` messages that carry
+  positions and efforts for every joint (any order, extra joints ignored), the last
+  ``BUFFER_SECONDS`` of them, in the robot's joint order.
+- ``answer_estimate_payload(robot, log, request)``: ``identification.estimate_payload`` on
+  the last ``request.window`` seconds of the log (0: all of it); the estimate's fields, and
+  the payload.* values to set on the node when ``request.apply``.
+- ``answer_time_parameterize(robot, request)``: ``trajectory.time_parameterize`` of the
+  request's path (a ``trajectory_msgs/JointTrajectory`` whose points' positions are read);
+  limits per joint in the path's joint order, or one for all, or empty for the robot's
+  (none on acceleration); the timed trajectory in the robot's joint order with positions,
+  velocities, accelerations, the efforts that produce them, and times from start.
+
+A refusal raises ``Rejected`` (the field and the fix) or the library's ValueError.
+"""
+from __future__ import annotations
+
+from collections import deque
+
+import numpy as np
+
+from .. import identification, trajectory
+from .requests import joint_order
+from .throttle import Rejected
+
+BUFFER_SECONDS = 120.0      # joint_states kept for ~/estimate_payload
+DEFAULT_GRID = 200          # ~/time_parameterize's grid when the request gives 0
+
+
+class JointStateLog:
+    """The last ``seconds`` of joint states with positions and efforts (see the module)."""
+
+    def __init__(self, robot, seconds=BUFFER_SECONDS):
+        self.names, self.seconds = list(robot.joint_names), float(seconds)
+        self._rows = deque()            # (t, q (n,), tau (n,))
+        self.skipped = 0                # messages without efforts or with missing joints
+
+    def add(self, t, names, positions, efforts):
+        """One message: its time (s) and fields; False (counted) when it cannot be used."""
+        where = {name: k for k, name in enumerate(names)}
+        if (len(positions) != len(names) or len(efforts) != len(names)
+                or any(name not in where for name in self.names)):
+            self.skipped += 1
+            return False
+        idx = [where[name] for name in self.names]
+        q = np.asarray(positions, dtype=float)[idx]
+        tau = np.asarray(efforts, dtype=float)[idx]
+        if not (np.all(np.isfinite(q)) and np.all(np.isfinite(tau)) and np.isfinite(t)):
+            self.skipped += 1
+            return False
+        if self._rows and t <= self._rows[-1][0]:        # a repeated or older stamp
+            self.skipped += 1
+            return False
+        self._rows.append((float(t), q, tau))
+        while self._rows and self._rows[0][0] < t - self.seconds:
+            self._rows.popleft()
+        return True
+
+    def __len__(self):
+        return len(self._rows)
+
+    def window(self, seconds):
+        """(t, q, tau) of the last ``seconds`` (0: everything kept)."""
+        rows = list(self._rows)
+        if seconds > 0 and rows:
+            rows = [r for r in rows if r[0] >= rows[-1][0] - seconds]
+        if not rows:
+            return np.zeros(0), np.zeros((0, len(self.names))), np.zeros((0, len(self.names)))
+        return (np.array([r[0] for r in rows]), np.array([r[1] for r in rows]),
+                np.array([r[2] for r in rows]))
+
+
+def answer_estimate_payload(robot, log, req):
+    """(response fields, payload parameters to set or None)."""
+    window = float(req.window)
+    if not np.isfinite(window) or window < 0:
+        raise Rejected("window", f"window is {window}: give the seconds of joint_states to fit "
+                       "(> 0), or 0 for all the node keeps")
+    link = req.link or robot.tip_link
+    t, q, tau = log.window(window)
+    if t.size < 100:
+        raise Rejected("window", f"{t.size} joint_states with positions and efforts for every "
+                       f"joint {robot.joint_names} in the last {window or log.seconds:g} s "
+                       f"({log.skipped} unusable skipped): move the arm along an excitation "
+                       "trajectory while joint_states carry efforts, then ask again")
+    est = identification.estimate_payload(robot, t, q, tau, link=link)
+    fields = {"link": est.link, "mass": est.mass, "com": est.com.tolist(),
+              "inertia": est.inertia.tolist(), "mass_std": est.mass_std,
+              "com_std": est.com_std.tolist(), "inertia_std": est.inertia_std.tolist(),
+              "condition_number": est.condition_number, "samples": int(t.size),
+              "message": est.summary()}
+    apply = None
+    if req.apply:
+        apply = {"payload.mass": est.mass, "payload.com": est.com.tolist(),
+                 "payload.inertia": est.inertia.tolist(),
+                 "payload.link": "" if link == robot.tip_link and not req.link else link}
+    return fields, apply
+
+
+def _limits(robot, index, values, field):
+    """None (the default), or a limit per joint in the model's order."""
+    if len(values) == 0:
+        return None
+    a = np.asarray(values, dtype=float)
+    if a.size == 1:
+        return np.full(robot.dof, a[0])
+    if a.size != robot.dof:
+        raise Rejected(field, f"{field} has {a.size} values: give one per joint ({robot.dof}, "
+                       "in the path's joint order), one for all, or none for the default")
+    if index is None:
+        return a
+    out = np.empty(robot.dof)
+    out[index] = a
+    return out
+
+
+def answer_time_parameterize(robot, req, compensate=False):
+    """{"trajectory": JointTrajectory} timed within the limits (module docstring); the
+    efforts include the dissipation torques when the node compensates them."""
+    from builtin_interfaces.msg import Duration
+    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+    path = req.path
+    index = joint_order(robot, path.joint_names)
+    if len(path.points) < 2:
+        raise Rejected("path", f"path has {len(path.points)} points: give at least two "
+                       "waypoints' positions")
+    q = np.empty((len(path.points), robot.dof))
+    for k, point in enumerate(path.points):
+        if len(point.positions) != robot.dof:
+            raise Rejected("path", f"path point {k} has {len(point.positions)} positions: give "
+                           f"one per joint ({robot.dof})")
+        x = np.asarray(point.positions, dtype=float)
+        if index is None:
+            q[k] = x
+        else:
+            q[k, index] = x
+    limits = {name: _limits(robot, index, getattr(req, field), field) for name, field in (
+        ("velocity_limit", "velocity_limits"), ("acceleration_limit", "acceleration_limits"),
+        ("effort_limit", "effort_limits"))}
+    grid = int(req.grid) or DEFAULT_GRID
+    w = trajectory.time_parameterize(robot, q, grid=grid, **limits)
+    tau = robot.inverse_dynamics(w.q, w.qd, w.qdd)
+    if compensate:
+        tau = tau - robot.dissipation_torques(w.qd)
+    out = JointTrajectory(header=path.header, joint_names=robot.joint_names)
+    for k in range(len(w.t)):
+        sec = int(np.floor(w.t[k]))
+        out.points.append(JointTrajectoryPoint(
+            positions=w.q[k].tolist(), velocities=w.qd[k].tolist(),
+            accelerations=w.qdd[k].tolist(), effort=tau[k].tolist(),
+            time_from_start=Duration(sec=sec, nanosec=min(int(round((w.t[k] - sec) * 1e9)),
+                                                          999_999_999))))
+    return {"trajectory": out, "duration": w.duration,
+            "message": f"{len(w.t)} points, {w.duration:.4g} s"}

@@ -1,0 +1,148 @@
+"""The dynamics node's ~/estimate_payload and ~/time_parameterize: their requests in plain
+Python (ros/payload_timing.py, no node), then the node in its own process with real rclpy:
+it records joint_states with efforts of an arm carrying a payload along an excitation, fits
+the payload, sets it on itself on request (its ~/inverse_dynamics then answers with it), and
+times a path within torque limits, refusing an infeasible one with the joint and the
+waypoint."""
+from types import SimpleNamespace as Msg
+
+import numpy as np
+import pytest
+from builtin_interfaces.msg import Time
+from sensor_msgs.msg import JointState
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+import serial_dynamics as sd
+from serial_dynamics import identification as ident
+from serial_dynamics.ros import payload_timing as pt
+from serial_dynamics.ros.throttle import Rejected
+
+srv = pytest.importorskip("serial_dynamics_interfaces.srv")
+pytest.importorskip("toppra")
+
+ROBOT = sd.default_robot()
+PAYLOAD = dict(mass=2.0, com=(0.01, -0.02, 0.06), inertia=(0.012, 0.010, 0.008, 0.001, -0.0015,
+                                                            0.0005))
+TRUTH = ROBOT.with_payload(**PAYLOAD)
+EX = ident.excitation(ROBOT, duration=6, harmonics=3, maxiter=0, seed=0)
+HOME = np.array([0.0, -1.571, 1.571, -1.571, -1.571, 0.0])
+PATH = np.array([HOME, HOME + [0.6, 0.3, 0.1, -0.4, 0.0, 0.6], HOME + [-0.7, 0.3, 0.1, -0.4, 0, -0.7]])
+
+
+def recording(rate=100.0, seed=1):
+    t, q, qd, qdd = EX.sample(dt=1.0 / rate)
+    tau = TRUTH.inverse_dynamics(q, qd, qdd)
+    return t, q, tau + np.random.default_rng(seed).normal(0.0, 0.2, tau.shape)
+
+
+def path_msg(points, names=()):
+    return JointTrajectory(joint_names=list(names), points=[
+        JointTrajectoryPoint(positions=[float(x) for x in p]) for p in points])
+
+
+def tp_request(path, **kw):
+    fields = dict(velocity_limits=[], acceleration_limits=[], effort_limits=[], grid=0)
+    fields.update(kw)
+    return Msg(path=path, **fields)
+
+
+# ----------------------------------------------------------------- plain Python
+def test_the_log_keeps_usable_states_in_the_robots_order():
+    log = pt.JointStateLog(ROBOT, seconds=1.0)
+    names = ROBOT.joint_names[::-1] + ["gripper"]
+    assert log.add(0.0, names, list(range(7)), [10.0 + k for k in range(7)])
+    assert not log.add(0.01, names, list(range(7)), [])                     # no efforts
+    assert not log.add(0.02, names[1:], list(range(6)), list(range(6)))     # a joint missing
+    assert not log.add(0.0, names, list(range(7)), list(range(7)))          # not newer
+    assert not log.add(0.03, names, [np.nan] * 7, list(range(7)))           # not finite
+    t, q, tau = log.window(0)
+    assert q.tolist() == [[5, 4, 3, 2, 1, 0]] and tau.tolist() == [[15, 14, 13, 12, 11, 10]]
+    assert log.skipped == 4
+    for k in range(1, 300):
+        log.add(0.01 * k, names, list(range(7)), list(range(7)))
+    assert log.window(0)[0][0] >= 2.98 - 1.0 - 1e-9          # the last second kept
+    assert len(log.window(0.5)[0]) == 51
+
+
+def test_estimate_payload_answer_and_what_it_applies():
+    log = pt.JointStateLog(ROBOT)
+    t, q, tau = recording()
+    for k in range(t.size):
+        log.add(t[k], ROBOT.joint_names, q[k], tau[k])
+    fields, apply = pt.answer_estimate_payload(ROBOT, log, Msg(window=0.0, link="", apply=True))
+    assert abs(fields["mass"] - 2.0) < 0.02 and fields["link"] == "tool0"
+    assert np.allclose(fields["com"], PAYLOAD["com"], atol=2e-3)
+    assert fields["samples"] == t.size and "payload on 'tool0'" in fields["message"]
+    assert apply == {"payload.mass": fields["mass"], "payload.com": fields["com"],
+                     "payload.inertia": fields["inertia"], "payload.link": ""}
+    assert pt.answer_estimate_payload(ROBOT, log, Msg(window=0.0, link="", apply=False))[1] is None
+    with pytest.raises(Rejected, match="window is -1.0"):
+        pt.answer_estimate_payload(ROBOT, log, Msg(window=-1.0, link="", apply=False))
+    with pytest.raises(Rejected, match="0 joint_states with positions and efforts"):
+        pt.answer_estimate_payload(ROBOT, pt.JointStateLog(ROBOT), Msg(window=5.0, link="", apply=False))
+
+
+def test_time_parameterize_answer():
+    names = [ROBOT.joint_names[i] for i in (2, 0, 1, 3, 4, 5)]
+    limits = [30.0, 60.0, 90.0, 12.0, 12.0, 12.0]            # in the path's joint order
+    out = pt.answer_time_parameterize(ROBOT, tp_request(path_msg(PATH[:, [2, 0, 1, 3, 4, 5]], names),
+                                                        effort_limits=limits, grid=80))
+    w = sd.trajectory.time_parameterize(ROBOT, PATH, effort_limit=[60, 90, 30, 12, 12, 12], grid=80)
+    traj = out["trajectory"]
+    assert traj.joint_names == ROBOT.joint_names and out["duration"] == w.duration
+    assert len(traj.points) == len(w.t)
+    assert list(traj.points[-1].positions) == w.q[-1].tolist()
+    assert list(traj.points[0].velocities) == [0.0] * 6
+    last = traj.points[-1].time_from_start
+    assert abs(last.sec + 1e-9 * last.nanosec - w.duration) < 1e-9
+    assert list(traj.points[5].effort) == ROBOT.inverse_dynamics(w.q[5], w.qd[5], w.qdd[5]).tolist()
+    with pytest.raises(Rejected, match="effort_limits has 2 values"):
+        pt.answer_time_parameterize(ROBOT, tp_request(path_msg(PATH), effort_limits=[1.0, 2.0]))
+    with pytest.raises(Rejected, match="path has 1 points"):
+        pt.answer_time_parameterize(ROBOT, tp_request(path_msg(PATH[:1])))
+    with pytest.raises(ValueError, match="joint 'shoulder_lift_joint'.*at waypoint 0"):
+        pt.answer_time_parameterize(ROBOT, tp_request(path_msg(PATH), effort_limits=[20.0]))
+
+
+# ----------------------------------------------------------------- the node
+def test_the_node_estimates_sets_and_times(ros):
+    proc = ros.start("dynamics", {"urdf_path": sd.builtin_path("ur5e")},
+                     ros_args=["-r", "__ns:=/payload_timing"])
+    pub = ros.node.create_publisher(JointState, "/payload_timing/joint_states", 50)
+    est = ros.node.create_client(srv.EstimatePayload, "/payload_timing/dynamics/estimate_payload")
+    timing = ros.node.create_client(srv.TimeParameterize,
+                                    "/payload_timing/dynamics/time_parameterize")
+    idyn = ros.node.create_client(srv.InverseDynamics, "/payload_timing/dynamics/inverse_dynamics")
+    ros.wait_matched(pub, also=est.service_is_ready, what="the dynamics node")
+    # too little data yet: refused with the reason, the node carries on
+    answer = ros.call(est, srv.EstimatePayload.Request(window=0.0), timeout=150.0)
+    assert not answer.success and "joint_states with positions and efforts" in answer.message
+    t, q, tau = recording()
+    for k in range(t.size):              # stamped: the node fits on the stamps, not arrival
+        s = 100.0 + t[k]                  # (a zero stamp means: the time of arrival)
+        stamp = Time(sec=int(s), nanosec=int(round((s % 1) * 1e9)))
+        msg = JointState(name=ROBOT.joint_names, position=q[k].tolist(), effort=tau[k].tolist())
+        msg.header.stamp = stamp
+        pub.publish(msg)
+        ros.spin_for(0.002)
+    ros.spin_for(0.5)
+    answer = ros.call(est, srv.EstimatePayload.Request(window=0.0, apply=True))
+    assert answer.success, answer.message
+    assert abs(answer.mass - 2.0) < 0.03 and answer.samples > 0.9 * t.size
+    assert "applied to payload.*" in answer.message
+    # the node now answers with the payload set
+    held = ROBOT.with_payload(answer.mass, answer.com, answer.inertia)
+    x = srv.InverseDynamics.Request(positions=HOME.tolist())
+    efforts = ros.call(idyn, x).efforts
+    np.testing.assert_allclose(efforts, held.gravity_torques(HOME), rtol=1e-12)
+    # timing within torque limits, with the payload it now holds
+    answer = ros.call(timing, srv.TimeParameterize.Request(
+        path=path_msg(PATH), effort_limits=[60.0, 90.0, 45.0, 12.0, 12.0, 12.0], grid=60))
+    assert answer.success, answer.message
+    w = sd.trajectory.time_parameterize(held, PATH, effort_limit=[60, 90, 45, 12, 12, 12], grid=60)
+    assert answer.duration == pytest.approx(w.duration, rel=1e-12)
+    answer = ros.call(timing, srv.TimeParameterize.Request(path=path_msg(PATH),
+                                                          effort_limits=[20.0]))
+    assert not answer.success and "'shoulder_lift_joint'" in answer.message \
+        and "waypoint 0" in answer.message
+    assert proc.running()

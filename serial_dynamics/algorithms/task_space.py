@@ -1,11 +1,12 @@
 """Task-space dynamics: the acceleration of a link's frame, J-dot qd, the operational-space
 inertia Lambda and the dynamically consistent inverse J-bar.
 
-Frame acceleration. For ``link`` on body b of a chain, the classical acceleration of its
-origin p and the angular acceleration of its body, in base axes, from the outward
-recursion over the joints j = 0..b (point kinematics of rigid bodies; Angeles,
+Frame acceleration. For ``link`` on body b, the classical acceleration of its origin p and
+the angular acceleration of its body, in base axes, from the outward recursion over the
+joints j on its path from the base (0..b in a chain; b's ancestors in a tree) (point kinematics of rigid bodies; Angeles,
 *Fundamentals of Robotic Mechanical Systems*, Sec. 7.3; Siciliano et al. 2009, Sec. 3.1),
-with z_j the axis of joint j (fixed in body j-1), r = o_j - o_{j-1}:
+with z_j the axis of joint j (fixed in its parent body), r = o_j - o_{j-1} (j-1: the
+previous joint on the path):
 
     omega_j = omega_{j-1} + z_j qd_j                        (revolute)
     alpha_j = alpha_{j-1} + z_j qdd_j + (omega_{j-1} x z_j) qd_j
@@ -47,7 +48,7 @@ def frame_acceleration(model, q, qd, qdd, link=None, base=None):
     p = np.broadcast_to(pf, (N, 3))
     if body >= 0:
         R0, o = body_poses(model, q[:, : body + 1])
-        for j in range(body + 1):
+        for j in model.ancestors(body):              # the joints from the base to the link
             z, r = R0[:, j, :, 2], o[:, j] - o_prev
             a = a + np.cross(dw, r) + np.cross(w, np.cross(w, r))
             v = v + np.cross(w, r)

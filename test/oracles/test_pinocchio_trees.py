@@ -2,8 +2,8 @@
 <= 1e-9: every URDF whose movable joints branch loads as the whole tree and is checked on a
 fixed base (Pinocchio's ``buildModelFromUrdf``) and, without mimic joints, on a free-floating
 base (its free-flyer root) at a random state with a unit quaternion: inverse dynamics, the
-mass matrix, forward dynamics by each method, gravity torques, and the pose and Jacobian of
-every leaf link. Mimic joints (the Panda's, Baxter's and Talos's fingers, a follower on a
+mass matrix, forward dynamics by each method, gravity torques, and the pose, Jacobian and
+classical acceleration of every leaf link. Mimic joints (the Panda's, Baxter's and Talos's fingers, a follower on a
 sibling branch of its leader) are checked through the map q_all = G q + o of their model.
 Gravity is tilted, so that every component is exercised."""
 import types
@@ -91,7 +91,8 @@ def test_a_fixed_tree_agrees_with_pinocchio(rel):
     assert rel_err(M, G.T @ ref.mass_matrix(qa) @ G) < RTOL
     for method in ("cholesky", "aba"):
         assert rel_err(robot.forward_dynamics(q, qd, tau, method=method), qdd) < 1e3 * RTOL
-    pin.framesForwardKinematics(ref.model, ref.data, ref.q(qa))
+    pin.forwardKinematics(ref.model, ref.data, ref.q(qa), ref.v(qda), ref.v(qdda))
+    pin.updateFramePlacements(ref.model, ref.data)
     pin.computeJointJacobians(ref.model, ref.data, ref.q(qa))
     for i in (i for i in range(model.dof) if not model.children[i]):   # every leaf link
         link = model.link_names[i]
@@ -100,6 +101,8 @@ def test_a_fixed_tree_agrees_with_pinocchio(rel):
         assert rel_err(robot.forward_kinematics(q, link), X.homogeneous) < RTOL
         J = pin.getFrameJacobian(ref.model, ref.data, fid, pin.LOCAL_WORLD_ALIGNED)
         assert rel_err(robot.jacobian(q, link), J[:, ref.iv] @ G) < RTOL
+        a = pin.getFrameClassicalAcceleration(ref.model, ref.data, fid, pin.LOCAL_WORLD_ALIGNED)
+        assert rel_err(robot.frame_acceleration(q, qd, qdd, link), a.vector) < RTOL
 
 
 # floating trees: quadrupeds and humanoids (iCub's floating mass matrix is singular in

@@ -60,7 +60,7 @@ def test_against_pinocchio(arm):
         pin.computeJointJacobiansTimeVariation(m, d, ref.q(q), ref.v(qd))
         Rb = d.oMf[m.getFrameId(robot.base_link, pin.BODY)].rotation.T   # world -> base axes
         M = ref.mass_matrix(q)
-        for link in {None, mid}:
+        for link in (None, mid):
             fid = m.getFrameId(robot.tip_link if link is None else link, pin.BODY)
             A = pin.getFrameClassicalAcceleration(m, d, fid, pin.LOCAL_WORLD_ALIGNED)
             expect = np.r_[Rb @ A.linear, Rb @ A.angular]
@@ -69,7 +69,7 @@ def test_against_pinocchio(arm):
             expect = np.r_[Rb @ dJ[:3], Rb @ dJ[3:]][:, ref.iv] @ qd
             assert rel_err(robot.jacobian_dot_qd(q, qd, link), expect) <= RTOL
         # Lambda of the tip composed from Pinocchio's M and J (base axes), and J-bar
-        link = None
+        link, fid = None, m.getFrameId(robot.tip_link, pin.BODY)
         Jw = pin.computeFrameJacobian(m, d, ref.q(q), fid, pin.LOCAL_WORLD_ALIGNED)
         J = np.r_[Rb @ Jw[:3], Rb @ Jw[3:]][:, ref.iv]
         if robot.dof >= 6:

@@ -31,7 +31,7 @@ from .urdf_out import body_inertia, is_physical
 NAMES = ("m", "mx", "my", "mz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz")
 # a column-scaled payload regressor worse conditioned than this does not tell the payload's
 # parameters apart: an excitation trajectory of the UR5e gives about 4, one joint moving
-# alone 5e8 (test/identification/test_payload.py)
+# alone 5e8 (test/identification/test_estimate_payload.py)
 MAX_CONDITION = 1e4
 DEAD = 1e-6      # a column this small against the largest is not seen
 

@@ -128,7 +128,8 @@ def _bad_requests(robot):
     q = [0.1] * n
     nan = [0.1] * (n - 1) + [float("nan")]
     return [
-        ("inverse_dynamics", dict(joint_names=names[:-1], positions=q[:-1]), "joint_names", "once"),
+        ("inverse_dynamics", dict(joint_names=names[:-1], positions=q), "positions",
+         "one per joint, 5"),          # a subset of the joints (issue 25), 6 positions for 5
         ("inverse_dynamics", dict(joint_names=[*names[:-1], "gripper"], positions=q),
          "joint_names", "gripper"),
         ("inverse_dynamics", dict(joint_names=[*names[:-1], names[0]], positions=q),

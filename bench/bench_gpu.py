@@ -92,6 +92,9 @@ def main():
                         lambda g, q, qd, x: g.mass_matrix(robot, q), n + n * n),
         "forward_dynamics": (lambda q, qd, x: robot.forward_dynamics(q, qd, x),
                              lambda g, q, qd, x: g.forward_dynamics(robot, q, qd, x), 4 * n),
+        "inverse_dynamics_derivatives": (
+            lambda q, qd, x: robot.inverse_dynamics_derivatives(q, qd, x),
+            lambda g, q, qd, x: g.inverse_dynamics_derivatives(robot, q, qd, x), 3 * n + 2 * n * n),
     }
     q, qd = robot.random_state(rng, batch=N_cpu)
     x = rng.uniform(-1, 1, q.shape)

@@ -4,6 +4,7 @@
     tau = gpu.inverse_dynamics(robot, Q, QD, QDD)   # (N, dof) each
     M   = gpu.mass_matrix(robot, Q)                 # (N, dof, dof)
     qdd = gpu.forward_dynamics(robot, Q, QD, TAU)   # Cholesky
+    dq, dqd = gpu.inverse_dynamics_derivatives(robot, Q, QD, QDD)   # (N, dof, dof) each
 
 One CUDA thread per state. NumPy arrays in give NumPy arrays out (one transfer each way);
 device arrays in (anything with ``__cuda_array_interface__``: CuPy, PyTorch, numba) give
@@ -15,8 +16,10 @@ numba.cuda); without numba-cuda, importing it raises an ImportError naming the e
 numba's simulator (slow; the tests use it on machines without a card). docs/scale.md.
 """
 from .crba import mass_matrix
+from .derivatives import inverse_dynamics_derivatives
 from .forward import forward_dynamics
 from .rnea import inverse_dynamics
 from .runtime import SIMULATOR
 
-__all__ = ["inverse_dynamics", "mass_matrix", "forward_dynamics", "SIMULATOR"]
+__all__ = ["inverse_dynamics", "mass_matrix", "forward_dynamics", "inverse_dynamics_derivatives",
+           "SIMULATOR"]

@@ -21,7 +21,7 @@ except Exception as exc:            # no NVVM or NVRTC here
 if not cuda.is_available():         # device functions ask the current card for its
     import numba.cuda.dispatcher as d     # compute capability: say sm_90
     d.get_current_device = lambda: types.SimpleNamespace(compute_capability=(9, 0))
-from serial_dynamics.gpu import crba, forward, rnea
+from serial_dynamics.gpu import crba, derivatives, forward, rnea
 A1, A2, A3, I1 = float64[::1], float64[:, ::1], float64[:, :, ::1], int64[::1]
 for mod, outs in ((rnea, (A2, A2, A2, A2)), (crba, (A2, A3)), (forward, (A2, A2, A2, A2))):
     # a 6-joint chain, a chain with mimic joints (4 joints, 2 coordinates), a tree
@@ -29,6 +29,11 @@ for mod, outs in ((rnea, (A2, A2, A2, A2)), (crba, (A2, A3)), (forward, (A2, A2,
         ptx, _ = cuda.compile_ptx(mod.kernel(*key).py_func, (A2, I1, I1, A1, A1) + outs, cc=(9, 0))
         assert ".entry" in ptx and "sm_90" in ptx
         print(mod.__name__, key, "ok")
+for key in ((6, 6, False), (4, 2, True)):      # chains only
+    ptx, _ = cuda.compile_ptx(derivatives.kernel(*key).py_func,
+                              (A2, I1, I1, A1, A1, A2, A2, A2, A3, A3), cc=(9, 0))
+    assert ".entry" in ptx
+    print("derivatives", key, "ok")
 """
 
 
@@ -40,4 +45,4 @@ def test_every_kernel_compiles_to_ptx():
     if p.returncode == 77:
         pytest.skip(p.stdout.strip())
     assert p.returncode == 0, p.stdout + p.stderr[-3000:]
-    assert p.stdout.count(" ok") == 9
+    assert p.stdout.count(" ok") == 11

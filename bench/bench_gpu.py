@@ -122,7 +122,7 @@ def main():
             bound = 8 * numbers / bw * 1e9
             rows.append(f"| {name} | {cpu[name]:.0f} | {dev:.2f} | {host:.2f} | "
                         f"{cpu[name] / dev:.0f}x | {bound:.3f} ({dev / bound:.0f}x) |")
-        note = (f"GPU: {where}, {N} states a call; copy bandwidth measured "
+        note = (f"GPU: {where}, {N} states a call (CPU: {N_cpu}); copy bandwidth measured "
                 f"{bw / 1e12:.2f} TB/s. float32: no kernel offered yet, no line.")
     table = ("| call (UR5e, float64) | CPU batch ns/state | GPU, device arrays ns/state | "
              "GPU, NumPy in/out ns/state | CPU / GPU (device) | memory bound ns/state (GPU / bound) |\n"

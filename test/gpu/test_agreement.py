@@ -1,7 +1,8 @@
 """serial_dynamics.gpu against the CPU core, robot by robot (in numba's CUDA simulator on a
 machine without a card: conftest.py): inverse dynamics, mass matrix, forward dynamics and
-the derivatives of inverse dynamics of every fixed-base kind to 1e-12, trees (two chains on one base) against their chains, the
-same bits run after run and whatever the batch around a state."""
+the derivatives of inverse dynamics of every fixed-base kind to 1e-12, trees (two chains on
+one base) against their chains, the same bits run after run and whatever the batch around a
+state."""
 import numpy as np
 import pytest
 

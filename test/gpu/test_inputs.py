@@ -79,3 +79,10 @@ def test_a_floating_base_is_not_implemented_and_says_what_is_missing():
 
 def test_an_empty_batch_gives_an_empty_result():
     assert gpu.inverse_dynamics(ROBOT, Q[:0], Q[:0], Q[:0]).shape == (0, 6)
+
+
+def test_a_device_array_of_another_dtype_is_refused():
+    from numba import cuda
+    with pytest.raises(TypeError, match="QDD has dtype float32"):
+        gpu.inverse_dynamics(ROBOT, cuda.to_device(Q), cuda.to_device(QD),
+                             cuda.to_device(Q.astype(np.float32)))

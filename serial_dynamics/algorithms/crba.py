@@ -56,3 +56,27 @@ def crba(model, q, I_root=None):
         if root:                                                    # F = Xup_j^T F, the root's
             F_root[:, :, i] = np.einsum("nki,nk->ni", Xup[:, j], F)
     return M, IC_root, F_root
+
+
+def ltdl(M, parent):
+    """(L, d) with M = L^T diag(d) L for M (n, n) or (N, n, n) whose entry (i, j) is zero
+    unless one of i, j is an ancestor of the other in ``parent`` (the branch-induced
+    sparsity of a tree's mass matrix). L is unit lower triangular with M's sparsity: no
+    fill-in (Featherstone 2005; RBDA 2008, Sec. 6.5, Table 6.3). ``parent`` = i - 1 (a
+    chain) factors any symmetric positive-definite M densely."""
+    L = np.array(M, dtype=float)
+    n = L.shape[-1]
+    for k in range(n - 1, -1, -1):
+        i = parent[k]
+        while i >= 0:
+            a = L[..., k, i] / L[..., k, k]                          # L_ki = M_ki / D_k
+            j = i
+            while j >= 0:                                            # M_ij -= M_kj L_ki
+                L[..., i, j] -= L[..., k, j] * a
+                j = parent[j]
+            L[..., k, i] = a
+            i = parent[i]
+    d = np.diagonal(L, axis1=-2, axis2=-1).copy()
+    L = np.tril(L, -1)
+    L[..., np.arange(n), np.arange(n)] = 1.0
+    return L, d

@@ -5,12 +5,20 @@
     cholesky_solve_factored(L, x)  x <- M^-1 x, one right-hand side
     cholesky_solve_matrix(L, X)    X <- M^-1 X, many (rows of X contiguous: SIMD lanes)
     cholesky_solve(L, b, x)        factor, then x = M^-1 b
+
+and, for a kinematic tree, the factorization that keeps the zeros its branches put in M
+(Featherstone 2005, "Efficient factorization of the joint-space inertia matrix for branched
+kinematic trees"; RBDA 2008, Sec. 6.5, Tables 6.3 and 6.4):
+
+    ltdl_factor(P, L)              M = L^T D L in place, L unit lower with M's sparsity
+    ltdl_solve_factored(P, L, x)   x <- M^-1 x
 """
 import math
 
 from numba import types
 
-from .signatures import D1, D2, Out1, internal
+from .layout import PARENT
+from .signatures import D1, D2, Out1, Pm, internal
 
 
 @internal(types.void(D2))
@@ -77,3 +85,44 @@ def cholesky_solve(L, b, x):
     for i in range(b.shape[0]):
         x[i] = b[i]
     cholesky_solve_factored(L, x)
+
+
+# ------------------------------------------------------------------ trees: L^T D L
+# M_ki != 0 only where i is k's ancestor (or k itself): with the bodies numbered parents
+# first, eliminating from the leaves up creates no fill-in, and each column k touches only
+# the pairs (i, j) of its ancestors: O(n d^2) for depth d, against O(n^3) dense.
+@internal(types.void(Pm, D2))
+def ltdl_factor(P, L):
+    """M = L^T D L in place (RBDA Table 6.3): L (n, n) holds M's lower triangle on entry;
+    after, D on the diagonal and L's ancestor entries below it (L_kk = 1, not stored).
+    Entries off k's ancestors are neither read nor written."""
+    n = L.shape[0]
+    for k in range(n - 1, -1, -1):
+        i = int(P[k, PARENT])
+        while i >= 0:
+            a = L[k, i] / L[k, k]                 # L_ki = M_ki / D_k
+            j = i
+            while j >= 0:                         # M_ij -= M_kj L_ki, j = i and its ancestors
+                L[i, j] -= L[k, j] * a
+                j = int(P[j, PARENT])
+            L[k, i] = a
+            i = int(P[i, PARENT])
+
+
+@internal(types.void(Pm, D2, Out1))
+def ltdl_solve_factored(P, L, x):
+    """x <- (L^T D L)^-1 x (RBDA Table 6.4): L^T z = x from the leaves up, z <- D^-1 z,
+    then L x = z from the root down."""
+    n = x.shape[0]
+    for i in range(n - 1, -1, -1):                # L^T z = x: z_i is final once its subtree is
+        j = int(P[i, PARENT])
+        while j >= 0:
+            x[j] -= L[i, j] * x[i]
+            j = int(P[j, PARENT])
+    for i in range(n):
+        x[i] /= L[i, i]
+    for i in range(n):                            # L x = z: x_i after its ancestors
+        j = int(P[i, PARENT])
+        while j >= 0:
+            x[i] -= L[i, j] * x[j]
+            j = int(P[j, PARENT])

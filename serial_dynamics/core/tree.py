@@ -1,5 +1,5 @@
 """Kinematic trees, compiled: Newton-Euler, the composite-rigid-body algorithm and forward
-dynamics (Cholesky) on the parent array lambda(i) (``P[i, PARENT]``; Featherstone 2008,
+dynamics (the sparse L^T D L factor of M) on the parent array lambda(i) (``P[i, PARENT]``; Featherstone 2008,
 Tables 5.1 and 6.2, whose loops are written for trees).
 
 The same steps as the chain kernels (``rnea.py``'s ``outward_step``, ``body_wrench``,
@@ -14,7 +14,7 @@ wrench acts on body n-1 (the last leaf) and is carried into its frame along its 
 from numba import njit, types
 
 from . import flags as F
-from .cholesky import cholesky_solve
+from .cholesky import ltdl_factor, ltdl_solve_factored
 from .crba import add_in_parent
 from .floating import GW, _chain_inputs, _products
 from .data import new_chol, new_kin, stack_empty
@@ -105,21 +105,24 @@ def tree_crba_core(P, R, p, IC, M):
 tree_crba_core = internal(types.void(Pm, D3, D2, D2, Out2))(tree_crba_core)
 
 
-def tree_fd_core(P, sc, R, p, f, mo, IC, M, b, q, qd, tau, w, flags, out):
-    """qdd of a tree into ``out``: M qdd = tau - b + J^T w by Cholesky (Featherstone 2008,
-    Sec. 6.3). Returns 0.0, or NaN on a NaN/Inf input."""
+def tree_fd_core(P, sc, R, p, f, mo, IC, M, q, qd, tau, w, flags, out):
+    """qdd of a tree into ``out``: M qdd = tau - b + J^T w by the sparse factor M = L^T D L
+    (Featherstone 2008, Sec. 6.5). Returns 0.0, or NaN on a NaN/Inf input."""
     n = out.shape[0]
-    chk = tree_rnea_core(P, sc, R, p, f, mo, q, qd, q, w, flags & (F.QD | F.WRENCH | F.BASE), b)
+    chk = tree_rnea_core(P, sc, R, p, f, mo, q, qd, q, w, flags & (F.QD | F.WRENCH | F.BASE),
+                         out)                                # b
     for i in range(n):
         chk += finite(tau[i])
-        b[i] = tau[i] - b[i]
+        out[i] = tau[i] - out[i]
     tree_crba_core(P, R, p, IC, M)
-    cholesky_solve(M, b, out)
+    ltdl_factor(P, M)
+    ltdl_solve_factored(P, M, out)
     return chk
 
 
-tree_fd_core = internal(f8(Pm, D2, D3, D2, D2, D2, D2, D2, D1, In1, In1, In1, In1, i8, Out1),
-                        calls=("tree_rnea_core", "tree_crba_core", "cholesky_solve"))(tree_fd_core)
+tree_fd_core = internal(f8(Pm, D2, D3, D2, D2, D2, D2, D2, In1, In1, In1, In1, i8, Out1),
+                        calls=("tree_rnea_core", "tree_crba_core", "ltdl_factor",
+                               "ltdl_solve_factored"))(tree_fd_core)
 
 
 # ------------------------------------------------------------------ entry points
@@ -160,7 +163,7 @@ def tree_fd(P, q, qd, tau, w, flags, out):
         return BAD_LENGTH
     d, c = new_kin(n), new_chol(n)
     return status(tree_fd_core(P, d.sc, d.R, d.p, d.f, stack_empty((n, 9)),
-                               stack_empty((n, 10)), c.M, c.b, q, qd, tau, w, flags, out))
+                               stack_empty((n, 10)), c.M, q, qd, tau, w, flags, out))
 
 
 def tree_rnea_batch(P, q, qd, qdd, w, flags, out):
@@ -193,7 +196,7 @@ def tree_fd_batch(P, q, qd, tau, w, flags, out):
     nq, nv, nt, nw = q.shape[0] > 1, qd.shape[0] > 1, tau.shape[0] > 1, w.shape[0] > 1
     bad = OK
     for k in range(N):
-        if tree_fd_core(P, d.sc, d.R, d.p, d.f, mo, IC, c.M, c.b, q[k if nq else 0],
+        if tree_fd_core(P, d.sc, d.R, d.p, d.f, mo, IC, c.M, q[k if nq else 0],
                         qd[k if nv else 0], tau[k if nt else 0], w[k if nw else 0],
                         flags & ~F.DAMPING, out[k]) != 0.0:
             bad = NOT_FINITE
@@ -203,7 +206,7 @@ def tree_fd_batch(P, q, qd, tau, w, flags, out):
 # ------------------------------------------------------------------ a floating base on a tree
 # core/floating.py's entry points on the instantaneous tree (robot/floating.virtual_chain of a
 # tree: the six virtual joints, then the tree hanging from the last): the same conversions
-# (_chain_inputs, _products) around the tree kernels; forward dynamics by Cholesky.
+# (_chain_inputs, _products) around the tree kernels; forward dynamics by L^T D L.
 def floating_tree_rnea(P, q, v, a, gw, flags, out):
     nv = P.shape[0] - 1
     if (q.shape[0] != nv + 1 or v.shape[0] != nv or a.shape[0] != nv or gw.shape[0] != GW
@@ -233,7 +236,7 @@ def floating_tree_fd(P, q, v, tau, gw, flags, out):
     for i in range(nv):
         tv[i] = 0.0 if i < k else tau[i - k]
     chk += tree_fd_core(P, d.sc, d.R, d.p, d.f, stack_empty((nv, 9)), stack_empty((nv, 10)),
-                        c.M, c.b, qv, v, tv, w, (flags | F.QD | F.BASE) & ~F.ABA, out)
+                        c.M, qv, v, tv, w, (flags | F.QD | F.BASE) & ~F.ABA, out)
     _products(v, -1.0, out)
     return status(chk)
 

@@ -226,6 +226,17 @@ class Robot:
         _parallel(getattr(k, self._crba_batch[0]), self._crba_batch[1], q.shape[0], (q,), (), M)
         return _into(out, M[0] if single else M)
 
+    def mass_matrix_factor(self, q):
+        """(L, d) with M(q) = L^T diag(d) L, L unit lower triangular with the zeros a tree's
+        branches put in M (Featherstone's LTDL, RBDA Sec. 6.5): what a caller solving with M
+        many times keeps. Dense on a chain or with mimic joints."""
+        return crba.ltdl(self.mass_matrix(q), self._v_parent)
+
+    @property
+    def _v_parent(self):
+        """The parent of each velocity coordinate (M's sparsity; kinds override)."""
+        return self.model.parent
+
     def bias_torques(self, q, qd, wrench=None, base_motion=None, out=None, wrenches=None):
         """b(q, qd) - J^T w = C(q, qd) qd + g(q) - J^T w (and the base motion's torques)."""
         if wrenches is not None:

@@ -133,6 +133,8 @@ class Floating:
         return np.concatenate([w, np.broadcast_to(self.model.gravity, (w.shape[0], 3))], axis=1), \
             flags | F.WRENCH
 
+    _v_parent = property(lambda self: velocity_parents(self.model.parent))
+
     def mass_matrix(self, q, out=None):
         """M (n+6, n+6), in the order of v."""
         if self._compiled:
@@ -330,7 +332,13 @@ def virtual_chain(model) -> Model:
         inertia=np.concatenate([np.zeros((5, 3, 3)), [model.base_inertia], model.inertia]),
         gravity=zero, tip_R=model.tip_R, tip_p=model.tip_p, frames=frames,
         armature=np.r_[np.zeros(6), model.armature], check_mass_matrix=False,
-        parent=np.r_[np.arange(6) - 1, np.where(model.parent < 0, 5, model.parent + 6)])
+        parent=velocity_parents(model.parent))
+
+
+def velocity_parents(parent):
+    """The parent of each coordinate of v = [v_O, omega, joints]: the base's six a chain, a
+    root joint's the last of them (M's sparsity; the virtual chain's parent array)."""
+    return np.r_[np.arange(6) - 1, np.where(parent < 0, 5, parent + 6)]
 
 
 def _on_chain(P, q, v, a, tau, gw, flags, kind, out):

@@ -143,6 +143,10 @@ class Mimic:
         _, _, (q,) = self._all(("q", q))
         return _into(out, self._reduce(super().gravity_torques(q)))
 
+    @property
+    def _v_parent(self):            # G^T M G couples a leader with its followers' branches
+        return np.arange(self.dof) - 1
+
     def mass_matrix(self, q, out=None):
         _, _, (q,) = self._all(("q", q))
         return _into(out, self._reduce2(super().mass_matrix(q)))   # G^T M_all G

@@ -72,6 +72,28 @@ def load(rel, **kw):
         return sd.load_urdf(erd(rel), gravity=G_WORLD, **kw)
 
 
+def check_factor(robot, q, M, pm, pd, iv):
+    """M = L^T D L (robot.mass_matrix_factor) with no fill-in: L is zero wherever M's
+    branches put a zero; where Pinocchio numbers the coordinates as we do (and no mimic
+    joint couples branches), its M = U D U^T (cholesky.decompose of the M its last crba
+    left: U = L^T, the one such factor) to 1e-9."""
+    L, d = robot.mass_matrix_factor(q)
+    assert rel_err(L.T @ (d[:, None] * L), M) < RTOL and np.all(d > 0)
+    if robot.model.has_mimic_joints:
+        return
+    parent = np.r_[np.arange(robot.nv - robot.dof) - 1, robot.model.parent + robot.nv - robot.dof]
+    parent[robot.nv - robot.dof:][robot.model.parent < 0] = robot.nv - robot.dof - 1
+    keep = np.eye(robot.nv, dtype=bool)
+    for k in range(robot.nv):
+        i = parent[k]
+        while i >= 0:
+            keep[k, i], i = True, parent[i]
+    assert not np.any(L[~keep])
+    if np.array_equal(iv, np.arange(pm.nv)):
+        U = pin.cholesky.decompose(pm, pd)
+        assert rel_err(U, L.T) < RTOL and rel_err(pd.D, d) < RTOL
+
+
 @pytest.mark.parametrize("rel", TREES)
 def test_a_fixed_tree_agrees_with_pinocchio(rel):
     robot = load(rel)
@@ -89,6 +111,7 @@ def test_a_fixed_tree_agrees_with_pinocchio(rel):
     assert rel_err(robot.gravity_torques(q), G.T @ ref.gravity(qa)) < RTOL
     M = robot.mass_matrix(q)
     assert rel_err(M, G.T @ ref.mass_matrix(qa) @ G) < RTOL
+    check_factor(robot, q, M, ref.model, ref.data, ref.iv)
     for method in ("cholesky", "aba"):
         assert rel_err(robot.forward_dynamics(q, qd, tau, method=method), qdd) < 1e3 * RTOL
     pin.forwardKinematics(ref.model, ref.data, ref.q(qa), ref.v(qda), ref.v(qdda))
@@ -137,6 +160,7 @@ def test_a_floating_tree_agrees_with_pinocchios_free_flyer(rel):
     Mp = pin.crba(pm, pd, qp)
     Mp = np.triu(Mp) + np.triu(Mp, 1).T
     assert rel_err(robot.mass_matrix(q), Mp[np.ix_(idx, idx)]) < RTOL
+    check_factor(robot, q, robot.mass_matrix(q), pm, pd, np.array(idx))
     for method in ("cholesky", "aba"):
         assert rel_err(robot.forward_dynamics(q, v, tau, method=method), a) < 1e3 * RTOL
 

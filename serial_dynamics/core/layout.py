@@ -9,7 +9,9 @@ of bodies is ``n = P.shape[0] - 1``.
     P[i, KIND]      1.0 prismatic, 0.0 revolute P[n, TIPR:TIPR+9] Xtip_R, row-major
     P[i, MASS]      m                           P[n, LANES]       lanes of the batch kernels
     P[i, H:H+3]     h = m c                     P[n, TREE]        1.0 a tree, 0.0 a chain
-    P[i, IO:IO+6]   I_O: xx yy zz xy xz yz
+    P[i, IO:IO+6]   I_O: xx yy zz xy xz yz      P[n, ROOT]        6.0: bodies 0-5 are a
+                                                 floating base's coordinates (``pack(root=6)``:
+                                                 the tree kernels treat them as one joint)
     P[i, ARM]       armature (reflected rotor inertia, kg m^2 or kg)
     P[i, PARENT]    the body joint i hangs from (-1.0: the base); i - 1 in a chain
     P[i, TIPPATH]   1.0 if body i is on the path from the base to body n-1 (the tip's)
@@ -25,15 +27,17 @@ import numpy as np
 from ..joints import PRISMATIC
 
 XR, XP, KIND, MASS, H, IO, ARM, PARENT, TIPPATH = 0, 9, 12, 13, 14, 17, 23, 24, 25
-G, TIPP, TIPR, LANES, TREE = 0, 3, 6, 15, 16
+G, TIPP, TIPR, LANES, TREE, ROOT = 0, 3, 6, 15, 16, 17
 WIDTH = 26
 B = 32          # samples per block of the lane-parallel batch kernel (rnea_lanes.py)
 W_F, W_M, W_OMEGA, W_ALPHA, W_ACC = 0, 3, 6, 9, 12
 W_WRENCH, W_ALL = 6, 15      # lengths of w: a tip wrench only; wrench and base motion
 
 
-def pack(model) -> np.ndarray:
-    """``P`` for ``model``. No kernel writes it (signatures.Pm)."""
+def pack(model, root=0) -> np.ndarray:
+    """``P`` for ``model``. No kernel writes it (signatures.Pm). ``root``: 6 for the virtual
+    chain of a floating base (robot/floating.virtual_chain), whose first six bodies the tree
+    kernels then take as the free-flyer root joint; the chain kernels do not read it."""
     n = model.dof
     P = np.zeros((n + 1, WIDTH))
     for i in range(n):
@@ -49,6 +53,7 @@ def pack(model) -> np.ndarray:
     P[n, TIPR:TIPR + 9] = model.Xtip_R.ravel()
     P[n, LANES] = B
     P[n, TREE] = 0.0 if model.is_chain else 1.0
+    P[n, ROOT] = root
     return P        # writable on purpose: numba's dispatcher types a read-only array ~100 ns slower
 
 

@@ -18,7 +18,7 @@ from .cholesky import ltdl_factor, ltdl_solve_factored
 from .crba import add_in_parent
 from .floating import GW, _chain_inputs, _products
 from .data import new_chol, new_kin, stack_empty
-from .layout import ARM, H, IO, KIND, MASS, PARENT, TIPPATH, W_ALL, W_WRENCH
+from .layout import ARM, H, IO, KIND, MASS, PARENT, ROOT, TIPPATH, W_ALL, W_WRENCH
 from .rnea import base_state, body_wrench, joint_rates, outward_step, tip_load
 from .signatures import D1, D2, D3, In1, In2, Mat, Out1, Out2, Out3, Pm, Vec, f8, i8, internal
 from .spatial import finite, joint_transforms, rotation, to_child, to_parent
@@ -69,15 +69,20 @@ tree_rnea_core = internal(f8(Pm, D2, D3, D2, D2, D2, In1, In1, In1, In1, i8, Out
 
 def tree_crba_core(P, R, p, IC, M):
     """M of a tree into ``M`` (n, n); R, p hold the joint transforms. IC (n, 10): the
-    composite bodies' (m, h, I_O: xx yy zz xy xz yz), each in its joint frame."""
+    composite bodies' (m, h, I_O: xx yy zz xy xz yz), each in its joint frame.
+    On a floating base's virtual tree (robot/floating.virtual_chain; ``P[n, ROOT]`` = 6)
+    bodies 0-5 are the free-flyer root: its six columns are each joint's composite F
+    carried into the base frame, its block the composite inertia of the whole robot
+    (Featherstone 2008, Sec. 9.2), not six single-axis joints climbed one by one."""
     n = M.shape[0]
+    nb = int(P[n, ROOT])
     for i in range(n):
         for j in range(n):
             M[i, j] = 0.0                            # bodies on other branches: no coupling
         IC[i, 0], IC[i, 1], IC[i, 2], IC[i, 3] = P[i, MASS], P[i, H], P[i, H + 1], P[i, H + 2]
         for k in range(6):
             IC[i, 4 + k] = P[i, IO + k]
-    for i in range(n - 1, -1, -1):
+    for i in range(n - 1, nb - 1, -1):
         m, hx, hy, hz = IC[i, 0], IC[i, 1], IC[i, 2], IC[i, 3]
         Ixx, Iyy, Izz, Ixy, Ixz, Iyz = IC[i, 4], IC[i, 5], IC[i, 6], IC[i, 7], IC[i, 8], IC[i, 9]
         # F = IC_i S_i; M_ii = S_i^T F + I_a,i
@@ -88,11 +93,15 @@ def tree_crba_core(P, R, p, IC, M):
             nx, ny, nz, fx, fy, fz = hy, -hx, 0.0, 0.0, 0.0, m
             M[i, i] = fz + P[i, ARM]
         j = i
-        while P[j, PARENT] >= 0.0:  # up the ancestors: F = Xup_j^T F, M_ji = S_j^T F
+        while P[j, PARENT] >= nb:   # up the ancestors: F = Xup_j^T F, M_ji = S_j^T F
             nx, ny, nz, fx, fy, fz = to_parent(R, p, j, nx, ny, nz, fx, fy, fz)
             j = int(P[j, PARENT])
             M[j, i] = nz if P[j, KIND] == 0.0 else fz
             M[i, j] = M[j, i]
+        if nb > 0:                  # into the base frame: M_root,i = F (v = [v_O, omega])
+            nx, ny, nz, fx, fy, fz = to_parent(R, p, j, nx, ny, nz, fx, fy, fz)
+            M[0, i], M[1, i], M[2, i], M[3, i], M[4, i], M[5, i] = fx, fy, fz, nx, ny, nz
+            M[i, 0], M[i, 1], M[i, 2], M[i, 3], M[i, 4], M[i, 5] = fx, fy, fz, nx, ny, nz
         l = int(P[i, PARENT])
         if l >= 0:                  # IC_lambda(i) += Xup_i^T IC_i Xup_i
             (IC[l, 0], IC[l, 1], IC[l, 2], IC[l, 3], IC[l, 4], IC[l, 5], IC[l, 6], IC[l, 7],
@@ -100,6 +109,18 @@ def tree_crba_core(P, R, p, IC, M):
                 IC[l, 0], IC[l, 1], IC[l, 2], IC[l, 3], IC[l, 4], IC[l, 5], IC[l, 6], IC[l, 7],
                 IC[l, 8], IC[l, 9], rotation(R, i), p[i, 0], p[i, 1], p[i, 2],
                 m, hx, hy, hz, Ixx, Iyy, Izz, Ixy, Ixz, Iyz)
+    if nb > 0:                      # the root's block: IC of everything, in the base frame
+        r = nb - 1
+        m, hx, hy, hz = IC[r, 0], IC[r, 1], IC[r, 2], IC[r, 3]
+        M[0, 0] = M[1, 1] = M[2, 2] = m                           # f = m v_O
+        M[1, 5], M[2, 4], M[0, 5], M[2, 3], M[0, 4], M[1, 3] = hx, -hx, -hy, hy, hz, -hz
+        for a in range(3):                                        # f = omega x h, n = h x v_O
+            for c in range(3, 6):
+                M[c, a] = M[a, c]
+        M[3, 3], M[4, 4], M[5, 5] = IC[r, 4], IC[r, 5], IC[r, 6]  # n = I_O omega
+        M[3, 4] = M[4, 3] = IC[r, 7]
+        M[3, 5] = M[5, 3] = IC[r, 8]
+        M[4, 5] = M[5, 4] = IC[r, 9]
 
 
 tree_crba_core = internal(types.void(Pm, D3, D2, D2, Out2))(tree_crba_core)

@@ -76,7 +76,7 @@ class Floating:
         self._fd_flags = _FD_FLAGS if model.is_chain else {"cholesky": F.QD}
         self._fd_auto = self._fd_flags["aba" if model.dof >= FD_CROSSOVER and model.is_chain
                                        else "cholesky"]
-        self._chain = layout_pack(virtual_chain(model)) if self._compiled else None
+        self._chain = layout_pack(virtual_chain(model), root=6) if self._compiled else None
         self._gw = np.concatenate((np.zeros(6), model.gravity))   # core/floating.py's gw
 
     nq = property(lambda self: self._nq, doc="n + 7: [x, y, z, qx, qy, qz, qw, joints]")

@@ -1,7 +1,8 @@
 """No import cycles, every module importable on its own, no rclpy in the core library.
 
 - ``test_imports_alone``: every module of the package (found with ``pkgutil.walk_packages``)
-  is imported alone, first thing, in a fresh interpreter. An import cycle that only works
+  is imported alone, first thing, in a fresh interpreter (forked from one that imported
+  only numpy, scipy and numba: ``_FORKER``). An import cycle that only works
   in one import order, a missing import hidden by another module's side effect, a module
   that does real work at import time: all show up here. The core modules (everything
   outside ``serial_dynamics.ros``) must also leave ``rclpy`` out of ``sys.modules``.
@@ -27,6 +28,7 @@ from __future__ import annotations
 
 import ast
 import importlib.util
+import json
 import os
 import pkgutil
 import subprocess
@@ -83,29 +85,58 @@ MODULES = _modules()
 # the static graph below).
 ALONE = [m for m in MODULES if m.rsplit(".", 1)[-1] != "__main__"]
 
-_PROBE = ("import sys, importlib; importlib.import_module({mod!r}); "
-          "print('RCLPY_LOADED' if 'rclpy' in sys.modules else 'RCLPY_ABSENT')")
+# One interpreter imports the third-party libraries every module needs (numpy, scipy,
+# numba: ~1 s of a fresh interpreter's start) and then forks a child per module, which
+# imports it first thing: each child is an interpreter in which nothing of the package (nor
+# rclpy) has been imported, as a fresh one, for a fraction of the cost.
+_FORKER = r"""
+import importlib, json, os, sys, traceback
+import numpy, numba, scipy.integrate, scipy.linalg, scipy.optimize   # third-party, paid once
+assert not any(m == "rclpy" or m.startswith(("rclpy.", "serial_dynamics")) for m in sys.modules)
+out = {}
+for mod in sys.argv[1:]:
+    r, w = os.pipe()
+    pid = os.fork()
+    if pid == 0:
+        os.close(r)
+        try:
+            importlib.import_module(mod)
+            msg, code = ("RCLPY_LOADED" if "rclpy" in sys.modules else "RCLPY_ABSENT"), 0
+        except BaseException:
+            msg, code = traceback.format_exc(), 1
+        os.write(w, msg.encode())
+        os._exit(code)
+    os.close(w)
+    with os.fdopen(r, "rb") as f:
+        msg = f.read().decode()
+    out[mod] = (os.waitstatus_to_exitcode(os.waitpid(pid, 0)[1]), msg)
+print(json.dumps(out))
+"""
 
 
-def _import_alone(mod):
+def _import_alone(mods):
+    """{module: (exit code, "RCLPY_LOADED" / "RCLPY_ABSENT" or the traceback)}."""
     env = dict(os.environ)
     env.pop("PYTHONSTARTUP", None)
-    p = subprocess.run([sys.executable, "-c", _PROBE.format(mod=mod)], capture_output=True,
-                       text=True, timeout=300, env=env,
+    p = subprocess.run([sys.executable, "-c", _FORKER, *mods], capture_output=True,
+                       text=True, timeout=600, env=env,
                        cwd=os.path.dirname(os.path.dirname(serial_dynamics.__file__)))
-    return mod, p
+    assert p.returncode == 0, p.stderr[-3000:]
+    return json.loads(p.stdout.strip().splitlines()[-1])
 
 
 def test_imports_alone():
     assert len(ALONE) > 10, f"found only {ALONE}"
-    with ThreadPoolExecutor(max_workers=4) as pool:
-        results = list(pool.map(_import_alone, ALONE))
+    with ThreadPoolExecutor(max_workers=2) as pool:          # two forking interpreters
+        results = {k: v for part in pool.map(_import_alone, (ALONE[0::2], ALONE[1::2]))
+                   for k, v in part.items()}
+    assert sorted(results) == sorted(ALONE)
     failed, rclpy_in_core = [], []
-    for mod, p in results:
-        if p.returncode != 0:
-            tail = "\n    ".join(p.stderr.strip().splitlines()[-12:])
-            failed.append(f"{mod}: exit {p.returncode}\n    {tail}")
-        elif not _is_ros(mod) and "RCLPY_LOADED" in p.stdout:
+    for mod, (code, msg) in results.items():
+        if code != 0:
+            tail = "\n    ".join(msg.strip().splitlines()[-12:])
+            failed.append(f"{mod}: exit {code}\n    {tail}")
+        elif not _is_ros(mod) and msg != "RCLPY_ABSENT":
             rclpy_in_core.append(mod)
     problems = []
     if failed:
@@ -403,3 +434,16 @@ def test_the_top_level_keeps_only_the_entry_points():
                  if f.endswith(".py"))
     assert top == ["__init__.py", "cli.py", "control.py", "joints.py", "observers.py",
                    "precompile.py", "trajectory.py"], top
+
+
+def test_test_files_have_unique_basenames():
+    """pytest imports test files by basename (rootdir conftest, no packages): two files of
+    one name in different test/ folders break the collection of the whole suite."""
+    here = os.path.dirname(os.path.abspath(__file__))
+    seen = {}
+    for dirpath, _, files in os.walk(here):
+        for f in files:
+            if f.startswith("test_") and f.endswith(".py"):
+                seen.setdefault(f, []).append(os.path.relpath(os.path.join(dirpath, f), here))
+    twice = {f: paths for f, paths in seen.items() if len(paths) > 1}
+    assert not twice, f"test files sharing a basename (rename one): {twice}"

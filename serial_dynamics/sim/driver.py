@@ -123,11 +123,10 @@ def interp_fn(ts, vals):
 
 def with_link_wrenches(robot, torque_fn, wrenches, q0, qd0):
     """``torque_fn`` plus the generalized forces sum_k J_k(q)^T w_k of ``wrenches`` (each a
-    (6,) wrench or a callable of (t, q, qd)), checked once at the initial state."""
-    if robot.is_floating:
-        raise ValueError("wrenches= in a simulation of a floating base is not available yet: "
-                         "give the base's generalized forces through a fixed-base model, or "
-                         "the tip's wrench with wrench=")
+    (6,) wrench or a callable of (t, q, qd)), checked once at the initial state. On a
+    floating base the sum has nv = n + 6 entries: the joint torques come after six zeros
+    (sim/floating.py takes the first six as forces on the base)."""
+    pad = np.zeros(robot.nv - robot.dof)
     if not isinstance(wrenches, dict):
         raise ValueError(f"wrenches must be a dict {{link: wrench or callable}}; got "
                          f"{type(wrenches).__name__}")
@@ -136,7 +135,8 @@ def with_link_wrenches(robot, torque_fn, wrenches, q0, qd0):
         return {k: (w(t, q, qd) if callable(w) else w) for k, w in wrenches.items()}
 
     generalized_forces(robot, q0, at(0.0, q0, qd0))      # names a bad link or wrench now
-    return lambda t, q, qd: torque_fn(t, q, qd) + generalized_forces(robot, q, at(t, q, qd))
+    return lambda t, q, qd: (np.concatenate([pad, torque_fn(t, q, qd)])
+                             + generalized_forces(robot, q, at(t, q, qd)))
 
 
 def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853", rtol=None,
@@ -152,8 +152,10 @@ def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853"
         RK methods call it at trial states, so it must be a pure function of its arguments).
     wrench: None, (6,) [fx, fy, fz, mx, my, mz] on the tip (base frame), or a callable.
     wrenches: {link: w} with w a (6,) wrench or a callable ``w(t, q, qd) -> (6,)``, each on
-        that link at its origin, base frame (a fixed base): their generalized forces
-        sum_k J_k^T w_k add to the torque (``robot/wrenches.py``; counted with its work).
+        that link at its origin, in the axes of ``robot.jacobian`` (the base frame on a fixed
+        base, the world on a floating one): their generalized forces sum_k J_k^T w_k add to
+        the torque (``robot/wrenches.py``; their work on the joints counted with the
+        torque's, on a floating base's six coordinates with the external work).
     method: "RK45", "DOP853", "Radau", "BDF", "LSODA" (adaptive: rtol, atol, default 1e-6,
         1e-9) or "semi_implicit_euler", "symplectic_euler", "rk4", "implicit_midpoint"
         (fixed step: dt, default 1e-3 s).

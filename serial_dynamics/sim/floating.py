@@ -84,10 +84,17 @@ class FloatingStepper:
         self.n = robot.dof
 
     def rates(self, t, q, v, inputs):
+        """(a, tau, delta, power). ``inputs`` gives joint torques (n,) or generalized forces
+        (n+6,) whose first six act on the base (wrenches on links): their power is external
+        work; the joints' is the torque's."""
         tau, w = inputs(t, q, v)
+        base = tau[:6] if tau.shape[0] == v.shape[0] else None
+        tau = tau if base is None else tau[6:]
         delta = self.eq.delta(v[6:], smooth=self.eq.coulomb_on)
-        a = self.eq.fd(q, v, tau + delta, w)
-        p = np.array([tau @ v[6:], delta @ v[6:], 0.0 if w is None else float(self.eq.ext_power(q, v, w))])
+        a = self.eq.fd(q, v, tau + delta if base is None else np.concatenate([base, tau + delta]), w)
+        ext = (0.0 if w is None else float(self.eq.ext_power(q, v, w))) + (
+            0.0 if base is None else float(base @ v[:6]))
+        p = np.array([tau @ v[6:], delta @ v[6:], ext])
         return a, tau, delta, p
 
     def check(self, t, q, v):

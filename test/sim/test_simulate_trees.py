@@ -87,3 +87,29 @@ def test_wrenches_on_a_chain_take_the_general_loop():
     np.testing.assert_allclose(a.q, b.q, rtol=0, atol=1e-12)
     assert np.max(np.abs(a.q[-1] - sd.simulate(robot, 0.05, method="semi_implicit_euler",
                                                dt=1e-3).q[-1])) > 1e-6
+
+
+@pytest.mark.parametrize("method", ["DOP853", "rk4"])
+def test_wrenches_on_a_floating_quadruped_change_its_momentum_by_their_impulse(method):
+    """Zero gravity, no friction. A constant force F (world axes) on one foot: the linear
+    momentum grows by F T; a pure moment m(t) on another: the linear momentum stays and the
+    angular momentum about the center of mass grows by its integral. The energy balance
+    (the base's share of J^T w counted as external work) closes."""
+    robot = load("solo_description/robots/solo12.urdf", floating_base=True,
+                 gravity=(0.0, 0.0, 0.0))
+    q0, v0 = robot.random_state(3, speed=0.5)
+    T, F = 0.3, np.array([3.0, -2.0, 1.0, 0.0, 0.0, 0.0])
+    kw = dict(method=method, dissipation=False)
+    kw.update(dict(rtol=1e-11, atol=1e-11) if method == "DOP853" else dict(dt=1e-3))
+    tol = 1e-9 if method == "DOP853" else 1e-7
+    pushed = sd.simulate(robot, T, q0, v0, wrenches={"FL_FOOT": F}, **kw)
+    h = [robot.centroidal_momentum(pushed.q[k], pushed.qd[k]) for k in (0, -1)]
+    np.testing.assert_allclose(h[1][:3] - h[0][:3], F[:3] * T, rtol=0, atol=tol * 10)
+    assert abs(pushed.relative_energy_error()) < tol
+    twisted = sd.simulate(robot, T, q0, v0, wrenches={     # (small: the foot is light)
+        "HR_FOOT": lambda t, q, v: np.array([0.0, 0.0, 0.0, 0.05, 0.0, 0.1 * np.cos(2 * t)])},
+        **kw)
+    h = [robot.centroidal_momentum(twisted.q[k], twisted.qd[k]) for k in (0, -1)]
+    np.testing.assert_allclose(h[1] - h[0], [0, 0, 0, 0.05 * T, 0, 0.1 * np.sin(2 * T) / 2],
+                               rtol=0, atol=tol * 10)
+    assert abs(twisted.relative_energy_error()) < tol

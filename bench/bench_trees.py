@@ -88,6 +88,7 @@ def main():
     ap.add_argument("--no-write", action="store_true")
     args = ap.parse_args()
     rounds = 3 if args.quick else 7
+    load_at_start = os.getloadavg()
     rows = []
     for name, (rel, tips) in FIXED.items():
         robot = load(rel, tips)
@@ -102,10 +103,13 @@ def main():
         print(f"{name}: {robot.dof} joints", flush=True)
         rows += floating_rows(name, robot, erd_path(rel), rounds)
     lines = ["## Trees against Pinocchio", "", stamp(),
-             "`python bench/bench_trees.py`. Both run the compiled tree kernels (`core/tree.py`; "
-             "a floating base through the instantaneous tree of six virtual joints). "
+             "`python bench/bench_trees.py`. Ours: the compiled tree kernels (`core/tree.py`: "
+             "forward dynamics by the sparse factor M = LᵀDL; a floating base through the "
+             "instantaneous tree of six virtual joints, whose block and columns of M the CRBA "
+             "computes as one free-flyer root). "
              "Ratio = ours / Pinocchio's; target: the issue's. "
-             "Measured while the test suite ran on the same 2 cores (a loaded machine).",
+             f"Load average (1 min) of the 2 cores: {load_at_start[0]:.1f} at the start, "
+             f"{os.getloadavg()[0]:.1f} at the end (above ~1, other work shared the machine).",
              "", "| robot | call | ours | Pinocchio | ratio | peer | target | verdict |",
              "|---|---|---:|---:|---:|---|---:|---|"]
     for name, label, a, b, peer, target in rows:

@@ -1,8 +1,8 @@
 """The facade users call: ``Robot`` and its kinds, each overriding what it changes.
 
     facade.py       Robot: inputs checked, calls sent to the compiled core or the reference;
-                    its kinds (FloatingRobot, MimicRobot, PlanarRobot) and kind_of, the one place that
-                    chooses the kind a model needs
+                    its kinds (FloatingRobot, MimicRobot, PlanarRobot, FloatingMimicRobot)
+                    and kind_of, the one place that chooses the kind a model needs
     mimic.py        Mimic: what MimicRobot overrides (the reduced system of mimic joints)
     planar.py       Planar: what PlanarRobot overrides (the planar fast path)
     floating.py     Floating: what FloatingRobot overrides (a free-floating base)
@@ -14,6 +14,7 @@
     task_space.py   frame acceleration, J-dot qd, Lambda, J-bar for every kind
 """
 from .base_motion import BaseMotion
-from .facade import FloatingRobot, MimicRobot, PlanarRobot, Robot, kind_of
+from .facade import FloatingMimicRobot, FloatingRobot, MimicRobot, PlanarRobot, Robot, kind_of
 
-__all__ = ["Robot", "FloatingRobot", "MimicRobot", "PlanarRobot", "BaseMotion", "kind_of"]
+__all__ = ["Robot", "FloatingRobot", "MimicRobot", "PlanarRobot", "FloatingMimicRobot", "BaseMotion",
+           "kind_of"]

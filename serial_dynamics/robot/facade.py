@@ -512,10 +512,49 @@ class PlanarRobot(Planar, Robot):
     """A chain that moves in one plane, on the planar fast path (planar.py)."""
 
 
+class FloatingMimicRobot(Mimic, Floating, Robot):
+    """A floating base with mimic joints (a humanoid's or a hand's fingers): mimic.py's
+    reduction around floating.py's algorithms, q = [base pose; independent joints]."""
+
+    # refused as on any floating base, not reduced (Mimic would run them on the joints only)
+    regressor = Floating.regressor
+    inverse_dynamics_derivatives = Floating.inverse_dynamics_derivatives
+    forward_dynamics_derivatives = Floating.forward_dynamics_derivatives
+    coriolis_matrix = Floating.coriolis_matrix
+    kinetic_energy_gradient = Floating.kinetic_energy_gradient
+
+    def center_of_mass(self, q):
+        return super().center_of_mass(self._all(("q", q))[2][0])
+
+    def centroidal_momentum(self, q, qd):
+        _, _, (q, qd) = self._all(("q", q), ("qd", qd))
+        return super().centroidal_momentum(q, qd)
+
+    def integrate(self, q, qd, dt):
+        """q moved by v dt (the map is linear: G (q + qd dt) + o = q_all + G qd dt)."""
+        _, _, (qa, va) = self._all(("q", q), ("qd", qd))
+        return super().integrate(qa, va, dt)[..., self._q_independent]
+
+    def random_state(self, rng=None, batch=None, speed=1.0):
+        q, v = super().random_state(rng, batch, speed)
+        return q[..., self._q_independent], v[..., self._ind]
+
+    _q_independent = property(lambda self: np.r_[np.arange(7), 7 + self.model.independent])
+
+    def base_reaction(self, q, qd_joints):
+        raise NotImplementedError("base_reaction with mimic joints is not available; "
+                                  "solve with the blocks of mass_matrix(q)")
+
+    def generalized_jacobian(self, q, link=None):
+        raise NotImplementedError("generalized_jacobian with mimic joints is not available; "
+                                  "compose it from jacobian(q, link) and mass_matrix(q)")
+
+
 def kind_of(model):
     """The facade class ``model`` needs: the first that fits, read top to bottom."""
     if model.floating:                   # the base's six degrees of freedom join the joints'
-        return FloatingRobot             # (q: n + 7, v: n + 6); no mimic or planar path there
+        return (FloatingMimicRobot       # (q: n + 7, v: n + 6); no planar path there
+                if model.has_mimic_joints else FloatingRobot)
     if model.has_mimic_joints:           # coordinates are the independent joints; the
         return MimicRobot                # reduction runs the full chain's general algorithms
     if model.planar_layout is not None:  # every revolute axis parallel, prismatic ones in

@@ -62,10 +62,6 @@ class Floating:
     is_floating = True
 
     def __init__(self, model, dissipation=None, backend=None, **kwargs):
-        if model.has_mimic_joints:
-            raise ValueError(f"chain {model.base_link!r} -> {model.tip_link!r} has mimic joints; "
-                             "a floating base with mimic joints is not supported: load it with "
-                             "floating_base=False, or make the mimic joints independent")
         super().__init__(model, dissipation, backend, **kwargs)
         self._nq, self._nv = model.dof + 7, model.dof + 6
         self._nvnv = (self._nv, self._nv)
@@ -158,7 +154,8 @@ class Floating:
         _no_base_motion(base_motion)
         if not self._compiled:
             return _into(out, fb.bias(self.model, q, qd, wrench))
-        return self.inverse_dynamics(q, qd, np.zeros(self._nv), wrench, out=out)
+        # Floating's own (a kind deriving from this one, mimic.py, calls it with whole states)
+        return Floating.inverse_dynamics(self, q, qd, np.zeros(self._nv), wrench, out=out)
 
     def gravity_torques(self, q, out=None):
         """g (n+6,): what holds the whole robot still against gravity (the base's part is
@@ -166,7 +163,7 @@ class Floating:
         if not self._compiled:
             return _into(out, fb.gravity_forces(self.model, q))
         zero = np.zeros(self._nv)
-        return self.inverse_dynamics(q, zero, zero, out=out)
+        return Floating.inverse_dynamics(self, q, zero, zero, out=out)
 
     def forward_dynamics(self, q, qd, tau, wrench=None, method="auto", base_motion=None,
                          out=None, wrenches=None):
@@ -238,7 +235,7 @@ class Floating:
         single, q, R, _ = fb.as_batch(self.model, q)
         N = q.shape[0]
         r = kinematics.forward_kinematics(self.model, q[:, 7:], link)[:, :3, 3]
-        J = np.zeros((N, 6, self.nv))
+        J = np.zeros((N, 6, self._nv))
         J[:, :3, :3] = R
         J[:, :3, 3:6] = -R @ skew(r)
         J[:, 3:, 3:6] = R

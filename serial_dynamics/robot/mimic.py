@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ..algorithms import floating as fb
 from ..algorithms._batch import as_batch
 from ..model.dissipation import Dissipation
 from . import derivatives, regressor
@@ -36,6 +37,13 @@ class _Independent:
         self.dof, self.joint_names = len(names), tuple(names)
 
 
+def _with_base(nb, src, m, o):
+    """The maps (src, m, o) of x_all = G x + o with ``nb`` base coordinates first, each
+    its own image (a floating base: 7 in q, 6 in v; a fixed base: none)."""
+    return (np.r_[np.arange(nb), nb + src].astype(np.int64), np.r_[np.ones(nb), m],
+            np.r_[np.zeros(nb), o])
+
+
 class Mimic:
     """What a chain with mimic joints overrides: its coordinates are the independent joints
     (see the module docstring). ``sd.load_urdf`` and ``sd.Robot(model)`` return a
@@ -43,13 +51,17 @@ class Mimic:
 
     def __init__(self, model, dissipation=None, backend=None, **kwargs):
         self._G, self._o = model.mimic_matrix
-        self._ind = model.independent
         self._src = np.argmax(self._G != 0.0, axis=1)     # joint i follows coordinate src[i]
         self._m = self._G[np.arange(model.dof), self._src]  # with multiplier m[i] (1: itself)
+        # the same maps on a whole state: a floating base's 7 (q) and 6 (v) coordinates first
+        bq, bv = (7, 6) if model.floating else (0, 0)
+        self._bq, self._bv = bq, bv
+        self._q_map = _with_base(bq, self._src, self._m, self._o)
+        self._v_map = _with_base(bv, self._src, self._m, np.zeros(model.dof))
+        self._ind = np.r_[np.arange(bv), bv + model.independent].astype(np.int64)
         fi = np.flatnonzero(model.mimic_leader >= 0)         # the followers, in chain order:
-        self._fi, self._fk, self._fm = fi, self._src[fi], self._m[fi]   # joint, coordinate, m
-        self._view = _Independent([model.joint_names[i] for i in self._ind])
-        self._zero = np.zeros(model.dof)
+        self._fi, self._fk, self._fm = bv + fi, bv + self._src[fi], self._m[fi]
+        self._view = _Independent([model.joint_names[i] for i in model.independent])
         if dissipation is None:
             dissipation = _reduced_dissipation(model, self._G, self._view.joint_names)
         super().__init__(model, dissipation, backend, **kwargs)
@@ -57,15 +69,18 @@ class Mimic:
     # ------------------------------------------------------------- description
     dof = property(lambda self: self._view.dof)
     joint_names = property(lambda self: list(self._view.joint_names))
-    joint_types = property(lambda self: [self.model.joint_types[i] for i in self._ind])
-    lower = property(lambda self: self.model.lower[self._ind])
-    upper = property(lambda self: self.model.upper[self._ind])
-    velocity_limit = property(lambda self: self.model.velocity_limit[self._ind])
-    effort_limit = property(lambda self: self.model.effort_limit[self._ind])
+    joint_types = property(lambda self: [self.model.joint_types[i] for i in self.model.independent])
+    lower = property(lambda self: self.model.lower[self.model.independent])
+    upper = property(lambda self: self.model.upper[self.model.independent])
+    velocity_limit = property(lambda self: self.model.velocity_limit[self.model.independent])
+    effort_limit = property(lambda self: self.model.effort_limit[self.model.independent])
     armature = property(lambda self: (self._G ** 2).T @ self.model.armature,
                         doc="the reduced armature: sum of m^2 I_a over each joint's followers")
     all_joint_names = property(lambda self: list(self.model.joint_names),
                                doc="every joint of the chain, mimic joints included")
+
+    nq = property(lambda self: self._view.dof + self._bq, doc="the length of q (reduced)")
+    nv = property(lambda self: self._view.dof + self._bv, doc="the length of qd (reduced)")
 
     def all_joint_positions(self, q):
         """Positions of every joint of the chain (e.g. for robot_state_publisher)."""
@@ -79,13 +94,14 @@ class Mimic:
     # state goes through two small compiled loops (_gather, _scatter_add: ~0.2 us each,
     # against ~4 us of NumPy indexing), a batch through the same operations in NumPy.
     def _expand(self, x, offset):
-        """G x + offset over the last axis: x[src] m + offset."""
+        """G x + offset over the last axis (the joints): x[src] m + offset."""
         return x[..., self._src] * self._m + offset
 
     def _reduce(self, y):
-        """G^T y over the last axis: y[independent] + sum of m y[follower], in joint order."""
+        """G^T y over the last axis (v's coordinates): y[independent] + sum of m y[follower],
+        in joint order."""
         if y.ndim == 1:
-            out = np.empty(self._view.dof)
+            out = np.empty(self.nv)
             _scatter_add(self._ind, self._fi, self._fk, self._fm, y, out)
             return out
         out = y[..., self._ind].copy()
@@ -96,7 +112,7 @@ class Mimic:
     def _reduce2(self, M):
         """G^T M G (the same operations, in the same order, for one matrix or a stack)."""
         if M.ndim == 2:
-            k = self._view.dof
+            k = self.nv
             A, out = np.empty((M.shape[0], k)), np.empty((k, k))
             _congruence(self._ind, self._fi, self._fk, self._fm, M, A, out)
             return out
@@ -107,19 +123,24 @@ class Mimic:
         return (single, the reduced arrays, every joint's arrays): q_all = G q + o, rates
         G x (torques are not expanded: None). A single state's are 1-D arrays (the compiled
         single-state path); a batch's (N, k) and (N, n)."""
-        k, n = self._view.dof, self.model.dof
-        if all(type(x) is np.ndarray and x.shape == (k,) and x.dtype == np.float64
-               and x.flags.c_contiguous for _, x in named):      # one state: the lean path
-            full = [None if name == "tau" else np.empty(n) for name, _ in named]
-            if all(np.isfinite(x).all() if f is None else
-                   _gather(self._src, self._m, self._o if name == "q" else self._zero, x, f) == 0
-                   for (name, x), f in zip(named, full)):
+        maps = [None if name == "tau" else self._q_map if name == "q" else self._v_map
+                for name, _ in named]
+        if all(type(x) is np.ndarray and x.shape == (self.nq if name == "q" else self.nv,)
+               and x.dtype == np.float64 and x.flags.c_contiguous
+               for name, x in named):                             # one state: the lean path
+            full = [None if mp is None else np.empty(mp[0].shape[0]) for mp in maps]
+            if all(np.isfinite(x).all() if f is None else _gather(*mp, x, f) == 0
+                   for (_, x), mp, f in zip(named, maps, full)):
                 return True, [x for _, x in named], full
-        single, reduced = as_batch(self._view, *named)   # a batch, other types, or a NaN/Inf
+        if self._bq:                                     # a floating base (q: k + 7, v: k + 6)
+            d = dict(named)
+            single, q, _, rest = fb.as_batch(self._view, d.pop("q", None), False, **d)
+            reduced = [q if name == "q" else rest[name] for name, _ in named]
+        else:                                            # a batch, other types, or a NaN/Inf
+            single, reduced = as_batch(self._view, *named)
         reduced = [x[0] if single else x for x in reduced]
-        full = [None if name == "tau" else
-                np.ascontiguousarray(self._expand(x, self._o if name == "q" else 0.0))
-                for (name, _), x in zip(named, reduced)]
+        full = [None if mp is None else np.ascontiguousarray(x[..., mp[0]] * mp[1] + mp[2])
+                for mp, x in zip(maps, reduced)]
         return single, reduced, full
 
     # ------------------------------------------------------------- dynamics
@@ -145,7 +166,7 @@ class Mimic:
 
     @property
     def _v_parent(self):            # G^T M G couples a leader with its followers' branches
-        return np.arange(self.dof) - 1
+        return np.arange(self.nv) - 1
 
     def mass_matrix(self, q, out=None):
         _, _, (q,) = self._all(("q", q))

@@ -130,8 +130,8 @@ def test_a_fixed_tree_agrees_with_pinocchio(rel):
 
 # floating trees: quadrupeds and humanoids (iCub's floating mass matrix is singular in
 # Pinocchio too: a joint that moves no mass; ANYmal C's base lumps a link whose inertia is not
-# a rigid body's; Baxter's and the full Talos's grippers have mimic joints, refused on a
-# floating base: each is refused at load with the culprit named)
+# a rigid body's: each is refused at load with the culprit named; Baxter's and the full
+# Talos's grippers have mimic joints: FLOATING_MIMIC below)
 FLOATING = ["solo_description/robots/solo12.urdf", "go2_description/urdf/go2.urdf",
             "a1_description/urdf/a1.urdf", "talos_data/robots/talos_reduced.urdf",
             "g1_description/urdf/g1_29dof_rev_1_0.urdf", "human_description/robots/human.urdf"]
@@ -163,6 +163,49 @@ def test_a_floating_tree_agrees_with_pinocchios_free_flyer(rel):
     check_factor(robot, q, robot.mass_matrix(q), pm, pd, np.array(idx))
     for method in ("cholesky", "aba"):
         assert rel_err(robot.forward_dynamics(q, v, tau, method=method), a) < 1e3 * RTOL
+
+
+# a floating base with mimic joints (FloatingMimicRobot): the Panda's fingers, Baxter's and
+# the full Talos's grippers, through q_all = G q + o with the base's coordinates their own
+FLOATING_MIMIC = ["panda_description/urdf/panda.urdf", "baxter_description/urdf/baxter.urdf",
+                  "talos_data/robots/talos_full_v2.urdf"]
+
+
+@pytest.mark.parametrize("rel", FLOATING_MIMIC)
+def test_a_floating_tree_with_mimic_joints_agrees_with_pinocchio(rel):
+    robot = load(rel, floating_base=True)
+    assert robot.model.has_mimic_joints and robot.nv == robot.dof + 6
+    pm = pin.buildModelFromUrdf(erd(rel), pin.JointModelFreeFlyer())
+    pm.gravity.linear[:] = robot.gravity
+    pd = pm.createData()
+    jid = [pm.getJointId(n) for n in robot.all_joint_names]
+    iq, iv = [pm.idx_qs[j] for j in jid], [pm.idx_vs[j] for j in jid]
+    G, o = robot.model.mimic_matrix
+    Gv = np.zeros((6 + G.shape[0], robot.nv))               # v_all = Gv v
+    Gv[:6, :6], Gv[6:, 6:] = np.eye(6), G
+    rng = np.random.default_rng(11)
+    q, v = robot.random_state(rng)
+    a = rng.uniform(-1, 1, robot.nv)
+    qp = pin.neutral(pm)
+    qp[:7], qp[iq] = q[:7], G @ q[7:] + o
+    idx = list(range(6)) + iv
+    vp, ap = np.zeros(pm.nv), np.zeros(pm.nv)
+    vp[idx], ap[idx] = Gv @ v, Gv @ a
+    tau = robot.inverse_dynamics(q, v, a)
+    assert rel_err(tau, Gv.T @ pin.rnea(pm, pd, qp, vp, ap)[idx]) < RTOL
+    Mp = pin.crba(pm, pd, qp)
+    Mp = np.triu(Mp) + np.triu(Mp, 1).T
+    M = robot.mass_matrix(q)
+    assert rel_err(M, Gv.T @ Mp[np.ix_(idx, idx)] @ Gv) < RTOL
+    check_factor(robot, q, M, pm, pd, np.array(idx))
+    assert rel_err(robot.forward_dynamics(q, v, tau), a) < 1e3 * RTOL
+    assert rel_err(robot.center_of_mass(q), pin.centerOfMass(pm, pd, qp)) < RTOL
+    h = pin.computeCentroidalMomentum(pm, pd, qp, vp)
+    assert rel_err(robot.centroidal_momentum(q, v), np.r_[h.linear, h.angular]) < RTOL
+    batch = robot.inverse_dynamics(np.stack([q, q]), np.stack([v, 0 * v]), np.stack([a, a]))
+    assert batch[0].tobytes() == tau.tobytes()
+    with pytest.raises(NotImplementedError):
+        robot.regressor(q, v, a)
 
 
 @pytest.mark.parametrize("rel", ["solo_description/robots/solo12.urdf",

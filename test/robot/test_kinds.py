@@ -12,7 +12,7 @@ import os
 import pytest
 
 import serial_dynamics as sd
-from serial_dynamics.robot import MimicRobot, PlanarRobot, Robot, kind_of
+from serial_dynamics.robot import FloatingMimicRobot, MimicRobot, PlanarRobot, Robot, kind_of
 
 from test_mimic import mimic_chain
 
@@ -34,11 +34,13 @@ def planar_mimic():
     ("planar_3r", PlanarRobot),
     ("mimic", MimicRobot),
     ("planar+mimic", MimicRobot),         # the reduction comes first
+    ("floating+mimic", FloatingMimicRobot),
 ])
 def test_kind_of_chooses_and_every_constructor_builds_it(source, kind):
     xml = {"ur5e": sd.robots.ur5e_urdf, "planar_3r": sd.robots.planar_3r_urdf,
-           "mimic": mimic_chain, "planar+mimic": planar_mimic}[source]()
-    robot = sd.load_urdf(xml)
+           "mimic": mimic_chain, "planar+mimic": planar_mimic,
+           "floating+mimic": mimic_chain}[source]()
+    robot = sd.load_urdf(xml, floating_base=source.startswith("floating"))
     assert kind_of(robot.model) is kind
     assert type(robot) is kind
     assert type(sd.Robot(robot.model)) is kind

@@ -1,11 +1,12 @@
-"""Kinetic and potential energy of the chain (joint frames; see serial_dynamics/model/model.py and
-docs/conventions.md)."""
+"""Kinetic and potential energy of the chain, its center of mass and centroidal momentum
+(joint frames; see serial_dynamics/model/model.py and docs/conventions.md)."""
 import numpy as np
 
 from ..joints import PRISMATIC
 from ._batch import as_batch, mtv, mv, unbatch
 from .crba import mass_matrix
 from .kinematics import body_poses, joint_transforms
+from .noc import body_velocities
 from .rnea import E_Z
 
 
@@ -21,6 +22,32 @@ def potential_energy(model, q):
     R0, o = body_poses(model, q)
     c = o + mv(R0, model.c)                                  # c_i = o_i + R0_i c[i]
     return unbatch(single, -np.einsum("i,nik,k->n", model.mass, c, model.gravity))
+
+
+def center_of_mass(model, q):
+    """c (3,) or (N, 3): the center of mass of the moving bodies, base frame (a fixed
+    base's own link is not part of the model)."""
+    single, (q,) = as_batch(model, ("q", q))
+    R0, o = body_poses(model, q)
+    return unbatch(single, np.einsum("i,nik->nk", model.mass, o + mv(R0, model.c))
+                   / model.mass.sum())                       # sum m_i c_i / m
+
+
+def centroidal_momentum(model, q, qd):
+    """h (6,) or (N, 6): [linear momentum; angular momentum about the center of mass] of
+    the moving bodies, base axes: P = sum m_i cdot_i, L = sum I_i omega_i + m_i (c_i - c) x
+    cdot_i (Orin, Goswami & Lee 2013, "Centroidal dynamics of a humanoid robot")."""
+    single, (q, qd) = as_batch(model, ("q", q), ("qd", qd))
+    R0, o = body_poses(model, q)
+    c = o + mv(R0, model.c)                                  # c_i
+    omega, odot = body_velocities(model, o, R0[..., 2], qd)
+    cdot = odot + np.cross(omega, c - o)                     # velocity of c_i
+    m = model.mass[:, None]
+    P = np.sum(m * cdot, axis=1)
+    r = c - (np.sum(m * c, axis=1) / model.mass.sum())[:, None]
+    I = R0 @ model.I_c @ np.swapaxes(R0, -1, -2)             # about c_i, base axes
+    L = np.sum(mv(I, omega) + m * np.cross(r, cdot), axis=1)
+    return unbatch(single, np.concatenate([P, L], axis=1))
 
 
 def kinetic_energy_gradient(model, q, qd):

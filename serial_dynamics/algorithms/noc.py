@@ -28,7 +28,7 @@ def _geometry(model, q):
     return R0, o, R0[..., 2], o + mv(R0, model.c)
 
 
-def _body_velocities(model, o, z, qd):
+def body_velocities(model, o, z, qd):
     """Angular velocities omega_i and origin velocities odot_i of the bodies, base frame."""
     N, n = qd.shape
     omega, odot = np.zeros((N, n, 3)), np.zeros((N, n, 3))
@@ -77,7 +77,7 @@ def twist_shaping_dot(model, q, qd):
     """dT/dt (N, 6n, n), using zdot_j = omega_j x z_j and the body velocities."""
     single, (q, qd) = as_batch(model, ("q", q), ("qd", qd))
     _, o, z, c = _geometry(model, q)
-    omega, odot = _body_velocities(model, o, z, qd)
+    omega, odot = body_velocities(model, o, z, qd)
     cdot = odot + np.cross(omega, c - o)
     zdot = np.cross(omega, z)
     N, n = q.shape
@@ -121,7 +121,7 @@ def angular_velocity_matrix_6n(model, q, qd):
     """W (N, 6n, 6n) = diag([omega_i]x, 0)."""
     single, (q, qd) = as_batch(model, ("q", q), ("qd", qd))
     _, o, z, _ = _geometry(model, q)
-    omega, _ = _body_velocities(model, o, z, qd)
+    omega, _ = body_velocities(model, o, z, qd)
     B = np.zeros(omega.shape[:2] + (6, 6))
     B[..., :3, :3] = skew(omega)
     return unbatch(single, _block_diag(B))
@@ -169,7 +169,7 @@ def coriolis_matrix(model, q, qd):
     Td = twist_shaping_dot(model, q, qd).reshape(N, n, 6, n)
     Mb = mass_blocks(model, q)
     _, o, z, _ = _geometry(model, q)
-    omega, _ = _body_velocities(model, o, z, qd)
+    omega, _ = body_velocities(model, o, z, qd)
     W = np.zeros_like(Mb)
     W[..., :3, :3] = skew(omega)
     # sum over bodies of T_i^T (M_i Tdot_i + W_i M_i T_i): block-diagonal products, body by body

@@ -422,6 +422,15 @@ class Robot:
     def potential_energy(self, q):
         return energy.potential_energy(self.model, q)
 
+    def center_of_mass(self, q):
+        """(3,): the center of mass of the moving bodies, base frame (m)."""
+        return energy.center_of_mass(self.model, q)
+
+    def centroidal_momentum(self, q, qd):
+        """(6,): [linear momentum; angular momentum about the center of mass] of the moving
+        bodies, base axes (kg m/s, kg m^2/s)."""
+        return energy.centroidal_momentum(self.model, q, qd)
+
     def total_energy(self, q, qd):
         return self.kinetic_energy(q, qd) + self.potential_energy(q)
 
@@ -522,13 +531,6 @@ class FloatingMimicRobot(Mimic, Floating, Robot):
     forward_dynamics_derivatives = Floating.forward_dynamics_derivatives
     coriolis_matrix = Floating.coriolis_matrix
     kinetic_energy_gradient = Floating.kinetic_energy_gradient
-
-    def center_of_mass(self, q):
-        return super().center_of_mass(self._all(("q", q))[2][0])
-
-    def centroidal_momentum(self, q, qd):
-        _, _, (q, qd) = self._all(("q", q), ("qd", qd))
-        return super().centroidal_momentum(q, qd)
 
     def integrate(self, q, qd, dt):
         """q moved by v dt (the map is linear: G (q + qd dt) + o = q_all + G qd dt)."""

@@ -210,6 +210,13 @@ class Mimic:
     def potential_energy(self, q):
         return super().potential_energy(self._all(("q", q))[2][0])
 
+    def center_of_mass(self, q):
+        return super().center_of_mass(self._all(("q", q))[2][0])
+
+    def centroidal_momentum(self, q, qd):
+        _, _, (q, qd) = self._all(("q", q), ("qd", qd))
+        return super().centroidal_momentum(q, qd)
+
     def kinetic_energy_gradient(self, q, qd):
         """dT_r/dq_r = G^T dT/dq(G q_r + o, G qd_r)."""
         return self._reduce(super().kinetic_energy_gradient(self.all_joint_positions(q),

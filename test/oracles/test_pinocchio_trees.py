@@ -112,6 +112,13 @@ def test_a_fixed_tree_agrees_with_pinocchio(rel):
     M = robot.mass_matrix(q)
     assert rel_err(M, G.T @ ref.mass_matrix(qa) @ G) < RTOL
     check_factor(robot, q, M, ref.model, ref.data, ref.iv)
+    # center of mass and centroidal momentum of the moving bodies (Pinocchio's leave the
+    # universe's body, the base link, out too)
+    c = pin.centerOfMass(ref.model, ref.data, ref.q(qa))
+    assert rel_err(robot.center_of_mass(q), c) < RTOL
+    h = robot.centroidal_momentum(q, qd)
+    hp = pin.computeCentroidalMomentum(ref.model, ref.data, ref.q(qa), ref.v(qda))
+    assert rel_err(h, np.r_[hp.linear, hp.angular]) < RTOL
     for method in ("cholesky", "aba"):
         assert rel_err(robot.forward_dynamics(q, qd, tau, method=method), qdd) < 1e3 * RTOL
     pin.forwardKinematics(ref.model, ref.data, ref.q(qa), ref.v(qda), ref.v(qdda))

@@ -526,7 +526,6 @@ class FloatingMimicRobot(Mimic, Floating, Robot):
     reduction around floating.py's algorithms, q = [base pose; independent joints]."""
 
     # refused as on any floating base, not reduced (Mimic would run them on the joints only)
-    regressor = Floating.regressor
     inverse_dynamics_derivatives = Floating.inverse_dynamics_derivatives
     forward_dynamics_derivatives = Floating.forward_dynamics_derivatives
     coriolis_matrix = Floating.coriolis_matrix
@@ -542,6 +541,13 @@ class FloatingMimicRobot(Mimic, Floating, Robot):
         return q[..., self._q_independent], v[..., self._ind]
 
     _q_independent = property(lambda self: np.r_[np.arange(7), 7 + self.model.independent])
+
+    def regressor(self, *args, **kwargs):
+        raise NotImplementedError("the regressor of a floating base with mimic joints is not "
+                                  "available; load the model with floating_base=False, or "
+                                  "make the mimic joints independent")
+
+    inertial_parameters = regressor
 
     def base_reaction(self, q, qd_joints):
         raise NotImplementedError("base_reaction with mimic joints is not available; "

@@ -27,6 +27,7 @@ import numpy as np
 
 from ..algorithms import floating as fb
 from ..algorithms import kinematics
+from ..algorithms import regressor as ref_regressor
 from ..algorithms._batch import skew
 from ..algorithms.rnea import _wrench_batch as rnea_wrench_rows
 from ..core import ENTRY_POINTS, OK
@@ -38,6 +39,7 @@ from ..core.layout import B, W_ALL
 from ..core.layout import pack as layout_pack
 from ..model import Model
 from .batches import kernel_rows, run_split
+from . import regressor
 from .wrenches import generalized_forces
 from .common import PARALLEL_MIN
 from .common import into as _into
@@ -202,11 +204,32 @@ class Floating:
         raise NotImplementedError("the Coriolis matrix of a floating base is not available; "
                                   "use bias_torques(q, v) for C v + g")
 
-    def regressor(self, *args, **kwargs):
-        raise NotImplementedError("the regressor of a floating base is not available")
+    def regressor(self, q, qd, qdd, friction=False, armature=None):
+        """Y (n+6, p) or (N, n+6, p) with inverse_dynamics(q, v, a) == Y @
+        inertial_parameters() (less the friction torques with ``friction=True``): the base's
+        ten columns [m0, mx0, .., Izz0] (base link frame), each body's ten, then the joints'
+        armature and friction columns (zero in the base's rows). The NumPy reference
+        (``algorithms/floating.regressor``); ``robot/regressor.py`` for the columns."""
+        friction, arm = regressor.check_friction(friction), regressor.armature_on(self, armature)
+        single, q, _, s = fb.as_batch(self.model, q, False, v=qd, a=qdd)
+        Y = fb.regressor(self.model, q, s["v"], s["a"])
+        extra = []
+        if arm:
+            extra.append(s["a"][:, 6:, None] * np.eye(self.dof))
+        if friction:
+            extra.append(regressor.friction_columns(s["v"][:, 6:]))
+        if extra:                                          # joint columns: zero base rows
+            J = np.concatenate(extra, axis=2)
+            Y = np.concatenate([Y, np.concatenate([np.zeros((J.shape[0], 6, J.shape[2])), J],
+                                                  axis=1)], axis=2)
+        return Y[0] if single else Y
 
-    def inertial_parameters(self, *args, **kwargs):
-        raise NotImplementedError("the regressor of a floating base is not available")
+    def inertial_parameters(self, friction=False, armature=None):
+        """phi (p,) that ``regressor`` multiplies: the base's ten parameters (base link frame,
+        inertia about its origin), then ``Robot.inertial_parameters``'s."""
+        m = self.model
+        base = ref_regressor.link_frame_parameters([m.base_mass], [m.base_com], [m.base_inertia])
+        return np.concatenate([base.ravel(), regressor.inertial_parameters(self, friction, armature)])
 
     def inverse_dynamics_derivatives(self, *args, **kwargs):
         raise NotImplementedError("dynamics derivatives of a floating base are not available")

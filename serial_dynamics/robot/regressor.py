@@ -89,10 +89,12 @@ def check_friction(friction):
 def parameter_names(robot, friction=False, armature=None):
     """The p column names: m1, mx1, .., Izz1, m2, .., then Ia1.., then fv1.., fc1.., fo1..
     (1-based numbers of the chain's joints; friction: of ``robot``'s joints, the independent
-    ones where the chain has mimic joints)."""
+    ones where the chain has mimic joints); on a floating base the base's m0, mx0, .., Izz0
+    first."""
     friction, arm = check_friction(friction), armature_on(robot, armature)
     n_all = robot.model.dof
-    names = [f"{s}{i + 1}" for i in range(n_all) for s in PARAMETERS]
+    names = [f"{s}0" for s in PARAMETERS] if robot.is_floating else []
+    names += [f"{s}{i + 1}" for i in range(n_all) for s in PARAMETERS]
     names += [f"Ia{i + 1}" for i in range(n_all)] if arm else []
     if friction:
         names += [f"{s}{j + 1}" for s in FRICTION for j in robot.model.independent]

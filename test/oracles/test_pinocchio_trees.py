@@ -170,6 +170,12 @@ def test_a_floating_tree_agrees_with_pinocchios_free_flyer(rel):
     check_factor(robot, q, robot.mass_matrix(q), pm, pd, np.array(idx))
     for method in ("cholesky", "aba"):
         assert rel_err(robot.forward_dynamics(q, v, tau, method=method), a) < 1e3 * RTOL
+    # the regressor: tau = Y phi, the columns Pinocchio's (its joint 1 is the free-flyer: the
+    # base's ten parameters), rows and columns in our order
+    Y = robot.regressor(q, v, a)
+    assert rel_err(Y @ robot.inertial_parameters(), tau) < RTOL
+    cols = np.concatenate([np.arange(10)] + [10 * (j - 1) + np.arange(10) for j in jid])
+    assert rel_err(Y, pin.computeJointTorqueRegressor(pm, pd, qp, vp, ap)[np.ix_(idx, cols)]) < RTOL
 
 
 # a floating base with mimic joints (FloatingMimicRobot): the Panda's fingers, Baxter's and

@@ -25,7 +25,7 @@ from ._batch import mv, rigid_body_inertia, skew, unbatch
 from .aba import _aba
 from .crba import crba
 from .kinematics import body_poses
-from .noc import _T, _geometry
+from .noc import _T, _geometry, body_velocities, twist_shaping_dot
 from . import regressor as reg
 from .rnea import _rnea, _wrench_batch, rigid_wrench
 
@@ -309,6 +309,44 @@ def twist_shaping(model, q):
     T[:, 1:, 3:, :3] = -skew(c - model.base_com)              # cdot_i += omega_0 x (c_i - c_0)
     T[:, 1:, :, 6:] = _T(model, o, z, c).reshape(N, n, 6, n)
     return unbatch(single, T.reshape(N, 6 * (n + 1), n + 6))
+
+
+def coriolis_matrix(model, q, v):
+    """C (n+6, n+6) or (N, ...) with C v = b(q, v) - g(q) and dM/dt - 2 C skew-symmetric:
+    C = T^T M_b (dT/dt) + T^T W M_b T (Angeles & Lee 1988, the NOC; ``noc.py``) with T the
+    twists of the base and the bodies from v (``twist_shaping`` times ``speeds_from_v``) in
+    an inertial frame that coincides with the base frame at this instant: dT/dt is the
+    joints' rate of change of T in base axes plus the turn of those axes, omega x T; W holds
+    [omega_i]x of each body's absolute angular velocity."""
+    single, q, _, s = as_batch(model, q, v=v)
+    N, n = q.shape[0], model.dof
+    v = np.zeros((N, n + 6)) if s["v"] is None else s["v"]
+    S = speeds_from_v(model)
+    T = twist_shaping(model, q).reshape(N, n + 1, 6, n + 6) @ S
+    _, o, z, c = _geometry(model, q[:, 7:])
+    w_rel, o_rel = body_velocities(model, o, z, v[:, 6:])      # the joints' part, base axes
+    Td = np.zeros((N, n + 1, 6, n + 6))                         # dT/dt in base axes
+    Td[:, 1:, 3:, :3] = -skew(o_rel + np.cross(w_rel, c - o))   # d/dt -[c_i - c_0]x
+    Td[:, 1:, :, 6:] = twist_shaping_dot(model, q[:, 7:], v[:, 6:]).reshape(N, n, 6, n)
+    Td = Td @ S
+    wb = v[:, None, 3:6]                                        # the base frame turns
+    Td[:, :, :3] += np.cross(wb[..., None, :], T[:, :, :3], axisb=-2, axisc=-2)
+    Td[:, :, 3:] += np.cross(wb[..., None, :], T[:, :, 3:], axisb=-2, axisc=-2)
+    omega = np.concatenate([v[:, None, 3:6], v[:, None, 3:6] + w_rel], axis=1)   # absolute
+    Mb = _diagonal_blocks(mass_blocks(model, q), n + 1)         # diag(I_k, m_k 1)
+    MT = np.einsum("nkab,nkbj->nkaj", Mb, T)                    # M_b T, body by body
+    W = np.zeros((N, n + 1, 6, 6))
+    W[:, :, :3, :3] = skew(omega)
+    C = (np.einsum("nkai,nkaj->nij", T, np.einsum("nkab,nkbj->nkaj", Mb, Td))
+         + np.einsum("nkai,nkab,nkbj->nij", T, W, MT))
+    return unbatch(single, C)
+
+
+def _diagonal_blocks(M, k):
+    """(N, k, 6, 6): the diagonal 6x6 blocks of M (N, 6k, 6k)."""
+    N = M.shape[0]
+    idx = np.arange(k)
+    return M.reshape(N, k, 6, k, 6)[:, idx, :, idx, :].swapaxes(0, 1)
 
 
 def speeds_from_v(model):

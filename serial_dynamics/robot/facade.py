@@ -528,7 +528,6 @@ class FloatingMimicRobot(Mimic, Floating, Robot):
     # refused as on any floating base, not reduced (Mimic would run them on the joints only)
     inverse_dynamics_derivatives = Floating.inverse_dynamics_derivatives
     forward_dynamics_derivatives = Floating.forward_dynamics_derivatives
-    coriolis_matrix = Floating.coriolis_matrix
     kinetic_energy_gradient = Floating.kinetic_energy_gradient
 
     def integrate(self, q, qd, dt):

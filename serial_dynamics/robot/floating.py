@@ -201,8 +201,9 @@ class Floating:
         return _into(out, a[0] if single else a)
 
     def coriolis_matrix(self, q, qd):
-        raise NotImplementedError("the Coriolis matrix of a floating base is not available; "
-                                  "use bias_torques(q, v) for C v + g")
+        """C (n+6, n+6) with C v = b - g and dM/dt - 2 C skew-symmetric (the NOC,
+        ``algorithms/floating.coriolis_matrix``; the NumPy reference)."""
+        return fb.coriolis_matrix(self.model, q, qd)
 
     def regressor(self, q, qd, qdd, friction=False, armature=None):
         """Y (n+6, p) or (N, n+6, p) with inverse_dynamics(q, v, a) == Y @

@@ -170,6 +170,12 @@ def test_a_floating_tree_agrees_with_pinocchios_free_flyer(rel):
     check_factor(robot, q, robot.mass_matrix(q), pm, pd, np.array(idx))
     for method in ("cholesky", "aba"):
         assert rel_err(robot.forward_dynamics(q, v, tau, method=method), a) < 1e3 * RTOL
+    # the Coriolis matrix: C v = b - g, and C differs from Pinocchio's (another valid one) by
+    # a skew-symmetric D with D v = 0, so dM/dt - 2 C is skew-symmetric as Pinocchio's is
+    C = robot.coriolis_matrix(q, v)
+    assert rel_err(C @ v, robot.bias_torques(q, v) - robot.gravity_torques(q)) < RTOL
+    D = C - pin.computeCoriolisMatrix(pm, pd, qp, vp)[np.ix_(idx, idx)]
+    assert rel_err(D @ v, 0 * v) < RTOL and rel_err(D + D.T, 0 * D) < RTOL * np.max(np.abs(C))
     # the regressor: tau = Y phi, the columns Pinocchio's (its joint 1 is the free-flyer: the
     # base's ten parameters), rows and columns in our order
     Y = robot.regressor(q, v, a)
@@ -215,6 +221,8 @@ def test_a_floating_tree_with_mimic_joints_agrees_with_pinocchio(rel):
     assert rel_err(robot.center_of_mass(q), pin.centerOfMass(pm, pd, qp)) < RTOL
     h = pin.computeCentroidalMomentum(pm, pd, qp, vp)
     assert rel_err(robot.centroidal_momentum(q, v), np.r_[h.linear, h.angular]) < RTOL
+    C = robot.coriolis_matrix(q, v)                           # G^T C_all G
+    assert rel_err(C @ v, robot.bias_torques(q, v) - robot.gravity_torques(q)) < RTOL
     batch = robot.inverse_dynamics(np.stack([q, q]), np.stack([v, 0 * v]), np.stack([a, a]))
     assert batch[0].tobytes() == tau.tobytes()
     with pytest.raises(NotImplementedError):

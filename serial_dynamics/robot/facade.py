@@ -525,10 +525,14 @@ class FloatingMimicRobot(Mimic, Floating, Robot):
     """A floating base with mimic joints (a humanoid's or a hand's fingers): mimic.py's
     reduction around floating.py's algorithms, q = [base pose; independent joints]."""
 
-    # refused as on any floating base, not reduced (Mimic would run them on the joints only)
-    inverse_dynamics_derivatives = Floating.inverse_dynamics_derivatives
-    forward_dynamics_derivatives = Floating.forward_dynamics_derivatives
-    kinetic_energy_gradient = Floating.kinetic_energy_gradient
+    kinetic_energy_gradient = Floating.kinetic_energy_gradient    # refused, as Floating's
+
+    def inverse_dynamics_derivatives(self, q, qd, qdd, wrench=None, base_motion=None):
+        """G^T (d tau_all/d x_all) G, x = q (tangent), v (Mimic's forward derivatives solve
+        with these and the reduced M)."""
+        _, _, (q, qd, qdd) = self._all(("q", q), ("qd", qd), ("qdd", qdd))
+        dq, dv = Floating.inverse_dynamics_derivatives(self, q, qd, qdd, wrench, base_motion)
+        return self._reduce2(dq), self._reduce2(dv)
 
     def integrate(self, q, qd, dt):
         """q moved by v dt (the map is linear: G (q + qd dt) + o = q_all + G qd dt)."""

@@ -26,6 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..algorithms import floating as fb
+from ..algorithms import derivatives as derivatives_reference
 from ..algorithms import kinematics
 from ..algorithms import regressor as ref_regressor
 from ..algorithms._batch import skew
@@ -232,11 +233,43 @@ class Floating:
         base = ref_regressor.link_frame_parameters([m.base_mass], [m.base_com], [m.base_inertia])
         return np.concatenate([base.ravel(), regressor.inertial_parameters(self, friction, armature)])
 
-    def inverse_dynamics_derivatives(self, *args, **kwargs):
-        raise NotImplementedError("dynamics derivatives of a floating base are not available")
+    def inverse_dynamics_derivatives(self, q, qd, qdd, wrench=None, base_motion=None):
+        """(d tau/d q, d tau/d v), each (n+6, n+6) or (N, n+6, n+6); d tau/d a is M. The q
+        direction is the tangent of q (Pinocchio's q (+) dq: the base's [dp; dtheta], base
+        frame, then the joints). In the base frame nothing but gravity sees the base's pose:
+        tau(q, v, a) is the gravity-free tau(q, v, a - [R^T g; 0]) of the instantaneous tree
+        (virtual_chain), whose joints' derivatives the reference computes (``algorithms/
+        derivatives.py``), and R -> R Exp(dtheta) turns g_b = R^T g by g_b x dtheta:
+        d tau/d dtheta = -M[:, :3] [g_b]x, d tau/d dp = 0."""
+        if wrench is not None or base_motion is not None:
+            raise ValueError("the derivatives of a floating base take no wrench or base "
+                             "motion yet: subtract J^T w from tau, and give the base's motion "
+                             "through q, v, a")
+        single, q, R, s = fb.as_batch(self.model, q, v=qd, a=qdd)
+        N, nv = q.shape[0], self._nv
+        v = np.zeros((N, nv)) if s["v"] is None else s["v"]
+        a = np.zeros((N, nv)) if s["a"] is None else np.array(s["a"])
+        g_b = np.einsum("nji,j->ni", R, self.model.gravity)
+        a[:, :3] -= g_b                                             # gravity as acceleration
+        rates = a + _velocity_products(v)                           # the instantaneous tree's
+        qv = np.concatenate([np.zeros((N, 6)), q[:, 7:]], axis=1)
+        dq, dv = derivatives_reference.inverse_dynamics_derivatives(virtual_chain(self.model), qv,
+                                                                    v, rates)
+        M = fb.mass_matrix(self.model, q)
+        dq[:, :, :6] = 0.0
+        dq[:, :, 3:6] = -M[:, :, :3] @ skew(g_b)
+        dv = dv + M @ _products_jacobian(v)
+        return (dq[0], dv[0]) if single else (dq, dv)
 
-    def forward_dynamics_derivatives(self, *args, **kwargs):
-        raise NotImplementedError("dynamics derivatives of a floating base are not available")
+    def forward_dynamics_derivatives(self, q, qd, tau, wrench=None, base_motion=None):
+        """(d a/d q, d a/d v, d a/d tau) = (-M^-1 d tau/d q, -M^-1 d tau/d v, M^-1) at the
+        accelerations of ``tau`` (n joint torques or n + 6 generalized forces), each
+        (n+6, n+6) or (N, ...); the q direction as in ``inverse_dynamics_derivatives``."""
+        a = self.forward_dynamics(q, qd, tau, wrench, base_motion=base_motion)
+        dq, dv = self.inverse_dynamics_derivatives(q, qd, a, wrench, base_motion)
+        Minv = np.linalg.inv(self.mass_matrix(q))
+        Minv = 0.5 * (Minv + np.swapaxes(Minv, -1, -2))
+        return -Minv @ dq, -Minv @ dv, Minv
 
     def kinetic_energy_gradient(self, *args, **kwargs):
         raise NotImplementedError("dT/dq of a floating base is not available")
@@ -354,6 +387,29 @@ def virtual_chain(model) -> Model:
         gravity=zero, tip_R=model.tip_R, tip_p=model.tip_p, frames=frames,
         armature=np.r_[np.zeros(6), model.armature], check_mass_matrix=False,
         parent=velocity_parents(model.parent))
+
+
+def _velocity_products(v):
+    """(N, n+6): what the instantaneous tree's joint accelerations add to a = dv/dt (as
+    core/floating._products): [omega x v_O; -wy wz; wx wz; -wx wy; 0 for the joints]."""
+    p = np.zeros_like(v)
+    vo, w = v[:, 0:3], v[:, 3:6]
+    p[:, 0:3] = np.cross(w, vo)
+    p[:, 3], p[:, 4], p[:, 5] = -w[:, 1] * w[:, 2], w[:, 0] * w[:, 2], -w[:, 0] * w[:, 1]
+    return p
+
+
+def _products_jacobian(v):
+    """d/dv of ``_velocity_products``, (N, n+6, n+6)."""
+    N = v.shape[0]
+    J = np.zeros((N, v.shape[1], v.shape[1]))
+    vo, w = v[:, 0:3], v[:, 3:6]
+    J[:, 0:3, 0:3] = skew(w)                                   # d(omega x v_O)/d v_O
+    J[:, 0:3, 3:6] = -skew(vo)                                 #               /d omega
+    J[:, 3, 4], J[:, 3, 5] = -w[:, 2], -w[:, 1]
+    J[:, 4, 3], J[:, 4, 5] = w[:, 2], w[:, 0]
+    J[:, 5, 3], J[:, 5, 4] = -w[:, 1], -w[:, 0]
+    return J
 
 
 def velocity_parents(parent):

@@ -176,6 +176,15 @@ def test_a_floating_tree_agrees_with_pinocchios_free_flyer(rel):
     assert rel_err(C @ v, robot.bias_torques(q, v) - robot.gravity_torques(q)) < RTOL
     D = C - pin.computeCoriolisMatrix(pm, pd, qp, vp)[np.ix_(idx, idx)]
     assert rel_err(D @ v, 0 * v) < RTOL and rel_err(D + D.T, 0 * D) < RTOL * np.max(np.abs(C))
+    # the derivatives, d/dq along the tangent (q (+) dq, as Pinocchio's), against
+    # computeRNEADerivatives and computeABADerivatives
+    dq, dv = robot.inverse_dynamics_derivatives(q, v, a)
+    pdq, pdv, _ = pin.computeRNEADerivatives(pm, pd, qp, vp, ap)
+    assert rel_err(dq, pdq[np.ix_(idx, idx)]) < RTOL and rel_err(dv, pdv[np.ix_(idx, idx)]) < RTOL
+    fq, fv, ft = robot.forward_dynamics_derivatives(q, v, tau)
+    pfq, pfv, pft = pin.computeABADerivatives(pm, pd, qp, vp, pin.rnea(pm, pd, qp, vp, ap))
+    for ours, theirs in ((fq, pfq), (fv, pfv), (ft, pft)):
+        assert rel_err(ours, theirs[np.ix_(idx, idx)]) < 1e3 * RTOL
     # the regressor: tau = Y phi, the columns Pinocchio's (its joint 1 is the free-flyer: the
     # base's ten parameters), rows and columns in our order
     Y = robot.regressor(q, v, a)
@@ -223,6 +232,10 @@ def test_a_floating_tree_with_mimic_joints_agrees_with_pinocchio(rel):
     assert rel_err(robot.centroidal_momentum(q, v), np.r_[h.linear, h.angular]) < RTOL
     C = robot.coriolis_matrix(q, v)                           # G^T C_all G
     assert rel_err(C @ v, robot.bias_torques(q, v) - robot.gravity_torques(q)) < RTOL
+    dq, dv = robot.inverse_dynamics_derivatives(q, v, a)      # G^T (d tau_all) G
+    pdq, pdv, _ = pin.computeRNEADerivatives(pm, pd, qp, vp, ap)
+    assert rel_err(dq, Gv.T @ pdq[np.ix_(idx, idx)] @ Gv) < RTOL
+    assert rel_err(dv, Gv.T @ pdv[np.ix_(idx, idx)] @ Gv) < RTOL
     batch = robot.inverse_dynamics(np.stack([q, q]), np.stack([v, 0 * v]), np.stack([a, a]))
     assert batch[0].tobytes() == tau.tobytes()
     with pytest.raises(NotImplementedError):

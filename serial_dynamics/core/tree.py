@@ -32,7 +32,26 @@ def tree_rnea_core(P, sc, R, p, f, mo, q, qd, qdd, w, flags, tau):
     use_qdd, use_w = (flags & F.QDD) != 0, (flags & F.WRENCH) != 0
     chk = joint_transforms(P, sc, R, p, q, n)
     base, (ex, ey, ez, mx, my, mz), chk = base_state(P, w, flags, n, chk)
-    for i in range(n):
+    nb = int(P[n, ROOT])
+    if nb > 0:
+        # a floating base (the virtual tree's six coordinates, P[n, ROOT] = 6) as one free-
+        # flyer joint: the base body's motion at once, what its six single-axis joints give
+        # from a base at rest (their frames share the origin, their axes the base's):
+        # omega = qd[3:6], alpha = qdd[3:6] + the products of the successive axes
+        # (wy wz, -wx wz, wx wy), acc = base acc + qdd[:3] (Featherstone 2008, Sec. 9.3)
+        k = nb - 1
+        for i in range(nb):
+            chk += joint_rates(qd, qdd, i, flags)[2]
+        wx, wy, wz = (qd[3], qd[4], qd[5]) if (flags & F.QD) != 0 else (0.0, 0.0, 0.0)
+        a0, a1, a2, a3, a4, a5 = ((qdd[0], qdd[1], qdd[2], qdd[3], qdd[4], qdd[5]) if use_qdd
+                                  else (0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
+        ax, ay, az = a3 + wy * wz, a4 - wx * wz, a5 + wx * wy
+        lx, ly, lz = base[6] + a0, base[7] + a1, base[8] + a2
+        mo[k, 0], mo[k, 1], mo[k, 2], mo[k, 3], mo[k, 4] = wx, wy, wz, ax, ay
+        mo[k, 5], mo[k, 6], mo[k, 7], mo[k, 8] = az, lx, ly, lz
+        f[k, 0], f[k, 1], f[k, 2], f[k, 3], f[k, 4], f[k, 5] = body_wrench(
+            P, k, wx, wy, wz, ax, ay, az, lx, ly, lz)
+    for i in range(nb, n):
         dq, ddq, c = joint_rates(qd, qdd, i, flags)
         chk += c
         l = int(P[i, PARENT])
@@ -53,7 +72,7 @@ def tree_rnea_core(P, sc, R, p, f, mo, q, qd, qdd, w, flags, tau):
         f[k, 0], f[k, 1], f[k, 2], f[k, 3], f[k, 4], f[k, 5] = tip_load(
             P, n, f[k, 0], f[k, 1], f[k, 2], f[k, 3], f[k, 4], f[k, 5], ex, ey, ez, mx, my, mz)
     # inward: tau_i = S_i^T f_i + I_a,i qdd_i;  f_lambda(i) += Xup_i^T f_i
-    for i in range(n - 1, -1, -1):
+    for i in range(n - 1, nb - 1, -1):
         nx, ny, nz, fx, fy, fz = f[i, 0], f[i, 1], f[i, 2], f[i, 3], f[i, 4], f[i, 5]
         tau[i] = (nz if P[i, KIND] == 0.0 else fz) + P[i, ARM] * (qdd[i] if use_qdd else 0.0)
         l = int(P[i, PARENT])
@@ -61,6 +80,10 @@ def tree_rnea_core(P, sc, R, p, f, mo, q, qd, qdd, w, flags, tau):
             nx, ny, nz, fx, fy, fz = to_parent(R, p, i, nx, ny, nz, fx, fy, fz)
             f[l, 0], f[l, 1], f[l, 2] = f[l, 0] + nx, f[l, 1] + ny, f[l, 2] + nz
             f[l, 3], f[l, 4], f[l, 5] = f[l, 3] + fx, f[l, 4] + fy, f[l, 5] + fz
+    if nb > 0:                  # the free-flyer's generalized forces: [f; n] on the base
+        k = nb - 1
+        tau[0], tau[1], tau[2], tau[3], tau[4], tau[5] = (f[k, 3], f[k, 4], f[k, 5],
+                                                          f[k, 0], f[k, 1], f[k, 2])
     return chk
 
 

@@ -1,7 +1,8 @@
 """Trees (issue 25): single calls and 10,000-state batches against Pinocchio from Python, in
 one process, on whole robots from example-robot-data: Talos (arms, legs, head; its
 grippers' mimic fingers held), Solo12, Baxter (two arms and the head; grippers held) on a
-fixed base, and Solo12 and Talos on a free-floating base (Pinocchio's free-flyer root).
+fixed base, and Solo12 and Talos on a free-floating base (Pinocchio's free-flyer root), Talos
+also whole (its grippers' mimic joints: our 32 independent joints against Pinocchio's 44).
 (The Pinocchio adapter, the rows and their timing are bench_speed.py's.)
 
     python bench/bench_trees.py            # writes the "trees" section of bench/BENCHMARKS.md
@@ -36,7 +37,9 @@ FIXED = {"Talos (30 joints)": ("talos_data/robots/talos_full_v2.urdf", TALOS_TIP
          "Baxter (15 joints)": ("baxter_description/urdf/baxter.urdf",
                                 ["left_wrist", "right_wrist", "head"])}
 FLOATING = {"Solo12, floating": ("solo_description/robots/solo12.urdf", None),
-            "Talos (30 joints), floating": ("talos_data/robots/talos_full_v2.urdf", TALOS_TIPS)}
+            "Talos (30 joints), floating": ("talos_data/robots/talos_full_v2.urdf", TALOS_TIPS),
+            "Talos (full: 32 joints, grippers' mimic joints), floating":
+                ("talos_data/robots/talos_full_v2.urdf", None)}
 
 
 def load(rel, tips, **kw):
@@ -46,29 +49,35 @@ def load(rel, tips, **kw):
 
 
 def floating_rows(name, robot, path, rounds):
-    """Single calls on a free-floating base against Pinocchio's free-flyer root."""
+    """Single calls on a free-floating base against Pinocchio's free-flyer root. With mimic
+    joints Pinocchio moves every joint (a follower is a joint of its own there) and ours the
+    independent ones: q_all = G q + o, v_all = G v."""
     full = pin.buildModelFromUrdf(path, pin.JointModelFreeFlyer())
-    keep = set(robot.joint_names) | {"root_joint"}
+    names = robot.all_joint_names
+    keep = set(names) | {"root_joint"}
     lock = [full.getJointId(n) for n in full.names[1:] if n not in keep]
     m = pin.buildReducedModel(full, lock, pin.neutral(full)) if lock else full
     m.gravity.linear[:] = robot.gravity
     d = m.createData()
-    jid = [m.getJointId(n) for n in robot.joint_names]
+    jid = [m.getJointId(n) for n in names]
     idx = list(range(6)) + [m.idx_vs[j] for j in jid]
+    G, o = robot.model.mimic_matrix
+    Gv = np.zeros((6 + len(names), robot.nv))
+    Gv[:6, :6], Gv[6:, 6:] = np.eye(6), G
     rng = np.random.default_rng(0)
     quat = rng.normal(size=4)
     q = np.concatenate([[0.1, -0.2, 0.3], quat / np.linalg.norm(quat),
                         rng.uniform(-1, 1, robot.dof)])
     v, a = rng.uniform(-1, 1, (2, robot.nv))
     pq = pin.neutral(m)
-    pq[:7], pq[[m.idx_qs[j] for j in jid]] = q[:7], q[7:]
+    pq[:7], pq[[m.idx_qs[j] for j in jid]] = q[:7], G @ q[7:] + o
     pv, pa = np.zeros(m.nv), np.zeros(m.nv)
-    pv[idx], pa[idx] = v, a
+    pv[idx], pa[idx] = Gv @ v, Gv @ a
     tau = robot.inverse_dynamics(q, v, a)
-    agree(tau, pin.rnea(m, d, pq, pv, pa)[idx], "rnea")
-    pt = np.zeros(m.nv)
-    pt[idx] = tau
-    agree(robot.forward_dynamics(q, v, tau), pin.aba(m, d, pq, pv, pt)[idx], "aba", 1e-8)
+    agree(tau, Gv.T @ pin.rnea(m, d, pq, pv, pa)[idx], "rnea")
+    agree(robot.forward_dynamics(q, v, tau), a, "forward o inverse", 1e-8)
+    pt = pin.rnea(m, d, pq, pv, pa)
+    agree(pin.aba(m, d, pq, pv, pt)[idx], Gv @ a, "aba", 1e-8)
     rows = []
     for label, ours, peer, peer_name in [
             ("inverse dynamics, one state", lambda: robot.inverse_dynamics(q, v, a),

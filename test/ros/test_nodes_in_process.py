@@ -54,7 +54,7 @@ def test_every_parameter_but_the_settable_ones_is_read_only(nodes):
         assert result.successful, (name, result)
     ctl = nodes["computed_torque_controller"]
     result, = ctl.set_parameters([Parameter("mode", value="pd_gravity")])
-    assert result.successful and ctl.mode == "pd_gravity"
+    assert result.successful and ctl.ctl.mode == "pd_gravity"
     ctl.set_parameters([Parameter("mode", value="computed_torque")])
 
 
@@ -133,7 +133,7 @@ def test_the_observer_restarts_on_a_stamp_jump_back_or_far_forward(nodes, capfd)
         assert np.any(r1 != 0.0)                           # and the estimate goes on
     assert len(obs.pub_tau.msgs) == 50 + 8                 # every message answered
     assert obs.reject.refused == refused                   # none refused
-    assert obs.restarts == 4
+    assert obs.monitor.restarts == 4
     err = capfd.readouterr().err
     assert err.count("jumped back") == 1 and err.count("jumped forward") == 1, err
 

@@ -119,7 +119,7 @@ class ExternalTorqueObserver(Node):
 
 
 def main(args=None):
-    return common.run(ExternalTorqueObserver, args)
+    return common.run(ExternalTorqueObserver, args, events=True)
 
 
 if __name__ == "__main__":

@@ -75,16 +75,16 @@ class ComputedTorqueController(Node):
         if check_mode(mode):
             raise StartupError(check_mode(mode))
         p = parameters.declare(self, {k: v for k, v in PARAMETERS.items() if k != "mode"})
-        robot = parameters.load_robot(self, p)
+        # payload.* (start-up values here) may be set while running: the model is swapped
+        # between two commands
+        robot = parameters.with_payload_parameters(self, parameters.load_robot(self, p), p,
+                                                   lambda robot: setattr(self.ctl, "robot", robot))
         gains = {x: None if p[x] is None else parameters.per_joint(x, p[x], robot, None, True)
                  for x in ("kp", "kd", "pd.kp", "pd.kd")}
         if not 0 < p["control_rate"] < float("inf"):
             raise StartupError(f"parameter 'control_rate' must be > 0, got {p['control_rate']}")
         self.ctl = Controller(robot, 1.0 / p["control_rate"], gains["kp"], gains["kd"],
                               gains["pd.kp"], gains["pd.kd"], p["compensate_dissipation"], mode)
-        # payload.* may be set while running: the model is swapped between two commands
-        parameters.with_payload_parameters(self, robot, p,
-                                           lambda robot: setattr(self.ctl, "robot", robot))
         robot.warmup()
         self.reject = common.Rejections(self, hardware_id=robot.model.name)
         self.reject.watch(self.diagnostics)

@@ -53,7 +53,10 @@ class ExternalTorqueObserver(Node):
     def __init__(self, **kwargs):
         super().__init__(self.NAME, **kwargs)
         p = parameters.declare(self, PARAMETERS, {"collision_release": (0.0, 1.0)})
-        robot = parameters.load_robot(self, p)
+        # payload.* (start-up values here) may be set while running: the observer restarts
+        # on the new model
+        robot = parameters.with_payload_parameters(self, parameters.load_robot(self, p), p,
+                                                   lambda robot: self.monitor.set_robot(robot))
         try:
             self.monitor = CollisionMonitor(
                 robot, p["gain"], parameters.per_joint("collision_thresholds",
@@ -62,8 +65,6 @@ class ExternalTorqueObserver(Node):
                 p["collision_release"], p["max_sample_gap"], p["compensate_dissipation"])
         except ValueError as exc:
             raise StartupError(str(exc)) from None
-        # payload.* may be set while running: the observer restarts on the new model
-        parameters.with_payload_parameters(self, robot, p, self.monitor.set_robot)
         self.monitor.warmup()
         self.chain = set(robot.all_joint_names)     # mimic joints: named, not used
         self.reject = common.Rejections(self, hardware_id=robot.model.name)

@@ -184,3 +184,26 @@ def test_a_loss_before_the_node_is_counted_and_warned_about(ros):
         ros.node.destroy_publisher(pub)
         executor.remove_node(obs)
         obs.destroy_node()
+
+
+@pytest.mark.parametrize("cls", [ComputedTorqueController, ExternalTorqueObserver])
+def test_the_start_up_payload_is_the_loop_s_model_and_a_set_swaps_it(ros, cls):
+    """Before (a refactor's slip): the controller and observer dropped the payload.* given at
+    start-up; their loops ran on the robot without it."""
+    node = cls(namespace="/start_up_payload", parameter_overrides=[
+        Parameter("robot_description_timeout", value=0.0), Parameter("payload.mass", value=2.0),
+        Parameter("payload.com", value=[0.0, 0.0, 0.05])])
+    try:
+        loop = node.ctl if cls is ComputedTorqueController else node.monitor
+        q = np.array([0.1, -1.2, 1.4, -1.5, -1.5, 0.2])
+        plain = node.robot.without_payload()
+        expected = plain.with_payload(2.0, (0.0, 0.0, 0.05)).gravity_torques(q)
+        np.testing.assert_array_equal(loop.robot.gravity_torques(q), expected)
+        assert np.max(np.abs(expected - plain.gravity_torques(q))) > 1.0
+        result, = node.set_parameters([Parameter("payload.mass", value=0.0)])     # put down
+        assert result.successful
+        np.testing.assert_array_equal(loop.robot.gravity_torques(q),
+                                      plain.with_payload(0.0, (0.0, 0.0, 0.05)).gravity_torques(q))
+    finally:
+        node.close()
+        node.destroy_node()

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Regenerate bench/BENCHMARKS.md and the plots, one benchmark after the other (about
-# 20 minutes on 2 cores). Run on a quiet machine: other load moves the absolute times.
+# 25 minutes on 2 cores, the ROS soak 5 of them). Run on a quiet machine: other load moves
+# the absolute times.
 #   bash bench/run_all.sh            (uses .venv/bin/python, or $PYTHON)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -13,6 +14,8 @@ PY=${PYTHON:-.venv/bin/python}
 "$PY" bench/bench_simulate.py
 "$PY" bench/bench_ros_latency.py
 "$PY" bench/bench_ros_users.py
+"$PY" bench/bench_ros_throughput.py
+"$PY" bench/bench_ros_soak.py --write             # 5 minutes of both cores
 "$PY" bench/bench_regressor.py
 "$PY" bench/bench_derivatives.py
 "$PY" bench/bench_servo.py

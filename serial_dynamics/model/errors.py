@@ -1,7 +1,9 @@
 """Every exception (and warning) class of the library, in one place.
 
-The ROS layer keeps its own (``ros.common.Rejected``, a refused message; ``ros.parameters.
-StartupError``; the demo's ``DemoError``): they never leave a node.
+``Rejected`` is an input that a running loop refuses (a message to a node, a trajectory or
+a sample given to ``loops/``), with the cause its repeats are grouped by when logged. The ROS
+layer keeps its own others (``ros.parameters.StartupError``; the demo's ``DemoError``): they
+never leave a node.
 """
 import re
 
@@ -53,3 +55,13 @@ class SimulationError(RuntimeError):
     def __init__(self, message, t=None, joint=None, reason=None):
         super().__init__(message)
         self.t, self.joint, self.reason = t, joint, reason
+
+
+class Rejected(ValueError):
+    """An input refused (a message, a request, a trajectory, a sample); ``cause`` groups
+    repeats for throttled logging; the text names the culprit and the fix. What was in
+    force before stays in force."""
+
+    def __init__(self, cause: str, text: str):
+        super().__init__(text)
+        self.cause = cause

@@ -9,6 +9,7 @@ imports rclpy.
 from __future__ import annotations
 
 import ctypes
+import inspect
 import os
 import signal
 import sys
@@ -20,6 +21,11 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.signals import SignalHandlerOptions
+
+try:    # Jazzy's executor in C++: no wait set rebuilt in Python for every callback
+    from rclpy.experimental import EventsExecutor
+except ImportError:     # an rclpy without it: the nodes spin SingleThreadedExecutor
+    EventsExecutor = None
 
 from .parameters import StartupError
 from .throttle import Rejected, Throttle  # noqa: F401  (Rejected: re-exported)
@@ -141,7 +147,9 @@ def subscribe(node, rejections, msg_type, topic, handler, depth=QOS_DEPTH):
     def publishers():
         return node.count_publishers(subscription[0].topic_name)
 
-    def callback(msg, info):
+    def callback(msg, info=None):
+        if info is None:        # EventsExecutor passes (message, info) as one argument
+            msg, info = msg
         rejections.got(topic)
         rejections.sequence(topic, info.get("publication_sequence_number"), publishers,
                             latest_only=depth == 1)
@@ -155,8 +163,16 @@ def subscribe(node, rejections, msg_type, topic, handler, depth=QOS_DEPTH):
                             f"internal error on {{}} more {topic} message(s)")
         finally:
             rejections.topic = None
+    # rclpy's executors call a callback that takes two arguments as callback(msg, info);
+    # the EventsExecutor of the Jazzy wheels calls it as callback((msg, info)). This one
+    # takes both, and its signature says two so that rclpy passes the info to either.
+    callback.__signature__ = _MESSAGE_AND_INFO
     subscription.append(node.create_subscription(msg_type, topic, callback, depth))
     return subscription[0]
+
+
+_MESSAGE_AND_INFO = inspect.Signature(
+    [inspect.Parameter(name, inspect.Parameter.POSITIONAL_ONLY) for name in ("msg", "info")])
 
 
 def _show(values, at_most=8):
@@ -210,12 +226,38 @@ def name_index(names, robot, what, require_all=True, allow_extra=False):
     return np.array(msg_idx, dtype=int), np.array([model[names[i]] for i in msg_idx], dtype=int)
 
 
+def joint_state_arrays(msg, robot, fields, allow_extra=False):
+    """sensor_msgs/JointState -> one float array per field of ``fields`` ("position",
+    "velocity", "effort"), of length robot.dof in model order. Every joint of the robot must
+    be named; others (a gripper, another arm) are refused, or ignored with ``allow_extra``.
+    Values must be finite and within +-MAX_VALUE; Rejected otherwise."""
+    msg_idx, idx = name_index(msg.name, robot, "joint_states", allow_extra=allow_extra)
+    out = []
+    for field in fields:
+        what = f"joint_states {field}"
+        x = np.empty(robot.dof)
+        x[idx] = finite_vector(getattr(msg, field), len(msg.name), what, what)[msg_idx]
+        out.append(x)
+    return out
+
+
+FIELDS = ("positions", "velocities", "accelerations")
+
+
 def trajectory_arrays(msg, robot, what, need_increasing_time=False):
     """trajectory_msgs/JointTrajectory -> (t (N,), q, qd, qdd (N, n) in model order,
     have_velocities, have_accelerations). Missing velocities/accelerations are zeros.
-    Rejects more than MAX_POINTS points, values beyond +-MAX_VALUE and NaN/Inf."""
-    msg_idx, model_idx = name_index(msg.joint_names, robot, what)
-    m, n, N = len(msg.joint_names), robot.dof, len(msg.points)
+    Rejects more than MAX_POINTS points, values beyond +-MAX_VALUE and NaN/Inf.
+
+    The fields (array.array of float64) are read through the buffer protocol, one NumPy
+    array per field; joint names equal to the robot's (the usual case of a stream) skip the
+    name checks; one comparison per field finds both NaN/Inf and values out of range."""
+    names = msg.joint_names
+    in_model_order = names == robot.joint_names
+    if not in_model_order:
+        msg_idx, model_idx = name_index(names, robot, what)
+    points = msg.points
+    m, n, N = len(names), robot.dof, len(points)
     if N == 0:
         raise Rejected("no points", f"{what} has no points")
     if N > MAX_POINTS:
@@ -223,8 +265,12 @@ def trajectory_arrays(msg, robot, what, need_increasing_time=False):
                        "accepted (send a longer trajectory in parts)")
     out = np.zeros((3, N, n))
     have = [True, True, True]
-    for k, field in enumerate(("positions", "velocities", "accelerations")):
-        sizes = {len(getattr(pt, field)) for pt in msg.points}
+    for k, field in enumerate(FIELDS):
+        if N == 1:
+            row = getattr(points[0], field)
+            sizes = {len(row)}
+        else:
+            sizes = {len(getattr(pt, field)) for pt in points}
         if k > 0 and sizes == {0}:
             have[k] = False
             continue
@@ -232,16 +278,24 @@ def trajectory_arrays(msg, robot, what, need_increasing_time=False):
             raise Rejected(f"{field} length", f"{what}: every point needs {m} {field} (one per "
                            f"joint name){'' if k == 0 else ' or none'}; got lengths "
                            f"{_show(sorted(sizes))}")
-        vals = np.array([getattr(pt, field) for pt in msg.points], dtype=float)
-        if not np.all(np.isfinite(vals)):
-            raise Rejected(f"{field} NaN/Inf", f"{what}: {field} contain NaN or Inf")
-        if np.any(np.abs(vals) > MAX_VALUE):
+        vals = (np.asarray(row, dtype=float)[None] if N == 1 else
+                np.array([getattr(pt, field) for pt in points], dtype=float))
+        if not (np.abs(vals) <= MAX_VALUE).all():       # False for NaN too
+            if not np.isfinite(vals).all():
+                raise Rejected(f"{field} NaN/Inf", f"{what}: {field} contain NaN or Inf")
             raise Rejected(f"{field} out of range", f"{what}: {field} beyond +-{MAX_VALUE:g} "
                            f"(the bound of every message value): up to "
                            f"{np.max(np.abs(vals)):.3g}")
-        out[k][:, model_idx] = vals[:, msg_idx]
-    t = np.array([pt.time_from_start.sec + 1e-9 * pt.time_from_start.nanosec
-                  for pt in msg.points])
+        if in_model_order:
+            out[k] = vals
+        else:
+            out[k][:, model_idx] = vals[:, msg_idx]
+    if N == 1:
+        d = points[0].time_from_start
+        t = np.array([d.sec + 1e-9 * d.nanosec])
+    else:
+        t = np.array([pt.time_from_start.sec + 1e-9 * pt.time_from_start.nanosec
+                      for pt in points])
     if need_increasing_time and (np.any(np.diff(t) <= 0) or t[0] < 0):
         raise Rejected("time_from_start", f"{what}: time_from_start must increase strictly "
                        f"from point to point; got {t.tolist()}")
@@ -279,10 +333,23 @@ class _StopRequest:
                 signal.signal(sig, self)
 
 
-def run(node_class, args=None) -> int:
+def executor(events: bool):
+    """The executor a node spins: rclpy's ``EventsExecutor`` (``events``, where this rclpy
+    has it) or ``SingleThreadedExecutor``. The events executor takes each message as the
+    middleware announces it, in C++, where ``SingleThreadedExecutor`` rebuilds its wait set
+    in Python before every callback (two thirds of the dynamics node's CPU time per request
+    at 1 kHz: bench/bench_ros_throughput.py). It supports no guard conditions and installs
+    its own SIGINT/SIGTERM handlers, which ``run`` replaces by its own again."""
+    if events and EventsExecutor is not None:
+        return EventsExecutor()
+    return SingleThreadedExecutor()
+
+
+def run(node_class, args=None, events: bool = False) -> int:
     """Start ``node_class`` and spin it until SIGINT (Ctrl-C) or SIGTERM, then stop it in
     order and log ``stopped (SIGINT)`` (or SIGTERM) as its last line; returns 0. A bad
-    parameter or robot prints one paragraph to stderr and returns 2 -- no traceback."""
+    parameter or robot prints one paragraph to stderr and returns 2 -- no traceback.
+    ``events``: spin rclpy's EventsExecutor (``executor``)."""
     name = node_class.NAME
     stop = _StopRequest()
     try:
@@ -293,15 +360,16 @@ def run(node_class, args=None) -> int:
         print(f"{name}: cannot start: the ROS arguments are not valid: {text}", file=sys.stderr)
         return 2
     stop.install()
-    node = None
+    node = spinner = None
     try:
         node = node_class()
         node.get_logger().info("ready")
-        executor = SingleThreadedExecutor()
-        executor.add_node(node)
+        spinner = executor(events)
+        stop.install()                         # again: the events executor took the signals
+        spinner.add_node(node)
         stop.spinning = True
         while stop.signal is None:
-            executor.spin_once(timeout_sec=SPIN_PERIOD)
+            spinner.spin_once(timeout_sec=SPIN_PERIOD)
     except (StartupError, rclpy.exceptions.ParameterException) as exc:
         text = " ".join(str(exc).split())
         print(f"{name}: cannot start: {text}. See docs/ros.md for the parameters.",
@@ -314,6 +382,8 @@ def run(node_class, args=None) -> int:
         if node is not None:
             node.close()                       # the node's own threads first
             node.get_logger().info(f"stopped ({stop.signal or 'shutdown'})")
+            if spinner is not None:            # lets go of the node's entities: the events
+                spinner.shutdown()             # executor holds them in use until then
             node.destroy_node()                # timers, publishers, subscriptions
         rclpy.try_shutdown()
     if stop.signal is not None:

@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import time
 
-import numpy as np
 from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
@@ -33,7 +32,7 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from serial_dynamics_interfaces.srv import (EstimatePayload, ForwardDynamics, InverseDynamics,
                                             MassMatrix, TimeParameterize, TrajectoryTorques)
-from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+from trajectory_msgs.msg import JointTrajectory
 
 from . import common, parameters, payload_timing, requests
 from .common import Rejected
@@ -68,10 +67,8 @@ class Dynamics(Node):
         self.wrench_in_tip = False
         self.robot.warmup(batch=True)      # trajectories are one batched call
         self.reject = common.Rejections(self, hardware_id=self.robot.model.name)
-        self._window = [time.monotonic(), 0, 0.0, 0.0]    # since: requests, sum, max latency (s)
+        self._latency = {"topic": requests.Latency()}       # the topic pair, each service
         self.reject.watch(self._diagnostics)
-        self._latency = {}                                  # service: [calls, sum, max (s)]
-        self.reject.watch(self._service_diagnostics)
         for name, srv_type, answer in (
                 ("inverse_dynamics", InverseDynamics, self._inverse_dynamics),
                 ("forward_dynamics", ForwardDynamics, self._forward_dynamics),
@@ -80,7 +77,7 @@ class Dynamics(Node):
                 ("estimate_payload", EstimatePayload, self._estimate_payload),
                 ("time_parameterize", TimeParameterize, lambda robot, req:
                  payload_timing.answer_time_parameterize(robot, req, self.compensate))):
-            self._latency[f"~/{name}"] = [0, 0.0, 0.0]
+            self._latency[f"~/{name}"] = requests.Latency()
             self.create_service(srv_type, f"~/{name}", self._serve(f"~/{name}", answer),
                                 qos_profile=SERVICE_QOS)
         self.pub = self.create_publisher(JointTrajectory, "inverse_dynamics/response",
@@ -106,63 +103,27 @@ class Dynamics(Node):
             return self.reject("tip_wrench", exc, "; the last good wrench stays in force")
         self.wrench, self.wrench_in_tip = w, frame == self.robot.tip_link and frame != self.robot.base_link
 
-    def _wrench(self, q):
-        """The latest wrench in base coordinates, per point: (N, 6) or None."""
-        if self.wrench is None or not self.wrench_in_tip:
-            return self.wrench
-        R = self.robot.forward_kinematics(q)[..., :3, :3]            # (N, 3, 3) tip -> base
-        return np.concatenate([R @ self.wrench[:3], R @ self.wrench[3:]], axis=-1)
-
     def on_request(self, msg):
         start = time.perf_counter()
         self._answer(msg)
-        latency, w = time.perf_counter() - start, self._window
-        w[1], w[2], w[3] = w[1] + 1, w[2] + latency, max(w[3], latency)
+        self._latency["topic"].add(time.perf_counter() - start)
 
-    def _diagnostics(self):
-        """Request rate (Hz of wall time), latency mean and max (ms: from the request taken
-        off the queue to its answer published, refused ones included) since the last report."""
-        now = time.monotonic()
-        since, count, total, worst = self._window
-        self._window = [now, 0, 0.0, 0.0]
-        rate = count / (now - since) if now > since else 0.0
-        mean = 1e3 * total / count if count else 0.0
-        return [("request rate (Hz)", f"{rate:.1f}"), ("latency mean (ms)", f"{mean:.3f}"),
-                ("latency max (ms)", f"{1e3 * worst:.3f}")]
-
-    def _torques(self, robot, msg, what, wrench):
+    def _torques(self, robot, msg, what, wrench=None, in_tip=False):
         """(q, qd, qdd, tau (N, n)) of a JointTrajectory; Rejected or the library's ValueError."""
         _, q, qd, qdd, _, _ = common.trajectory_arrays(msg, robot, what)
-        if len(q) == 1:     # one point: the single-state path (cheaper to call)
-            tau = robot.inverse_dynamics(q[0], qd[0], qdd[0], wrench(q[0]))[None]
-        else:               # many: one batched call over the (N, n) arrays
-            tau = robot.inverse_dynamics(q, qd, qdd, wrench(q))
-        if self.compensate:
-            tau = tau - robot.dissipation_torques(qd)
-        if not np.all(np.isfinite(tau)):
-            raise Rejected("result NaN/Inf", "the torques came out non-finite")
-        return q, qd, qdd, tau
-
-    @staticmethod
-    def _trajectory(msg, robot, q, qd, qdd, tau):
-        """The answer to ``msg``: its header and times, the robot's joints, every field filled."""
-        out = JointTrajectory(header=msg.header, joint_names=robot.joint_names)
-        out.points = [JointTrajectoryPoint(positions=q[i].tolist(), velocities=qd[i].tolist(),
-                                           accelerations=qdd[i].tolist(), effort=tau[i].tolist(),
-                                           time_from_start=pt.time_from_start)
-                      for i, pt in enumerate(msg.points)]
-        return out
+        return q, qd, qdd, requests.torques(robot, q, qd, qdd, wrench, in_tip, self.compensate)
 
     def _answer(self, msg):
         robot = self.robot      # one model for the whole request
         try:
-            q, qd, qdd, tau = self._torques(robot, msg, "inverse_dynamics/request", self._wrench)
+            q, qd, qdd, tau = self._torques(robot, msg, "inverse_dynamics/request",
+                                            self.wrench, self.wrench_in_tip)
         except Rejected as exc:
             return self.reject("inverse_dynamics/request", exc, "; no response sent")
         except (ValueError, ArithmeticError) as exc:     # anything else the library refuses
             return self.reject("inverse_dynamics/request", Rejected("library", str(exc)),
                                "; no response sent")
-        self.pub.publish(self._trajectory(msg, robot, q, qd, qdd, tau))
+        self.pub.publish(requests.fill_trajectory(msg, robot, q, qd, qdd, tau))
         self.reject.put("inverse_dynamics/response")
 
     # ---------------------------------------------------------------- services
@@ -177,8 +138,8 @@ class Dynamics(Node):
         msg = request.trajectory
         if not msg.joint_names:         # empty: the robot's order, as in the other services
             msg.joint_names = robot.joint_names
-        q, qd, qdd, tau = self._torques(robot, msg, "trajectory", lambda q: None)
-        return {"trajectory": self._trajectory(msg, robot, q, qd, qdd, tau)}
+        q, qd, qdd, tau = self._torques(robot, msg, "trajectory")
+        return {"trajectory": requests.fill_trajectory(msg, robot, q, qd, qdd, tau)}
 
     def _estimate_payload(self, robot, request):
         """The estimate's fields; with ``apply``, payload.* set on this node (all or none)."""
@@ -193,7 +154,7 @@ class Dynamics(Node):
     def _serve(self, key, answer):
         """The callback of service ``key``: ``answer(robot, request)`` gives the response's
         fields, or raises ``Rejected`` (the field and the fix) or the library's ValueError. Every call is counted and timed; none kills the node."""
-        window = self._latency[key]
+        latency = self._latency[key]
 
         def callback(request, response):
             start = time.perf_counter()
@@ -215,21 +176,24 @@ class Dynamics(Node):
                 for field, value in fields.items():
                     setattr(response, field, value)
                 response.success = True
-            latency = time.perf_counter() - start
-            window[0], window[1], window[2] = window[0] + 1, window[1] + latency, max(window[2], latency)
+            latency.add(time.perf_counter() - start)
             return response
         return callback
 
-    def _service_diagnostics(self):
-        """Per service, since the last report: latency mean and max (ms, from the request
-        taken to its answer returned to rclpy, refused ones included). Calls and refusals
-        are the counts ``received ~/<service>`` and ``refused ~/<service>``."""
-        values = []
-        for key, window in self._latency.items():
-            calls, total, worst = window
-            window[:] = [0, 0.0, 0.0]
-            values += [(f"{key} latency mean (ms)", f"{1e3 * total / calls if calls else 0.0:.3f}"),
-                       (f"{key} latency max (ms)", f"{1e3 * worst:.3f}")]
+    def _diagnostics(self):
+        """Since the last report: the topic pair's request rate (Hz of wall time) and
+        latency mean and max (ms, from the request taken off the queue to its answer
+        published, refused ones included); per service the latency mean and max (ms, to
+        the answer returned to rclpy). Calls and refusals are the counts ``received ...``
+        and ``refused ...``."""
+        rate, mean, worst = self._latency["topic"].take()
+        values = [("request rate (Hz)", f"{rate:.1f}"), ("latency mean (ms)", f"{mean:.3f}"),
+                  ("latency max (ms)", f"{worst:.3f}")]
+        for key, latency in self._latency.items():
+            if key != "topic":
+                _, mean, worst = latency.take()
+                values += [(f"{key} latency mean (ms)", f"{mean:.3f}"),
+                           (f"{key} latency max (ms)", f"{worst:.3f}")]
         return values
 
     def close(self):
@@ -237,7 +201,7 @@ class Dynamics(Node):
 
 
 def main(args=None):
-    return common.run(Dynamics, args)
+    return common.run(Dynamics, args, events=True)
 
 
 if __name__ == "__main__":

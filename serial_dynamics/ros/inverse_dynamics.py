@@ -17,7 +17,7 @@ class InverseDynamics(Dynamics):
 
 
 def main(args=None):
-    return common.run(InverseDynamics, args)
+    return common.run(InverseDynamics, args, events=True)
 
 
 if __name__ == "__main__":

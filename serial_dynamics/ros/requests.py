@@ -13,9 +13,20 @@ wrench means none. Answers list the joints in the robot's order.
 """
 from __future__ import annotations
 
+import array
+import time
+
 import numpy as np
 
 from .throttle import Rejected
+
+
+def to_array(x) -> array.array:
+    """A float64 NumPy array as the array.array('d') that a message's float64[] field holds
+    (given a list, the field's setter would convert it element by element)."""
+    out = array.array("d")
+    out.frombytes(np.ascontiguousarray(x, dtype=float).tobytes())
+    return out
 
 
 def _show(names, at_most=8):
@@ -26,7 +37,7 @@ def _show(names, at_most=8):
 def joint_order(robot, names):
     """Model index of each of the request's joints (any of the robot's, each once), or None
     for every joint in the robot's own order."""
-    if len(names) == 0:
+    if len(names) == 0 or names == robot.joint_names:
         return None
     fix = (f"name joints of the robot {_show(robot.joint_names)}, each once, in any order "
            "(those not named are at zero), or leave joint_names empty for all in that order")
@@ -53,8 +64,8 @@ def joint_vector(robot, index, values, field, empty_is_zero=False):
         empty = " (or none, for zeros)" if empty_is_zero else ""
         raise Rejected(field, f"{field} has {len(values)} values: give one per joint, {size}, "
                       f"in the order {order}{empty}")
-    a = np.asarray(values, dtype=float)
-    if not np.all(np.isfinite(a)):
+    a = np.asarray(values, dtype=float)     # array.array('d') of a message: no copy
+    if not np.isfinite(a).all():
         bad = [int(i) for i in np.flatnonzero(~np.isfinite(a))]
         raise Rejected(field, f"{field} has NaN or Inf at {bad}: give finite numbers")
     if index is None:
@@ -74,7 +85,7 @@ def tip_wrench(w):
 
 
 def _finite(x, what):
-    if not np.all(np.isfinite(x)):
+    if not np.isfinite(x).all():
         raise Rejected("result", f"the {what} came out non-finite: the state is beyond what "
                       "the model can compute (check the units: rad, rad/s, N m)")
     return x
@@ -89,7 +100,7 @@ def answer_inverse_dynamics(robot, req, compensate=False):
     tau = robot.inverse_dynamics(q, qd, qdd, tip_wrench(req.tip_wrench))
     if compensate:          # the actuators also overcome the joint dissipation
         tau = tau - robot.dissipation_torques(qd)
-    return {"joint_names": robot.joint_names, "efforts": _finite(tau, "torques").tolist()}
+    return {"joint_names": robot.joint_names, "efforts": to_array(_finite(tau, "torques"))}
 
 
 def answer_forward_dynamics(robot, req, compensate=False):
@@ -103,7 +114,7 @@ def answer_forward_dynamics(robot, req, compensate=False):
         tau = tau + robot.dissipation_torques(qd)
     qdd = robot.forward_dynamics(q, qd, tau, tip_wrench(req.tip_wrench))
     return {"joint_names": robot.joint_names,
-            "accelerations": _finite(qdd, "accelerations").tolist()}
+            "accelerations": to_array(_finite(qdd, "accelerations"))}
 
 
 def answer_mass_matrix(robot, req):
@@ -111,5 +122,61 @@ def answer_mass_matrix(robot, req):
     index = joint_order(robot, req.joint_names)
     q = joint_vector(robot, index, req.positions, "positions")
     return {"joint_names": robot.joint_names,
-            "mass_matrix": _finite(robot.mass_matrix(q), "mass matrix").ravel().tolist()}
+            "mass_matrix": to_array(_finite(robot.mass_matrix(q), "mass matrix").ravel())}
+
+
+# ------------------------------------------------------------------ the topic pair
+def wrench_in_base(robot, wrench, in_tip, q):
+    """A tip wrench (6,) [force; moment] given in the tip frame (``in_tip``) or the base frame,
+    in base coordinates at q (n,) or (N, n): (6,) or (N, 6); None stays None."""
+    if wrench is None or not in_tip:
+        return wrench
+    R = robot.forward_kinematics(q)[..., :3, :3]            # tip -> base, per point
+    return np.concatenate([R @ wrench[:3], R @ wrench[3:]], axis=-1)
+
+
+def torques(robot, q, qd, qdd, wrench=None, in_tip=False, compensate=False):
+    """tau (N, n) = M(q) qdd + b(q, qd) - J^T w (- the dissipation when compensated) for the
+    points (N, n): one batched call, or the single-state path (cheaper) for one point.
+    ``wrench``: (6,) on the tip, in the tip frame if ``in_tip``, else the base's."""
+    args = (q[0], qd[0], qdd[0]) if len(q) == 1 else (q, qd, qdd)
+    tau = robot.inverse_dynamics(*args, wrench_in_base(robot, wrench, in_tip, args[0]))
+    tau = tau.reshape(q.shape)
+    if compensate:
+        tau = tau - robot.dissipation_torques(qd)
+    if not np.isfinite(tau).all():
+        raise Rejected("result NaN/Inf", "the torques came out non-finite")
+    return tau
+
+
+def fill_trajectory(msg, robot, q, qd, qdd, tau):
+    """The answer to the trajectory ``msg``, written into ``msg`` itself (its header and
+    times kept): the robot's joints, every field of every point filled. No message is built
+    per request (rclpy serializes the answer before ``publish`` returns)."""
+    msg.joint_names = robot.joint_names
+    for i, pt in enumerate(msg.points):
+        pt.positions, pt.velocities = to_array(q[i]), to_array(qd[i])
+        pt.accelerations, pt.effort = to_array(qdd[i]), to_array(tau[i])
+    return msg
+
+
+class Latency:
+    """Latencies since the last ``take``: their count, sum and largest."""
+
+    def __init__(self, clock=time.monotonic):
+        self.clock = clock
+        self.since, self.count, self.total, self.worst = clock(), 0, 0.0, 0.0
+
+    def add(self, seconds):
+        self.count, self.total = self.count + 1, self.total + seconds
+        self.worst = max(self.worst, seconds)
+
+    def take(self):
+        """(rate (Hz), mean (ms), max (ms)) since the last take; a new window starts."""
+        now = self.clock()
+        rate = self.count / (now - self.since) if now > self.since else 0.0
+        mean = 1e3 * self.total / self.count if self.count else 0.0
+        out = (rate, mean, 1e3 * self.worst)
+        self.since, self.count, self.total, self.worst = now, 0, 0.0, 0.0
+        return out
 

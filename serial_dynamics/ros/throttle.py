@@ -1,20 +1,14 @@
 """Throttled logging (no rclpy here): a warning the first time a cause comes up, then a
 count of its repeats at most every ``period`` seconds. The nodes log refused messages,
 service requests and parameter sets through it, so a storm of any costs a few lines, not
-one each. ``Rejected`` is what a node refuses, with the cause its repeats are grouped by.
+one each. ``Rejected`` (model/errors.py) is what a node refuses, with the cause its repeats
+are grouped by.
 """
 from __future__ import annotations
 
 import time
 
-
-class Rejected(ValueError):
-    """A message or request that the node refuses; ``cause`` groups repeats for throttled
-    logging; the text names the culprit and the fix."""
-
-    def __init__(self, cause: str, text: str):
-        super().__init__(text)
-        self.cause = cause
+from ..model.errors import Rejected  # noqa: F401  (re-exported: the nodes' refusals)
 
 
 class Throttle:

@@ -206,3 +206,21 @@ def test_old_name_is_the_dynamics_node_with_its_services(ros, node):
     np.testing.assert_allclose(np.reshape(r.mass_matrix, (6, 6)), ROBOT.mass_matrix([0.3] * 6),
                                rtol=1e-12)
     ros.node.destroy_client(client)
+
+
+def test_a_stopped_node_leaves_the_graph(ros):
+    """Its subscriptions, services and publishers are gone from the graph when it has
+    stopped (SIGINT). The events executor holds a node's entities in use until it is shut
+    down: destroyed before that, the node left its endpoints to time out (the DDS lease, 20 s
+    or more), and the next node on the same topics was taken for matched while a client's
+    requests went to the dead one."""
+    proc = ros.start("dynamics", ros_args=["-r", "__ns:=/leaving"])
+    pub = ros.node.create_publisher(JointTrajectory, "/leaving/inverse_dynamics/request", 10)
+    sub = ros.node.create_subscription(JointTrajectory, "/leaving/inverse_dynamics/response",
+                                       lambda m: None, 10)
+    ros.wait_matched(pub, also=lambda: sub.get_publisher_count() > 0, what="the dynamics node")
+    assert proc.stop() == 0
+    ros.spin_until(lambda: pub.get_subscription_count() == 0 and sub.get_publisher_count() == 0,
+                   timeout=10.0, what="the stopped node's endpoints to leave the graph")
+    ros.node.destroy_publisher(pub)
+    ros.node.destroy_subscription(sub)

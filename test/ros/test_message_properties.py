@@ -228,7 +228,7 @@ def test_inverse_dynamics_tip_wrench(nodes, w, frame):
 @pytest.fixture()
 def controller(nodes):
     node = nodes["computed_torque_controller"]
-    node.state = node.reference = None
+    node.ctl.state = node.ctl.reference = None
     node.on_state(JointState(name=NAMES, position=[0.1] * 6, velocity=[0.0] * 6))
     node.pub.msgs.clear()
     return node
@@ -249,15 +249,15 @@ def test_controller_joint_states(controller, names, data):
                      velocity=data.draw(values(len(names))))
     good = (ok_names(names, extra=True) is not None and len(msg.position) == len(names)
             == len(msg.velocity) and ok_numbers(msg.position) and ok_numbers(msg.velocity))
-    before = node.state
+    before = node.ctl.state
     assert outcome(node, "joint_states", lambda: node.on_state(msg)) == \
         ("accepted" if good else "rejected")
     if good:
         pos, vel = dict(zip(names, msg.position)), dict(zip(names, msg.velocity))
-        np.testing.assert_array_equal(node.state[1], [pos[x] for x in NAMES])
-        np.testing.assert_array_equal(node.state[2], [vel[x] for x in NAMES])
+        np.testing.assert_array_equal(node.ctl.state[1], [pos[x] for x in NAMES])
+        np.testing.assert_array_equal(node.ctl.state[2], [vel[x] for x in NAMES])
     else:
-        assert node.state is before
+        assert node.ctl.state is before
     check_command(node)
 
 
@@ -270,28 +270,28 @@ def test_controller_desired_trajectory(controller, msg):
         t, q, _, _, have_v, have_a = expected
         if np.any(np.diff(t) <= 0) or t[0] < 0 or (have_a and not have_v):
             expected = None
-    before = node.reference
+    before = node.ctl.reference
     assert outcome(node, "desired_trajectory", lambda: node.on_trajectory(msg)) == \
         ("accepted" if expected is not None else "rejected")
     if expected is not None:
-        start, traj = node.reference
+        start, traj = node.ctl.reference
         np.testing.assert_array_equal(traj.sample(t[-1] + 1.0)[0], q[-1])   # holds the last
     else:
-        assert node.reference is before
+        assert node.ctl.reference is before
     check_command(node)
 
 
 def test_controller_huge_gains_send_nothing_and_say_why(controller):
-    node, kp = controller, controller.kp
+    node, kp = controller, controller.ctl.kp
     try:
-        node.kp = np.full(6, 1e306)
+        node.ctl.kp = np.full(6, 1e306)
         node.on_state(JointState(name=NAMES, position=[-1e5] * 6, velocity=[0.0] * 6))
-        node.reference = (0.0, Waypoints([0.0], np.full((1, 6), 1e5)))
+        node.ctl.reference = (0.0, Waypoints([0.0], np.full((1, 6), 1e5)))
         check_command(node)
         assert not node.pub.msgs
         assert any("rejected effort_commands" in x for x in node.reject.logger.lines)
     finally:
-        node.kp = kp
+        node.ctl.kp = kp
 
 
 # ------------------------------------------------------------------ simulator

@@ -54,7 +54,7 @@ def test_every_parameter_but_the_settable_ones_is_read_only(nodes):
         assert result.successful, (name, result)
     ctl = nodes["computed_torque_controller"]
     result, = ctl.set_parameters([Parameter("mode", value="pd_gravity")])
-    assert result.successful and ctl.mode == "pd_gravity"
+    assert result.successful and ctl.ctl.mode == "pd_gravity"
     ctl.set_parameters([Parameter("mode", value="computed_torque")])
 
 
@@ -133,7 +133,7 @@ def test_the_observer_restarts_on_a_stamp_jump_back_or_far_forward(nodes, capfd)
         assert np.any(r1 != 0.0)                           # and the estimate goes on
     assert len(obs.pub_tau.msgs) == 50 + 8                 # every message answered
     assert obs.reject.refused == refused                   # none refused
-    assert obs.restarts == 4
+    assert obs.monitor.restarts == 4
     err = capfd.readouterr().err
     assert err.count("jumped back") == 1 and err.count("jumped forward") == 1, err
 
@@ -184,3 +184,26 @@ def test_a_loss_before_the_node_is_counted_and_warned_about(ros):
         ros.node.destroy_publisher(pub)
         executor.remove_node(obs)
         obs.destroy_node()
+
+
+@pytest.mark.parametrize("cls", [ComputedTorqueController, ExternalTorqueObserver])
+def test_the_start_up_payload_is_the_loop_s_model_and_a_set_swaps_it(ros, cls):
+    """Before (a refactor's slip): the controller and observer dropped the payload.* given at
+    start-up; their loops ran on the robot without it."""
+    node = cls(namespace="/start_up_payload", parameter_overrides=[
+        Parameter("robot_description_timeout", value=0.0), Parameter("payload.mass", value=2.0),
+        Parameter("payload.com", value=[0.0, 0.0, 0.05])])
+    try:
+        loop = node.ctl if cls is ComputedTorqueController else node.monitor
+        q = np.array([0.1, -1.2, 1.4, -1.5, -1.5, 0.2])
+        plain = node.robot.without_payload()
+        expected = plain.with_payload(2.0, (0.0, 0.0, 0.05)).gravity_torques(q)
+        np.testing.assert_array_equal(loop.robot.gravity_torques(q), expected)
+        assert np.max(np.abs(expected - plain.gravity_torques(q))) > 1.0
+        result, = node.set_parameters([Parameter("payload.mass", value=0.0)])     # put down
+        assert result.successful
+        np.testing.assert_array_equal(loop.robot.gravity_torques(q),
+                                      plain.with_payload(0.0, (0.0, 0.0, 0.05)).gravity_torques(q))
+    finally:
+        node.close()
+        node.destroy_node()

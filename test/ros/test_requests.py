@@ -2,6 +2,7 @@
 names in any order give the same bits as the robot's order, empty arrays are zeros, a zero
 tip wrench is none, forward dynamics inverts inverse dynamics with the dissipation
 compensated, and every refusal names its field."""
+import array
 import subprocess
 import sys
 from types import SimpleNamespace as Msg
@@ -31,14 +32,19 @@ def test_any_joint_order_and_empty_fields_give_the_same_bits():
     shuffled = requests.answer_inverse_dynamics(ROBOT, Msg(
         joint_names=names, positions=q[perm].tolist(), velocities=qd[perm].tolist(),
         accelerations=qdd[perm].tolist(), tip_wrench=ZERO))
-    assert shuffled["efforts"] == ROBOT.inverse_dynamics(q, qd, qdd).tolist()
+    assert shuffled["efforts"].tolist() == ROBOT.inverse_dynamics(q, qd, qdd).tolist()
     assert shuffled["joint_names"] == ROBOT.joint_names
+    in_order = requests.answer_inverse_dynamics(ROBOT, Msg(
+        joint_names=list(ROBOT.joint_names), positions=array.array("d", q),
+        velocities=array.array("d", qd), accelerations=array.array("d", qdd), tip_wrench=ZERO))
+    assert in_order["efforts"].typecode == "d"       # what the message field holds
+    assert in_order["efforts"].tolist() == shuffled["efforts"].tolist()
     empty = requests.answer_inverse_dynamics(ROBOT, Msg(
         joint_names=[], positions=q.tolist(), velocities=[], accelerations=[], tip_wrench=ZERO))
-    assert empty["efforts"] == ROBOT.gravity_torques(q).tolist()
+    assert empty["efforts"].tolist() == ROBOT.gravity_torques(q).tolist()
     fd = requests.answer_forward_dynamics(ROBOT, Msg(
         joint_names=[], positions=q.tolist(), velocities=[], efforts=[], tip_wrench=ZERO))
-    assert fd["accelerations"] == ROBOT.forward_dynamics(q, np.zeros(6), np.zeros(6)).tolist()
+    assert fd["accelerations"].tolist() == ROBOT.forward_dynamics(q, np.zeros(6), np.zeros(6)).tolist()
 
 
 def test_forward_inverts_inverse_with_the_wrench_and_the_dissipation_compensated():
@@ -86,9 +92,9 @@ def test_a_subset_of_the_joints_in_any_order_the_rest_at_zero():
     qdd = np.zeros(robot.dof)
     qdd[[robot.joint_names.index(x) for x in names]] = [1.0, 2.0]
     assert ans["joint_names"] == robot.joint_names
-    assert ans["efforts"] == robot.inverse_dynamics(q, np.zeros(robot.dof), qdd).tolist()
+    assert ans["efforts"].tolist() == robot.inverse_dynamics(q, np.zeros(robot.dof), qdd).tolist()
     M = requests.answer_mass_matrix(robot, Msg(joint_names=names, positions=[0.7, -0.4]))
-    assert M["mass_matrix"] == robot.mass_matrix(q).ravel().tolist()
+    assert M["mass_matrix"].tolist() == robot.mass_matrix(q).ravel().tolist()
 
 
 def test_the_request_rules_import_no_ros():
@@ -96,3 +102,46 @@ def test_the_request_rules_import_no_ros():
             "bad = sorted(m for m in sys.modules if m.startswith(('rclpy', 'rcl_')) or '_msgs' in m)\n"
             "assert not bad, bad")
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_topic_pair_torques_one_point_and_many_with_the_tip_wrench_in_either_frame():
+    q, qd = ROBOT.random_state(5, batch=4)
+    qdd = np.linspace(-1, 1, 24).reshape(4, 6)
+    w = np.array([4.0, -2.0, 7.0, 0.3, -0.1, 0.2])
+    R = ROBOT.forward_kinematics(q)[:, :3, :3]
+    in_base = np.hstack([R @ w[:3], R @ w[3:]])
+    many = requests.torques(ROBOT, q, qd, qdd, w, in_tip=True)
+    np.testing.assert_array_equal(many, ROBOT.inverse_dynamics(q, qd, qdd, in_base))
+    one = requests.torques(ROBOT, q[:1], qd[:1], qdd[:1], w, in_tip=True)
+    assert one.shape == (1, 6)
+    np.testing.assert_array_equal(one[0], ROBOT.inverse_dynamics(q[0], qd[0], qdd[0], in_base[0]))
+    compensated = requests.torques(ROBOT, q, qd, qdd, w, compensate=True)
+    np.testing.assert_array_equal(compensated, ROBOT.inverse_dynamics(q, qd, qdd, w)
+                                  - ROBOT.dissipation_torques(qd))
+    with pytest.raises(Rejected) as refused:
+        requests.torques(ROBOT, q[:1], qd[:1], np.full((1, 6), 1e308))     # overflows
+    assert refused.value.cause == "result NaN/Inf"
+
+
+def test_the_answer_is_written_into_the_request():
+    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+    msg = JointTrajectory(joint_names=list(reversed(ROBOT.joint_names)), points=[
+        JointTrajectoryPoint(positions=[0.0] * 6) for _ in range(2)])
+    msg.header.frame_id, msg.points[1].time_from_start.sec = "request 7", 3
+    q = np.arange(12.0).reshape(2, 6)
+    out = requests.fill_trajectory(msg, ROBOT, q, q + 1, q + 2, q + 3)
+    assert out is msg and msg.header.frame_id == "request 7" and list(out.joint_names) == \
+        ROBOT.joint_names and out.points[1].time_from_start.sec == 3
+    assert [list(getattr(out.points[1], f)) for f in ("positions", "velocities",
+            "accelerations", "effort")] == [(q[1] + k).tolist() for k in range(4)]
+
+
+def test_latency_windows():
+    now = [10.0]
+    lat = requests.Latency(clock=lambda: now[0])
+    for s in (0.001, 0.003, 0.002):
+        lat.add(s)
+    now[0] = 12.0
+    assert lat.take() == (1.5, 2.0, 3.0)
+    now[0] = 13.0
+    assert lat.take() == (0.0, 0.0, 0.0)

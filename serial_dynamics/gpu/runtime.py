@@ -2,12 +2,20 @@
 batches moved to and from the card, the memory check and the launch.
 
 numba-cuda is the ``[gpu]`` extra; without it this module raises an ImportError that
-names the extra. ``NUMBA_ENABLE_CUDASIM=1`` (read by numba when ``numba.cuda`` is first
-imported) runs every kernel in numba's CUDA simulator, on the CPU, one Python thread per
-CUDA thread: the tests run so on machines without a card.
+names the extra. ``NUMBA_ENABLE_CUDASIM=1``, in the environment when ``numba.cuda`` is
+first imported, runs every kernel in numba's CUDA simulator, on the CPU, one Python thread
+per CUDA thread: the tests run so on machines without a card.
+
+numba-cuda (0.30) reads the variable through numba's own ``numba.core.config``, which numba
+reads when ``numba`` itself is imported and again only when it compiles something: a
+variable set after ``import numba`` (``import serial_dynamics`` imports it) would be missed
+at the first import of ``numba.cuda``, which would then look for a card. So the
+configuration is re-read from the environment here, just before that first import.
 """
+import functools
 import importlib.util
 import math
+import sys
 
 import numpy as np
 
@@ -22,10 +30,15 @@ if not hasattr(np, "row_stack"):
     # without it, its first kernel compile fails with an AttributeError
     np.row_stack = np.vstack
 
-from numba import cuda  # noqa: E402  (after the guards above)
-from numba.cuda.core import config as _config  # noqa: E402
+if "numba.cuda" not in sys.modules:
+    import numba.core.config  # noqa: E402
+    numba.core.config.reload_config()    # NUMBA_ENABLE_CUDASIM as the environment has it now
 
-SIMULATOR = bool(_config.ENABLE_CUDASIM)
+from numba import cuda  # noqa: E402  (after the guards above)
+
+# the mode numba.cuda was imported in (its jit is the simulator's or the card's), not the
+# variable, which may have changed since
+SIMULATOR = cuda.jit.__module__.startswith("numba.cuda.simulator")
 THREADS = 128            # threads per block (one thread per state)
 
 
@@ -34,8 +47,14 @@ def free_bytes():
     return cuda.current_context().get_memory_info()[0]
 
 
+@functools.lru_cache(maxsize=None)
+def _card_visible():
+    return bool(cuda.is_available())
+
+
 def require_card():
-    if not SIMULATOR and not cuda.is_available():
+    """A RuntimeError that says what to do where neither a card nor the simulator is."""
+    if not SIMULATOR and not _card_visible():
         raise RuntimeError(
             "serial_dynamics.gpu: no CUDA card is visible (numba.cuda.is_available() is "
             "False). Run on a machine with an NVIDIA GPU and its driver, or set "
@@ -70,6 +89,7 @@ class Batch:
     def to_card(self, out_numbers, op):
         """The inputs on the card (host arrays: one transfer each), after checking that they
         and the results (``out_numbers`` float64 a state) fit its free memory."""
+        require_card()
         host_numbers = sum(x.shape[1] for x in self._in if not on_device(x))
         need = 8 * self.N * (host_numbers + out_numbers)
         free = free_bytes()

@@ -24,12 +24,13 @@ if not cuda.is_available():         # device functions ask the current card for 
 from serial_dynamics.gpu import crba, derivatives, forward, rnea
 A1, A2, A3, I1 = float64[::1], float64[:, ::1], float64[:, :, ::1], int64[::1]
 for mod, outs in ((rnea, (A2, A2, A2, A2)), (crba, (A2, A3)), (forward, (A2, A2, A2, A2))):
-    # a 6-joint chain, a chain with mimic joints (4 joints, 2 coordinates), a tree
-    for key in ((6, 6, True, False), (4, 2, True, True), (5, 5, False, False)):
+    # a 3-joint chain; a tree of 4 joints with mimic joints (3 coordinates): every branch of
+    # the specializations compiled once (few joints: NVVM unrolls the loops over them)
+    for key in ((3, 3, True, False), (4, 3, False, True)):
         ptx, _ = cuda.compile_ptx(mod.kernel(*key).py_func, (A2, I1, I1, A1, A1) + outs, cc=(9, 0))
         assert ".entry" in ptx and "sm_90" in ptx
         print(mod.__name__, key, "ok")
-for key in ((6, 6, False), (4, 2, True)):      # chains only
+for key in ((3, 3, False), (4, 2, True)):      # chains only
     ptx, _ = cuda.compile_ptx(derivatives.kernel(*key).py_func,
                               (A2, I1, I1, A1, A1, A2, A2, A2, A3, A3), cc=(9, 0))
     assert ".entry" in ptx
@@ -45,4 +46,4 @@ def test_every_kernel_compiles_to_ptx():
     if p.returncode == 77:
         pytest.skip(p.stdout.strip())
     assert p.returncode == 0, p.stdout + p.stderr[-3000:]
-    assert p.stdout.count(" ok") == 11
+    assert p.stdout.count(" ok") == 8

@@ -1,5 +1,7 @@
 """serial_dynamics.gpu's refusals and its import: bad arrays, a batch too large for the
-card, a floating base; numba-cuda missing; importing serial_dynamics loads no numba.cuda."""
+card, a floating base; numba-cuda missing; no card and no simulator; importing
+serial_dynamics loads no numba.cuda, and the simulator's variable set after it holds."""
+import glob
 import os
 import subprocess
 import sys
@@ -12,17 +14,31 @@ import serial_dynamics as sd
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
-def _run(code):
-    env = dict(os.environ, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
+def _run(code, **env_vars):
+    """``code`` in a fresh interpreter; NUMBA_ENABLE_CUDASIM only as ``env_vars`` say."""
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_ENABLE_CUDASIM"}
+    env.update(env_vars, PYTHONPATH=ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
     return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           timeout=120, env=env, cwd=ROOT)
 
 
-def test_importing_serial_dynamics_loads_no_numba_cuda():
-    p = _run("import sys, serial_dynamics, serial_dynamics.sweep, serial_dynamics.sim; "
-             "print('numba.cuda' in sys.modules)")
-    assert p.returncode == 0, p.stderr
-    assert p.stdout.strip() == "False"
+def test_importing_serial_dynamics_loads_no_numba_cuda_and_the_simulator_variable_holds():
+    """Importing the package loads numba but not numba.cuda. numba-cuda reads
+    NUMBA_ENABLE_CUDASIM through numba's config, read at ``import numba``: set after it (here
+    after ``import serial_dynamics``) and before the first import of numba.cuda, it must
+    still choose the simulator (the whole suite imports numba before it collects test/gpu:
+    issue 27's 13 failures on numba's driver error)."""
+    p = _run("import os, sys, numpy as np, serial_dynamics as sd, serial_dynamics.sweep, "
+             "serial_dynamics.sim; print('numba' in sys.modules, 'numba.cuda' in sys.modules); "
+             "import importlib.util as u; u.find_spec('numba_cuda') or sys.exit(0); "
+             "os.environ['NUMBA_ENABLE_CUDASIM'] = '1'; "
+             "from serial_dynamics import gpu; r = sd.default_robot(); "
+             "print(gpu.SIMULATOR, gpu.mass_matrix(r, np.zeros((1, r.dof))).shape)")
+    assert p.returncode == 0, p.stderr[-3000:]
+    lines = p.stdout.splitlines()
+    assert lines[0] == "True False"                     # numba, not numba.cuda
+    if len(lines) > 1:                                  # with numba-cuda: the simulator
+        assert lines[1] == "True (1, 6, 6)"
 
 
 def test_without_numba_cuda_the_import_error_names_the_extra():
@@ -37,6 +53,17 @@ def test_without_numba_cuda_the_import_error_names_the_extra():
 pytest.importorskip("numba_cuda")
 from serial_dynamics import gpu  # noqa: E402
 from serial_dynamics.gpu import runtime  # noqa: E402
+
+
+@pytest.mark.skipif(bool(glob.glob("/dev/nvidia[0-9]*")), reason="a card is here")
+def test_without_a_card_or_the_simulator_the_error_says_what_to_do():
+    p = _run("import numpy as np, serial_dynamics as sd; from serial_dynamics import gpu; "
+             "r = sd.default_robot(); gpu.inverse_dynamics(r, *np.zeros((3, 2, r.dof)))",
+             NUMBA_ENABLE_CUDASIM="0")
+    assert p.returncode != 0
+    assert "RuntimeError: serial_dynamics.gpu: no CUDA card is visible" in p.stderr, p.stderr[-3000:]
+    assert "NUMBA_ENABLE_CUDASIM=1" in p.stderr
+
 
 ROBOT = sd.load_urdf(sd.robots.ur5e_urdf())
 Q, QD = ROBOT.random_state(0, batch=3)

@@ -36,7 +36,12 @@ setup(
         "plot": ["matplotlib"],
         # scale-out (serial_dynamics.sweep): Dask's distributed scheduler, tables, Parquet, specs
         "cluster": ["dask[distributed]", "pandas", "pyarrow", "pyyaml"],
-        "test": ["pytest", "hypothesis", "pin", "example-robot-data", "matplotlib", "mpmath"],
+        # serial_dynamics.gpu: numba's CUDA target with the CUDA 12 toolkit from PyPI (NVIDIA
+        # drivers >= 525; for a CUDA 13 driver, numba-cuda[cu13]). The release the tests ran on.
+        "gpu": ["numba-cuda[cu12]==0.30.*"],
+        # numba-cuda without a toolkit: the gpu tests run in numba's CUDA simulator
+        "test": ["pytest", "hypothesis", "pin", "example-robot-data", "matplotlib", "mpmath",
+                 "numba-cuda==0.30.*"],
         "bench": ["pin", "example-robot-data", "mujoco", "matplotlib"],
     },
     zip_safe=True,

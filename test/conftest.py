@@ -1,5 +1,16 @@
+import glob
 import os
 import sys
+
+# serial_dynamics.gpu's tests (test/gpu/) run in numba's CUDA simulator on a machine without
+# a card. numba-cuda reads NUMBA_ENABLE_CUDASIM through numba's own config, which numba reads
+# when it is first imported (and again only when it compiles): pytest_sessionstart below
+# imports numba before pytest loads test/gpu/conftest.py, so the variable is set here, when
+# this conftest is loaded and before anything imports numba. A value already in the
+# environment is kept (bench/gpu_on_card.sh sets 0: the tests on the card).
+if "NUMBA_ENABLE_CUDASIM" not in os.environ and not glob.glob("/dev/nvidia[0-9]*"):
+    os.environ["NUMBA_ENABLE_CUDASIM"] = "1"
+
 
 # The tests mirror the package (test/robot/ tests serial_dynamics/robot/, ...); oracles that
 # cut across it are in test/oracles/. Test modules share helpers (pin_reference, chains built

@@ -1,0 +1,113 @@
+"""Inverse dynamics of a batch on the card: the recursive Newton-Euler algorithm, one CUDA
+thread per state.
+
+Each thread runs the compiled core's own steps (``core/rnea.py``'s ``into_body``,
+``joint_rate``, ``body_wrench``; ``core/spatial.py``'s ``force_to_parent``, compiled for
+the CUDA target by ``steps.device``) over the bodies in the order of the parent array:
+outward, each body's (omega, alpha, acc) from its parent's (a chain keeps them in
+registers; a tree in a per-thread array); inward, each body's joint wrench added to its
+parent's (Featherstone 2008, Sec. 5.3). The model is the packed joint-frame array ``P``
+(``core/layout.py``), read by every thread; the per-body transforms and wrenches live in
+per-thread arrays. No tip wrench and no base motion here (the CPU's ``rnea_wrench`` has them).
+"""
+from functools import lru_cache
+
+from numba import float64
+
+from ..core.layout import ARM, G, KIND
+from .device_model import device_model
+from .runtime import Batch, cuda, launch
+from .steps import (body_wrench, coordinates, force_to_parent, get9, into_body, joint_rate,
+                    joint_transform, put9)
+
+
+@lru_cache(maxsize=None)
+def passes(n, chain):
+    """(transforms, newton_euler): device functions for n bodies (``chain``: parent = i - 1)."""
+
+    @cuda.jit(device=True)
+    def transforms(P, q, R, p):
+        """R[i] (row-major) and p[i]: body i in its parent at q[i]."""
+        for i in range(n):
+            r, px, py, pz = joint_transform(P, i, q[i])
+            put9(R, i, r)
+            p[i, 0], p[i, 1], p[i, 2] = px, py, pz
+
+    @cuda.jit(device=True)
+    def newton_euler(P, parent, R, p, f, st, qd, qdd, tau):
+        """tau = M(q) qdd + b(q, qd) of every joint; f: the body wrenches, then the joint
+        wrenches; st: each body's (omega, alpha, acc) (a tree only)."""
+        gx, gy, gz = -P[n, G], -P[n, G + 1], -P[n, G + 2]       # the base: acc = -g
+        wx = wy = wz = ax = ay = az = 0.0
+        lx, ly, lz = gx, gy, gz
+        for i in range(n):
+            if not chain:
+                pa = parent[i]
+                if pa < 0:
+                    wx = wy = wz = ax = ay = az = 0.0
+                    lx, ly, lz = gx, gy, gz
+                else:
+                    wx, wy, wz, ax, ay, az, lx, ly, lz = get9(st, pa)
+            wx, wy, wz, ax, ay, az, lx, ly, lz = into_body(
+                get9(R, i), p[i, 0], p[i, 1], p[i, 2], wx, wy, wz, ax, ay, az, lx, ly, lz)
+            wx, wy, wz, ax, ay, az, lx, ly, lz = joint_rate(
+                P, i, wx, wy, wz, ax, ay, az, lx, ly, lz, qd[i], qdd[i])
+            if not chain:
+                put9(st, i, (wx, wy, wz, ax, ay, az, lx, ly, lz))
+            f[i, 0], f[i, 1], f[i, 2], f[i, 3], f[i, 4], f[i, 5] = body_wrench(
+                P, i, wx, wy, wz, ax, ay, az, lx, ly, lz)
+        # inward: tau_i = S_i^T (n; f) + I_a,i qdd_i, then f_parent += Xup_i^T f_i
+        for i in range(n - 1, -1, -1):
+            tau[i] = (f[i, 2] if P[i, KIND] == 0.0 else f[i, 5]) + P[i, ARM] * qdd[i]
+            pa = i - 1 if chain else parent[i]
+            if pa >= 0:
+                nx, ny, nz, fx, fy, fz = force_to_parent(get9(R, i), p[i, 0], p[i, 1], p[i, 2],
+                                                         f[i, 0], f[i, 1], f[i, 2], f[i, 3],
+                                                         f[i, 4], f[i, 5])
+                f[pa, 0] += nx
+                f[pa, 1] += ny
+                f[pa, 2] += nz
+                f[pa, 3] += fx
+                f[pa, 4] += fy
+                f[pa, 5] += fz
+
+    return transforms, newton_euler
+
+
+@lru_cache(maxsize=None)
+def kernel(n, k, chain, mimic):
+    """The inverse-dynamics kernel for n bodies and k coordinates."""
+    transforms, newton_euler = passes(n, chain)
+    load, store, _ = coordinates(n, k, mimic)
+    ns = 1 if chain else n
+
+    @cuda.jit
+    def rnea_kernel(P, parent, src, mult, off, Q, QD, QDD, TAU):
+        s = cuda.grid(1)
+        if s >= Q.shape[0]:
+            return
+        q, qd = cuda.local.array(n, float64), cuda.local.array(n, float64)
+        qdd, tau = cuda.local.array(n, float64), cuda.local.array(n, float64)
+        R, p = cuda.local.array((n, 9), float64), cuda.local.array((n, 3), float64)
+        f, st = cuda.local.array((n, 6), float64), cuda.local.array((ns, 9), float64)
+        load(Q, s, src, mult, off, True, q)
+        load(QD, s, src, mult, off, False, qd)
+        load(QDD, s, src, mult, off, False, qdd)
+        transforms(P, q, R, p)
+        newton_euler(P, parent, R, p, f, st, qd, qdd, tau)
+        store(tau, src, mult, TAU, s)
+
+    return rnea_kernel
+
+
+def inverse_dynamics(robot, Q, QD, QDD):
+    """tau = M(q) qdd + b(q, qd) of N states, as ``robot.inverse_dynamics`` (no wrench, no
+    base motion): Q, QD, QDD (N, robot.dof) float64, NumPy arrays (the result is NumPy) or
+    device arrays (``__cuda_array_interface__``: the result stays on the card)."""
+    op = "gpu.inverse_dynamics"
+    dm = device_model(robot, "inverse_dynamics")
+    batch = Batch(op, dm.k, [("Q", Q), ("QD", QD), ("QDD", QDD)])
+    q, qd, qdd = batch.to_card(dm.k, op)
+    out = cuda.device_array((batch.N, dm.k))
+    launch(kernel(*dm.key), batch.N, *dm.arrays, q, qd, qdd, out)
+    return batch.result(out)

@@ -89,22 +89,38 @@ def _products(v, sign, x):
 
 
 @njit(cache=True, inline="always")
-def _rnea_one(P, d, qv, w, qddv, q, v, a, gw, flags, out):
+def rnea_inputs(q, v, a, gw, flags, qv, w, qddv):
+    """The instantaneous chain's (or tree's) q, w and joint accelerations qddv = a plus the
+    velocity products, for inverse dynamics; returns the check of q (``_chain_inputs``)."""
     chk = _chain_inputs(q, gw, flags, qv, w)
     for i in range(qddv.shape[0]):
         qddv[i] = a[i] if (flags & F.QDD) != 0 else 0.0
     if (flags & F.QD) != 0:
         _products(v, 1.0, qddv)
+    return chk
+
+
+@njit(cache=True, inline="always")
+def fd_inputs(q, tau, gw, flags, qv, w, tv):
+    """The instantaneous chain's (or tree's) q, w and generalized forces tv (tau, after six
+    zeros when it holds the joint torques only), for forward dynamics; returns the check."""
+    chk = _chain_inputs(q, gw, flags, qv, w)
+    k = tv.shape[0] - tau.shape[0]                           # 6: joint torques only
+    for i in range(tv.shape[0]):
+        tv[i] = 0.0 if i < k else tau[i - k]
+    return chk
+
+
+@njit(cache=True, inline="always")
+def _rnea_one(P, d, qv, w, qddv, q, v, a, gw, flags, out):
+    chk = rnea_inputs(q, v, a, gw, flags, qv, w, qddv)
     chk += rnea_core(P, d.sc, d.R, d.p, d.f, qv, v, qddv, w, flags | F.BASE | F.QDD, out)
     return chk
 
 
 @njit(cache=True, inline="always")
 def _fd_one(P, d, c, art, qv, w, tv, q, v, tau, gw, flags, out):
-    chk = _chain_inputs(q, gw, flags, qv, w)
-    k = tv.shape[0] - tau.shape[0]                           # 6: joint torques only
-    for i in range(tv.shape[0]):
-        tv[i] = 0.0 if i < k else tau[i - k]
+    chk = fd_inputs(q, tau, gw, flags, qv, w, tv)
     if (flags & F.ABA) != 0:
         chk += aba_core(P, d.sc, d.R, d.p, art.IA, art.pA, art.U, art.c, art.Du, art.Y,
                         qv, v, tv, w, tv, flags | F.BASE, out)

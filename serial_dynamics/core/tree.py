@@ -16,7 +16,7 @@ from numba import njit, types
 from . import flags as F
 from .cholesky import ltdl_factor, ltdl_solve_factored
 from .crba import add_in_parent
-from .floating import GW, _chain_inputs, _products
+from .floating import GW, _chain_inputs, _products, fd_inputs, rnea_inputs
 from .data import new_chol, new_kin, stack_empty
 from .layout import ARM, H, IO, KIND, MASS, PARENT, ROOT, TIPPATH, W_ALL, W_WRENCH
 from .rnea import base_state, body_wrench, joint_rates, outward_step, tip_load
@@ -250,7 +250,7 @@ def tree_fd_batch(P, q, qd, tau, w, flags, out):
 # ------------------------------------------------------------------ a floating base on a tree
 # core/floating.py's entry points on the instantaneous tree (robot/floating.virtual_chain of a
 # tree: the six virtual joints, then the tree hanging from the last): the same conversions
-# (_chain_inputs, _products) around the tree kernels; forward dynamics by L^T D L.
+# (rnea_inputs, fd_inputs, _products) around the tree kernels; forward dynamics by L^T D L.
 def floating_tree_rnea(P, q, v, a, gw, flags, out):
     nv = P.shape[0] - 1
     if (q.shape[0] != nv + 1 or v.shape[0] != nv or a.shape[0] != nv or gw.shape[0] != GW
@@ -258,11 +258,7 @@ def floating_tree_rnea(P, q, v, a, gw, flags, out):
         return BAD_LENGTH
     d = new_kin(nv)
     qv, w, qddv = stack_empty((nv,)), stack_empty((W_ALL,)), stack_empty((nv,))
-    chk = _chain_inputs(q, gw, flags, qv, w)
-    for i in range(nv):
-        qddv[i] = a[i] if (flags & F.QDD) != 0 else 0.0
-    if (flags & F.QD) != 0:
-        _products(v, 1.0, qddv)
+    chk = rnea_inputs(q, v, a, gw, flags, qv, w, qddv)
     chk += tree_rnea_core(P, d.sc, d.R, d.p, d.f, stack_empty((nv, 9)), qv, v, qddv, w,
                           flags | F.BASE | F.QDD, out)
     return status(chk)
@@ -275,10 +271,7 @@ def floating_tree_fd(P, q, v, tau, gw, flags, out):
         return BAD_LENGTH
     d, c = new_kin(nv), new_chol(nv)
     qv, w, tv = stack_empty((nv,)), stack_empty((W_ALL,)), stack_empty((nv,))
-    chk = _chain_inputs(q, gw, flags, qv, w)
-    k = nv - tau.shape[0]                                    # 6: joint torques only
-    for i in range(nv):
-        tv[i] = 0.0 if i < k else tau[i - k]
+    chk = fd_inputs(q, tau, gw, flags, qv, w, tv)
     chk += tree_fd_core(P, d.sc, d.R, d.p, d.f, stack_empty((nv, 9)), stack_empty((nv, 10)),
                         c.M, qv, v, tv, w, (flags | F.QD | F.BASE) & ~F.ABA, out)
     _products(v, -1.0, out)

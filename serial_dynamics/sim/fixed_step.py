@@ -54,6 +54,7 @@ class FixedStepIntegrator:
     """
 
     METHODS = FIXED_STEP
+    SERVO_METHODS = SERVO_METHODS
     _kinds = {}        # sim/floating.py registers the integrator of a floating base
 
     def __new__(cls, robot, *args, **kwargs):

@@ -17,8 +17,9 @@ when |dtheta| exceeds CHART_LIMIT = 1 rad (far from the chart's singularity at 2
 
 Methods: the adaptive ones ("RK45", "DOP853", "Radau", "BDF", "LSODA"; the implicit ones
 with scipy's finite-difference Jacobian) and the fixed-step "semi_implicit_euler" (v, then
-the pose with the new v: q(dt phi'(v_new)) in the chart at q) and "rk4". Joint dissipation as for a fixed
-base, with Coulomb friction smoothed (tanh) by every method (no stick-slip). Energies and
+the pose with the new v: q(dt phi'(v_new)) in the chart at q; with the joint servo of
+``servo.py`` integrated implicitly, its gains on the joints' rows of the whole M) and "rk4".
+Joint dissipation as for a fixed base, with Coulomb friction smoothed (tanh) by every method (no stick-slip). Energies and
 works as for a fixed base: E(t) - E(0) = W_act + W_diss + W_ext.
 """
 from __future__ import annotations
@@ -32,6 +33,7 @@ from .fixed_step import FixedStepIntegrator
 from ..model.errors import SimulationError
 from .methods import ADAPTIVE, advice
 from .result import SolverStats, finish
+from .servo import Servo, euler_servo
 
 CHART_LIMIT = 1.0          # rad: an adaptive run moves to a new chart beyond this turn
 FLOATING_FIXED_STEP = ("semi_implicit_euler", "rk4")
@@ -106,10 +108,12 @@ class FloatingStepper:
 
 
 class FloatingStepIntegrator(FixedStepIntegrator):
-    """``FixedStepIntegrator`` for a floating robot: ``step(q, v, tau, wrench=None)`` with q
-    (n+7), v (n+6) and joint torques tau (n,); "semi_implicit_euler" or "rk4"."""
+    """``FixedStepIntegrator`` for a floating robot: ``step(q, v, tau, wrench=None,
+    servo=None)`` with q (n+7), v (n+6) and joint torques tau (n,); "semi_implicit_euler"
+    (with the joint servo) or "rk4"."""
 
     METHODS = FLOATING_FIXED_STEP
+    SERVO_METHODS = ("semi_implicit_euler",)
 
     def __init__(self, robot, method="semi_implicit_euler", dt=1e-3, dissipation=True, **kw):
         if method not in self.METHODS:
@@ -127,17 +131,27 @@ class FloatingStepIntegrator(FixedStepIntegrator):
         self.servo_torque = np.zeros(robot.dof)
 
     def step(self, q, qd, tau, wrench=None, t=None, servo=None):
-        if servo is not None:
-            raise ValueError("the joint servo is not available for a floating base")
+        """As ``FixedStepIntegrator.step``; ``servo`` (joint gains and targets, (n,) each)
+        with "semi_implicit_euler" only; its torque over the step is left in
+        ``servo_torque`` (n,)."""
+        if servo is not None and self.method not in self.SERVO_METHODS:
+            raise ValueError(f"a servo is integrated implicitly by {self.SERVO_METHODS} only "
+                             f"on a floating base, not {self.method!r}; use one of those")
         tau = np.asarray(tau, dtype=float)
         q1, v1, _ = self.advance(0.0 if t is None else t, np.asarray(q, dtype=float),
-                                 np.asarray(qd, dtype=float), _Constant(tau, wrench))
+                                 np.asarray(qd, dtype=float), _Constant(tau, wrench), servo=servo)
         return q1, v1
 
-    def advance(self, t, q, v, inputs, energy=False):
+    def advance(self, t, q, v, inputs, energy=False, servo=None):
         """(q1, v1, (tau, delta, a, dW)) one step on from (q, v) at time t."""
         dt, rhs = self.dt, self.rhs
         a, tau, delta, p = rhs.rates(t, q, v, inputs)
+        self.servo_torque = np.zeros(self.robot.dof)
+        if servo is not None:                       # + the implicit servo (servo.py)
+            tau_s, y = euler_servo(self.robot.mass_matrix(q), _joints_view(q, 6), v, a,
+                                   _on_joints(servo), dt)
+            self.servo_torque, a = tau_s[6:], a + y
+            tau = tau + self.servo_torque
         if self.method == "semi_implicit_euler":    # v1 = v + a dt; q1 = q (+) v1 dt on SE(3)
             self.stages += 1
             v1 = v + a * dt
@@ -164,6 +178,18 @@ class FloatingStepIntegrator(FixedStepIntegrator):
         v = x[nv:2 * nv]
         a, _, _, p = self.rhs.rates(t, q, v, inputs) if known is None else (*known[:1], 0, 0, known[1])
         return np.concatenate([chart_rate(q, x[:nv], v), a, p])
+
+
+def _on_joints(s):
+    """The joint servo ``s`` on the whole v: no gains, no targets on the base's six rows."""
+    z = np.zeros(6)
+    return Servo(*(np.concatenate([z, x]) for x in s))
+
+
+def _joints_view(q, nb):
+    """q's joint positions after ``nb`` zeros (the base's rows of v, where the servo has no
+    gain): the positions the servo reads, aligned with v."""
+    return np.concatenate([np.zeros(nb), q[7:]])
 
 
 class _Constant:

@@ -9,20 +9,36 @@ and says why), and a new plant (a payload, a new model) swapped in between two s
 
 Written in terms of ``robot.nq``, ``robot.nv``, ``robot.dof`` and ``robot.joint_names``:
 the joints are the last ``dof`` coordinates of q and v (a floating base's pose and twist
-come first), so a caller never indexes q or v nor asks the kind of robot. Thread-safe:
-every change and every step holds ``lock``.
+come first), so a caller never indexes q or v nor asks the kind of robot: it reads
+``joint_state()`` (every joint, mimic joints too, and a floating base's pose and twist) and
+``report()``. Thread-safe: every change and every step holds ``lock``.
 """
 from __future__ import annotations
 
 import threading
+from typing import NamedTuple
 
 import numpy as np
 
 from ..model.errors import SimulationError
 from .command_hold import CommandHold
-from .fixed_step import SERVO_METHODS, FixedStepIntegrator
+from .fixed_step import FixedStepIntegrator
 
 TIMEOUT_ACTIONS = ("brake", "limp")
+
+
+def has_base(robot) -> bool:
+    """Whether q and v start with a floating base's pose (7) and twist (6)."""
+    return robot.nq != robot.dof
+
+
+class Reading(NamedTuple):
+    """Every joint at one instant (``Session.joint_names`` order, mimic joints included)."""
+    k: int                   # steps since the start
+    position: np.ndarray     # rad; m
+    velocity: np.ndarray
+    effort: np.ndarray       # the actuator torque of the last step; 0 at a mimic joint
+    base: tuple | None       # a floating base's (pose (7,), twist (6,)), else None
 
 
 class Session:
@@ -48,6 +64,7 @@ class Session:
         self.base_dims = (robot.nq - n, robot.nv - n)     # the base's coordinates before the joints
         base = np.zeros(self.base_dims[0]) if base_pose is None else np.asarray(base_pose, float)
         self.q0 = np.concatenate((base, np.asarray(q0, dtype=float)))
+        self.has_base = has_base(robot)
         if self.q0.shape != (robot.nq,):
             raise ValueError(f"the initial state has {self.q0.size} coordinates; "
                              f"{robot.model.name} has {robot.nq}")
@@ -55,7 +72,7 @@ class Session:
             robot, integrator, dt, dissipation, position_limits=position_limits)
         self.robot, self.integrator = robot, self._integrator_for(robot)
         self.dt = self.integrator.dt
-        self.servo_ok = integrator in SERVO_METHODS and self.base_dims == (0, 0)
+        self.servo_ok = integrator in self.integrator.SERVO_METHODS
         self.limit = np.full(n, np.inf) if effort_limits is None else np.asarray(effort_limits, float)
         kp = np.full(n, 1e4) if servo_kp is None else np.asarray(servo_kp, float)
         kd = np.full(n, 200.0) if servo_kd is None else np.asarray(servo_kd, float)
@@ -193,6 +210,28 @@ class Session:
             q, qd, tau, k = self.q, self.qd, self.hold.tau + self.hold.tau_servo, self.k
         nb, vb = self.base_dims
         return (k, q[nb:], qd[vb:], tau, q[:nb] if nb else None, qd[:vb] if vb else None)
+
+    joint_names = property(lambda self: self.robot.all_joint_names,
+                           doc="every joint, base to tip, mimic joints included")
+
+    def joint_state(self) -> Reading:
+        """``snapshot()`` for every joint (mimic joints follow their leaders, no actuator)."""
+        k, q, qd, tau, pose, twist = self.snapshot()
+        robot = self.robot
+        effort = np.zeros(len(robot.all_joint_names))
+        effort[robot.model.independent] = tau
+        return Reading(k, robot.all_joint_positions(q), robot.all_joint_velocities(qd), effort,
+                       None if pose is None else (pose, twist))
+
+    def report(self):
+        """/diagnostics entries (name, value): divergence events, the push in force, the
+        joints the servo acts on."""
+        wrench, servo = self.hold.wrench, self.hold.servo
+        return [("divergence events", self.divergences),
+                ("external wrench", "none" if wrench is None else
+                 " ".join(f"{x:.4g}" for x in wrench)),
+                ("servoed joints", 0 if servo is None else
+                 int(np.count_nonzero((servo.kp > 0) | (servo.kd > 0))))]
 
     @property
     def time(self):

@@ -117,13 +117,24 @@ def test_a_floating_base_and_a_mimic_chain_through_the_same_calls():
     sat = sd.load_urdf(satellite_urdf(), gravity=(0, 0, 0))
     pose = np.array([1.0, 2.0, 3.0, 0.0, 0.0, 0.0, 1.0])
     s = Session(sat, np.zeros(sat.dof), base_pose=pose, command_timeout_action="brake")
-    assert s.timeout_action == "limp"                # no servo on a floating base
+    assert s.timeout_action == "brake"               # the servo on a floating base too
     s.set_base_state(pose, np.array([0.1, 0, 0, 0, 0, 0.2]))
     s.set_state(np.array([0]), np.array([0.3]), np.array([0.0]))
     s.step()
     k, q, v, tau, p, tw = s.snapshot()
     assert q.shape == (sat.dof,) and p.shape == (7,) and tw.shape == (6,)
     assert p[0] == pytest.approx(1.0 + 1e-3 * 0.1) and q[0] == pytest.approx(0.3)
+    # a lost command stream on the floating base: the brake stops the swinging arm
+    s = Session(sat, np.zeros(sat.dof), base_pose=pose, command_timeout=0.05,
+                command_timeout_action="brake", dissipation=False)
+    s.command(np.arange(sat.dof), np.diag(sat.mass_matrix(sat.neutral()))[6:])
+    notes = sum((s.step()[1] for _ in range(50)), [])
+    swing = np.max(np.abs(s.snapshot()[2]))                  # the joints' speed at the timeout
+    notes += sum((s.step()[1] for _ in range(550)), [])
+    assert len(notes) == 1 and "braking" in notes[0][1] and s.braking
+    k, q, v, applied, p, tw = s.snapshot()
+    assert swing > 0.05 and np.max(np.abs(v)) < 0.02 * swing       # moving, then held
+    np.testing.assert_allclose(applied, s.integrator.servo_torque, rtol=0, atol=0)
     from test_mimic import mimic_chain
     mim = sd.load_urdf(mimic_chain())
     s = Session(mim, np.full(mim.dof, 0.2), dissipation=False)

@@ -22,6 +22,7 @@ import numpy as np
 from numba import njit
 
 from ..algorithms import floating as fb
+from ..core.cholesky import cholesky_factor, cholesky_solve_factored
 from ..algorithms._batch import as_batch
 from ..model.dissipation import Dissipation
 from . import derivatives, regressor
@@ -188,11 +189,20 @@ class Mimic:
             raise ValueError(f"forward-dynamics method {method!r} unknown; use one of "
                              f"{FD_METHODS}")
         single, (_, _, tau), (q, qd, _) = self._all(("q", q), ("qd", qd), ("tau", tau))
-        M = self._reduce2(super().mass_matrix(q))
-        r = tau - self._reduce(super().bias_torques(q, qd, wrench, base_motion))
-        if single:
-            return _into(out, np.linalg.solve(M, r))
-        return _into(out, np.array([np.linalg.solve(Mk, rk) for Mk, rk in zip(M, r)]))
+        M, b = super().mass_matrix(q), super().bias_torques(q, qd, wrench, base_motion)
+        o = np.empty(np.shape(tau))
+        if single:                      # G^T M G and G^T b, factored and solved: one call
+            _reduced_fd(self._ind, self._fi, self._fk, self._fm, M, b, tau, *self._work(), o)
+        else:                           # the same call state by state: the same bits
+            for Mk, bk, tk, ok in zip(M, b, tau, o):
+                _reduced_fd(self._ind, self._fi, self._fk, self._fm, Mk, bk, tk,
+                            *self._work(), ok)
+        return _into(out, o)
+
+    def _work(self):
+        """Scratch (M G, G^T M G) for ``_reduced_fd``."""
+        k = self.nv
+        return np.empty((self._v_map[0].shape[0], k)), np.empty((k, k))
 
     # ------------------------------------------------------------- kinematics, energy
     def forward_kinematics(self, q, link=None):
@@ -282,6 +292,17 @@ def _congruence(ind, fi, fk, fm, M, A, out):
             out[a, c] = A[ind[a], c]
         for j in range(fi.shape[0]):
             out[fk[j], c] += fm[j] * A[fi[j], c]
+
+
+@njit(cache=True)
+def _reduced_fd(ind, fi, fk, fm, M, b, tau, A, Mr, out):
+    """out = (G^T M G)^-1 (tau - G^T b): the reduced forward dynamics by Cholesky."""
+    _congruence(ind, fi, fk, fm, M, A, Mr)
+    _scatter_add(ind, fi, fk, fm, b, out)
+    for i in range(out.shape[0]):
+        out[i] = tau[i] - out[i]
+    cholesky_factor(Mr)                        # G^T M G = L L^T
+    cholesky_solve_factored(Mr, out)
 
 
 def _reduced_dissipation(model, G, names):

@@ -6,7 +6,8 @@ State (``FloatingRobot``, docs/modelling.md): q = [x, y, z, qx, qy, qz, qw, join
 [base linear velocity, base angular velocity, joint rates], the base's velocities in the
 base frame. nav_msgs/Odometry says the same (REP 105 and the message's own comments): the
 pose of ``child_frame_id`` (the base link) in ``header.frame_id`` (the world, ``odom``), the
-twist in ``child_frame_id`` -- so q[:7] and v[:6] go into the message as they are.
+twist in ``child_frame_id`` -- so the base's pose and twist (``Session.joint_state().base``)
+go into the message as they are.
 """
 from __future__ import annotations
 
@@ -40,15 +41,16 @@ def initial_pose(values):
     return _unit(IDENTITY if not values else values, "initial_base_pose", None)
 
 
-def odometry(q, v, frame_id, child_frame_id, stamp=None):
-    """nav_msgs/Odometry of the base at (q, v): pose in ``frame_id``, twist in the base
-    frame ``child_frame_id``; covariances zero (a simulation knows its state)."""
+def odometry(pose, twist, frame_id, child_frame_id, stamp=None):
+    """nav_msgs/Odometry of the base at ``pose`` (7,) and ``twist`` (6,): pose in
+    ``frame_id``, twist in the base frame ``child_frame_id``; covariances zero (a
+    simulation knows its state)."""
     msg = Odometry()
     if stamp is not None:
         msg.header.stamp = stamp
     msg.header.frame_id, msg.child_frame_id = frame_id, child_frame_id
-    x, y, z, qx, qy, qz, qw = q[:7].tolist()
-    vx, vy, vz, wx, wy, wz = v[:6].tolist()
+    x, y, z, qx, qy, qz, qw = np.asarray(pose, dtype=float).tolist()
+    vx, vy, vz, wx, wy, wz = np.asarray(twist, dtype=float).tolist()
     p, o = msg.pose.pose.position, msg.pose.pose.orientation
     p.x, p.y, p.z = x, y, z
     o.x, o.y, o.z, o.w = qx, qy, qz, qw

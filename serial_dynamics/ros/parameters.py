@@ -219,9 +219,7 @@ def load_robot(node, p: dict, gravity=None):
     for w in caught:
         node.get_logger().warning(str(w.message))
     robot.dissipation = _dissipation(robot, p)
-    node.get_logger().info(f"robot {robot.model.name!r} from {where}: {robot.dof} joints "
-                           f"{robot.joint_names}, {robot.base_link} -> {robot.tip_link}"
-                           + (" on a floating base" if robot.is_floating else ""))
+    node.get_logger().info(f"loaded {robot!r} from {where}")     # its repr names its kind
     return robot
 
 

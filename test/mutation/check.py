@@ -99,7 +99,7 @@ MUTATIONS = (
         "node_clock_without_integration",
         "simulator node: simulated time (/clock, the stamps) advances but the state is not "
         "integrated",
-        "ros/simulator.py",
+        "sim/session.py",
         "self.q, self.qd, self.k = q, qd, self.k + 1",
         "self.k = self.k + 1",
         ("test/ros/test_simulator.py",), ("-x",)),    # -x: the other tests would wait 90 s

@@ -1,0 +1,158 @@
+"""The simulator node's loop, without a node (``ros/simulator.py`` converts its parameters
+and messages and makes one call here per callback).
+
+``SimulatorLoop`` holds the ``sim.session.Session`` (made by ``simulator_parameters``) and
+what the node does around it: the commands (an effort clamped is a note; servo targets
+the simulation cannot take are refused), the simulation thread paced against the
+wall clock (``pacing.Pacer``), which steps are due on ``joint_states`` and ``/clock``, the
+steps of one ``~/step`` call, the answers of ``~/reset`` and ``~/step``, the /diagnostics
+entries and the closing line. The node's callbacks are passed in (``step``, ``publish``),
+so the loop is tested with plain functions; no rclpy here.
+"""
+from __future__ import annotations
+
+import time
+from typing import NamedTuple
+
+import numpy as np
+
+from serial_dynamics.model.errors import Rejected
+from serial_dynamics.sim.session import Session
+
+from .pacing import Pacer
+
+MAX_LAG = 0.1   # s of wall time behind schedule before the pacing re-anchors
+WAIT_AT_MOST = 0.05   # s; the longest the thread sleeps before it looks at the schedule again
+
+
+def dt_ns(p: dict) -> int:
+    """sim_dt in whole ns (the step the session takes; /clock counts steps of it)."""
+    return round(p["sim_dt"] * 1e9)
+
+
+class Tick(NamedTuple):
+    """What one step asks of the node."""
+    ok: bool                 # False: the step diverged (the session is paused)
+    notes: list              # (level, text) lines to log
+    clock_ns: int | None     # the /clock stamp (ns of simulated time) when one is due
+    publish: bool            # joint_states (and odom) due
+
+
+class SimulatorLoop:
+    """``session`` run at the rates of the parameter values ``p``
+    (``simulator_parameters.PARAMETERS``); ``clock``: wall-clock seconds."""
+
+    def __init__(self, session: Session, p: dict, clock=time.monotonic):
+        self.session, self.dt_ns, self.clock = session, dt_ns(p), clock
+        dt = session.dt
+        self.step_count, self.rtf = p["step_count"], p["real_time_factor"]
+        self.publish_every = max(1, round(1.0 / (p["publish_rate"] * dt)))
+        self.clock_every = max(1, round(1.0 / (p["clock_rate"] * dt)))
+        self.publish_clock = p["publish_clock"]
+        self.pacer = Pacer(dt, self.rtf, MAX_LAG, clock)
+        self.started = (clock(), session.k)    # (wall, k) at the start of the thread
+        base_link = session.robot.base_link
+        # odom's (frame_id, child_frame_id); external_wrench's (frame, axes)
+        self.frames = (p["odom_frame"], base_link)
+        self.wrench_frame = ((p["odom_frame"], "world") if session.has_base
+                             else (base_link, "base"))
+
+    # ------------------------------------------------------------ commands and services
+    def command(self, idx, effort, position=None, velocity=None):
+        """The command of the joints ``idx`` (None: every joint, model order); effort None:
+        zeros. Returns the note of the first effort clamped to its limit, or None. Rejected:
+        servo targets where the simulation has no servo."""
+        session = self.session
+        if not session.servo_ok and (position is not None or velocity is not None):
+            raise Rejected("joint_commands servo", "joint_commands position/velocity targets "
+                           "need an integrator with the implicit servo "
+                           f"{session.integrator.SERVO_METHODS}; this simulator runs another "
+                           "(parameter integrator); send effort only")
+        idx = np.arange(session.robot.dof) if idx is None else idx
+        effort = np.zeros(len(idx)) if effort is None else effort
+        clamped = session.command(idx, effort, position, velocity)
+        if clamped is None:
+            return None
+        j, asked = clamped
+        return (f"effort command for {session.robot.joint_names[j]}: {asked:.4g}, beyond "
+                f"its limit {session.limit[j]:.4g}; clamped to the limit (logged once)")
+
+    def reset(self):
+        """~/reset: the initial state, at rest; its answer."""
+        self.session.reset()
+        return ("state reset to initial_base_pose and initial_positions, at rest"
+                if self.session.has_base else "state reset to initial_positions, at rest")
+
+    def single_steps(self, step, publish):
+        """~/step: while paused, ``step_count`` calls of ``step(force=True)`` (False: the
+        step diverged, stop), then ``publish()``. Returns (success, message)."""
+        session = self.session
+        if not session.paused:
+            return False, "not paused: ~/step advances a paused simulation (~/pause true first)"
+        k0 = session.k
+        for _ in range(self.step_count):
+            if not step(force=True):
+                break
+        publish()
+        done = session.k - k0
+        success = done == self.step_count
+        return success, (f"advanced {done} step(s) to t = {session.time:.6f} s"
+                         + ("" if success else "; stopped: the step diverged (see the log)"))
+
+    # ------------------------------------------------------------ the simulation thread
+    def run(self, stop, step, publish, warn):
+        """Until the event ``stop`` is set: ``step()`` when a step is due on the wall-clock
+        schedule; while paused, ``publish()`` every publish period; ``warn(text)`` once when
+        the schedule is given up (more than MAX_LAG late)."""
+        session, pacer, lag_warned = self.session, self.pacer, False
+        self.started = (self.clock(), session.k)
+        pacer.anchor(session.k)
+        while not stop.is_set():
+            if session.paused:
+                publish()
+                stop.wait(self.publish_every * session.dt)
+                pacer.anchor(session.k)
+                continue
+            wait = pacer.wait(session.k)
+            if wait > 0:
+                stop.wait(min(wait, WAIT_AT_MOST))
+                continue
+            if pacer.reanchors and not lag_warned:
+                lag_warned = True
+                warn(f"cannot keep up with real_time_factor {self.rtf}: the simulation runs "
+                     "slower (logged once)")
+            step()
+
+    def step(self, force=False) -> Tick:
+        """One step of the session (``force``: also while paused) and what is due."""
+        ok, notes = self.session.step(force)
+        k = self.session.k
+        clock = ok and self.publish_clock and k % self.clock_every == 0
+        return Tick(ok, notes, self.clock_ns(k) if clock else None,
+                    ok and k % self.publish_every == 0)
+
+    def clock_ns(self, k):
+        """Simulated time of step k in ns with publish_clock (the stamps), else None."""
+        return k * self.dt_ns if self.publish_clock else None
+
+    # ------------------------------------------------------------ reports
+    def report(self):
+        """/diagnostics entries: the real-time factor achieved since the last report
+        (simulated s per wall s; WARN below 90 % of real_time_factor while running), late
+        steps (started more than one step period behind the schedule), the session's."""
+        session, pacer = self.session, self.pacer
+        k, k0 = session.k, pacer.mark[1]     # mark: (wall, k) of the last report
+        rtf = pacer.achieved(k, session.dt)
+        running = not session.paused and k > k0
+        slow = running and self.rtf > 0 and rtf < 0.9 * self.rtf
+        return [("real-time factor", f"{rtf:.3f}" if running else "paused", slow),
+                ("late steps", pacer.late_steps), *session.report()]
+
+    def summary(self):
+        """The closing line (simulated and wall time since ``run`` started), or None."""
+        wall0, k0 = self.started
+        wall, simulated = self.clock() - wall0, (self.session.k - k0) * self.session.dt
+        if not (wall > 0 and simulated > 0):
+            return None
+        return (f"simulated {simulated:.3f} s in {wall:.3f} s of wall time (real-time factor "
+                f"{simulated / wall:.3f}, pauses included)")

@@ -1,0 +1,114 @@
+"""The simulator's parameters, without a node: the table (``PARAMETERS``: name -> (type,
+default, description), ``RANGES``), their checks at start-up and the ``sim.session.Session``
+they make (``session``), with the lines the node logs about them.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from serial_dynamics.sim.session import TIMEOUT_ACTIONS, Session, has_base
+
+from . import floating_state, parameters
+from .simulator_loop import dt_ns
+
+PARAMETERS = {
+    **parameters.ROBOT_PARAMETERS,
+    "initial_positions": ("double[]", None, "joint positions at start and after ~/reset "
+                          "(rad; m), base to tip ([] = zeros)"),
+    "dissipation.enabled": ("bool", True, "add the joint dissipation (friction) torques"),
+    "position_limits": ("bool", True, "hard stops at the URDF joint limits (a joint that "
+                        "reaches one stops there: plastic impact)"),
+    "integrator": ("string", "semi_implicit_euler", "fixed-step method of "
+                   "serial_dynamics.sim.fixed_step.FixedStepIntegrator: semi_implicit_euler, "
+                   "symplectic_euler, rk4 or implicit_midpoint"),
+    "sim_dt": ("double", 0.001, "integration step (s)"),
+    "real_time_factor": ("double", 1.0, "simulated s per wall-clock s; 0 = as fast as possible"),
+    "publish_rate": ("double", 100.0, "joint_states rate (Hz of simulated time)"),
+    "publish_clock": ("bool", False, "publish /clock (simulated time, starting at 0) and "
+                      "stamp joint_states with it, for nodes with use_sim_time"),
+    "clock_rate": ("double", 1000.0, "/clock rate (Hz of simulated time) when publish_clock"),
+    "command_timeout": ("double", 0.5, "s of simulated time without a command after which "
+                        "command_timeout_action acts; 0 = hold the last command forever"),
+    "command_timeout_action": ("string", "brake", "what a lost command stream does: brake "
+                               "(the joint servo holds the positions at the timeout, within "
+                               "the effort limits, until a command comes; as a real arm) or "
+                               f"limp (effort back to zero): {', '.join(TIMEOUT_ACTIONS)}"),
+    "clamp_effort": ("bool", True, "clamp commanded effort to the effort limits"),
+    "effort_limits": ("double[]", None, "effort limits (N m; N), one or one per joint "
+                      "([] = the URDF's <limit effort>; .inf = none)"),
+    "start_paused": ("bool", False, "start paused (resume with ~/pause false)"),
+    "step_count": ("int", 1, "steps advanced by one ~/step call (while paused)"),
+    "external_wrench_timeout": ("double", 0.0, "s of simulated time after which an "
+                                "external_wrench is dropped; 0 = held until replaced"),
+    "servo.kp": ("double[]", [10000.0], "joint servo stiffness (N m/rad; N/m), one or one per "
+                 "joint, for joint_commands with position targets"),
+    "servo.kd": ("double[]", [200.0], "joint servo damping (N m s/rad; N s/m), one or one per "
+                 "joint, for joint_commands with position and/or velocity targets"),
+    **parameters.PAYLOAD_PARAMETERS,
+    "floating_base": ("bool", False, "the chain's base link floats free (FloatingRobot): the "
+                      "base pose on odom (nav_msgs/Odometry), ~/set_base_state; no joint "
+                      "servo, no position_limits"),
+    "initial_base_pose": ("double[]", floating_state.IDENTITY, "floating_base: the base pose "
+                          "at start and after ~/reset, [x, y, z, qx, qy, qz, qw] in odom_frame "
+                          "(the quaternion is normalized)"),
+    "odom_frame": ("string", "odom", "floating_base: header.frame_id of odom (the world)"),
+}
+# parameter ranges (ParameterDescriptor; inclusive, so only those that include their ends)
+RANGES = {"real_time_factor": (0.0, 1e6), "command_timeout": (0.0, 1e9),
+          "external_wrench_timeout": (0.0, 1e9), "step_count": (1, 10 ** 9)}
+
+
+COARSE_DT = 0.01   # s; a larger sim_dt is warned about (an arm needs steps of about 1 ms)
+
+
+def check_initial_positions(robot, q0, given):
+    """ValueError when a joint of ``q0`` is outside its limits, with positions that fit."""
+    outside = np.flatnonzero((q0 < robot.lower) | (q0 > robot.upper))
+    if outside.size:
+        j, lo, hi = outside[0], robot.lower, robot.upper
+        middle, bounded = np.clip(0.0, lo, hi), np.isfinite(lo) & np.isfinite(hi)
+        middle[bounded] = (lo[bounded] + hi[bounded]) / 2
+        example = ", ".join(f"{x:.4f}" for x in middle)
+        raise ValueError(
+            f"initial_positions{'' if given else ' (not set: zeros)'}: {robot.joint_names[j]} = "
+            f"{q0[j]} is outside its limits [{lo[j]}, {hi[j]}]; give positions within the "
+            f"limits, e.g. the middle of each range: -p initial_positions:=[{example}]")
+
+
+def session(robot, p: dict):
+    """(the ``Session`` of ``robot`` under the parameter values ``p``, the notes to log as
+    (level, text)). ``StartupError`` or ``ValueError`` naming a bad parameter."""
+    q0 = parameters.per_joint("initial_positions", p["initial_positions"], robot,
+                              np.zeros(robot.dof))
+    check_initial_positions(robot, q0, p["initial_positions"])
+    limit = parameters.per_joint("effort_limits", p["effort_limits"], robot,
+                                 robot.effort_limit, positive=True)
+    for name in ("sim_dt", "publish_rate", "clock_rate"):
+        if not 0 < p[name] < np.inf:
+            raise ValueError(f"parameter {name!r} must be > 0, got {p[name]}")
+    kp, kd = (parameters.per_joint(f"servo.{x}", p[f"servo.{x}"], robot, None, positive=True)
+              for x in ("kp", "kd"))
+    if not (np.all(np.isfinite(kp)) and np.all(np.isfinite(kd))):
+        raise ValueError("parameters 'servo.kp' and 'servo.kd' must be finite")
+    notes = []
+    if p["sim_dt"] > COARSE_DT:
+        notes.append(("warning", f"sim_dt = {p['sim_dt']} s is a coarse step (above "
+                      f"{COARSE_DT} s): an arm needs about 0.001 s (the default) to be "
+                      "simulated faithfully; was sim_dt:=0.001 meant?"))
+    floating = has_base(robot)
+    pose = floating_state.initial_pose(p["initial_base_pose"]) if floating else None
+    out = Session(robot, q0, base_pose=pose, integrator=p["integrator"], dt=dt_ns(p) * 1e-9,
+                  dissipation=p["dissipation.enabled"],
+                  position_limits=p["position_limits"] and not floating,
+                  effort_limits=limit if p["clamp_effort"] else None, servo_kp=kp,
+                  servo_kd=kd, command_timeout=p["command_timeout"],
+                  command_timeout_action=p["command_timeout_action"],
+                  wrench_timeout=p["external_wrench_timeout"], paused=p["start_paused"])
+    if floating and p["position_limits"]:
+        notes.append(("info", "floating base: no hard stops at the joint limits "
+                      "(position_limits is not available on a floating base)"))
+    if out.timeout_action != p["command_timeout_action"]:
+        notes.append(("warning", "command_timeout_action 'brake' needs the joint servo "
+                      f"(integrator {' or '.join(out.integrator.SERVO_METHODS)}): the arm "
+                      "goes limp at the timeout"))
+    return out, notes

@@ -1,0 +1,136 @@
+"""The simulator node's loop without a node (``ros/simulator_loop.py``), on the test's clock:
+which steps publish joint_states and /clock (and their stamps), commands and their notes,
+~/step and ~/reset answers, the thread's schedule, /diagnostics and the closing line."""
+import threading
+
+import numpy as np
+import pytest
+
+import serial_dynamics as sd
+from serial_dynamics.model.errors import Rejected
+from serial_dynamics.robots.synthetic import satellite_urdf
+from serial_dynamics.ros import parameters
+from serial_dynamics.ros.simulator_loop import SimulatorLoop
+from serial_dynamics.ros.simulator_parameters import PARAMETERS, session
+
+UR5E = sd.default_robot()
+HOME = [0.0, -1.571, 1.571, -1.571, -1.571, 0.0]
+
+
+class Clock:
+    def __init__(self, step=0.0):
+        self.t, self.step = 100.0, step
+
+    def __call__(self):
+        self.t += self.step
+        return self.t
+
+
+def loop(robot=UR5E, clock=None, **changes):
+    p = {**parameters.defaults(PARAMETERS), "initial_positions": HOME, **changes}
+    return SimulatorLoop(session(robot, p)[0], p, clock or Clock())
+
+
+def test_joint_states_and_clock_fall_due_on_their_steps():
+    sim = loop(sim_dt=0.002, publish_rate=50.0, clock_rate=100.0, publish_clock=True)
+    assert (sim.publish_every, sim.clock_every, sim.dt_ns) == (10, 5, 2_000_000)
+    ticks = [sim.step() for _ in range(20)]
+    assert [k + 1 for k, t in enumerate(ticks) if t.publish] == [10, 20]
+    assert [t.clock_ns for t in ticks if t.clock_ns] == [10_000_000, 20_000_000,
+                                                          30_000_000, 40_000_000]
+    assert sim.clock_ns(7) == 14_000_000
+    quiet = loop(publish_clock=False)
+    assert quiet.step().clock_ns is None and quiet.clock_ns(7) is None
+
+
+def test_commands_clamp_with_a_note_and_refuse_targets_without_a_servo():
+    sim = loop()
+    assert sim.command(None, np.arange(6.0)) is None
+    np.testing.assert_array_equal(sim.session.hold.tau, np.arange(6.0))
+    note = sim.command(np.array([3, 1]), np.array([-40.0, 1.0]))
+    assert note == ("effort command for wrist_1_joint: -40, beyond its limit 28; clamped to "
+                    "the limit (logged once)")
+    np.testing.assert_array_equal(sim.session.hold.tau, [0.0, 1.0, 2.0, -28.0, 4.0, 5.0])
+    assert sim.command(np.array([2]), None, np.array([1.2]), None) is None   # effort: 0
+    assert sim.session.hold.tau[2] == 0.0 and sim.report()[-1] == ("servoed joints", 1)
+    rk4 = loop(integrator="rk4")
+    with pytest.raises(Rejected, match="need an integrator with the implicit servo"):
+        rk4.command(np.array([0]), None, None, np.array([0.1]))
+    assert rk4.command(np.array([0]), np.array([2.0])) is None
+    # the integrator says which methods have the servo (a floating base's: its own)
+    sat = loop(sd.load_urdf(satellite_urdf(), gravity=(0, 0, 0)), initial_positions=None,
+               floating_base=True, integrator="rk4")
+    with pytest.raises(Rejected, match=r"implicit servo \('semi_implicit_euler',\); this"):
+        sat.command(np.array([0]), None, np.array([0.1]), None)
+
+
+def test_single_steps_only_while_paused_and_say_where_they_stopped():
+    sim, published = loop(start_paused=False, step_count=5), []
+    assert sim.single_steps(lambda force: sim.step(force).ok, lambda: published.append(1)) == (
+        False, "not paused: ~/step advances a paused simulation (~/pause true first)")
+    sim = loop(start_paused=True, step_count=5, sim_dt=0.002)
+    done, message = sim.single_steps(lambda force: sim.step(force).ok,
+                                     lambda: published.append(sim.session.k))
+    assert (done, message, published) == (True, "advanced 5 step(s) to t = 0.010000 s", [5])
+    # a kick to infinity: the third step diverges, the session pauses at the last good state
+    wild = loop(start_paused=True, step_count=5, clamp_effort=False)
+    wild.command(None, np.full(6, 1e12))
+    done, message = wild.single_steps(lambda force: wild.step(force).ok, lambda: None)
+    assert not done and message.startswith("advanced ")
+    assert message.endswith("; stopped: the step diverged (see the log)")
+    assert wild.session.k < 5 and wild.report()[2] == ("divergence events", 1)
+
+
+def test_reset_answers_name_what_was_reset():
+    sim = loop()
+    sim.step()
+    assert sim.reset() == "state reset to initial_positions, at rest"
+    np.testing.assert_array_equal(sim.session.q, HOME)
+    sat = loop(sd.load_urdf(satellite_urdf(), gravity=(0, 0, 0)), initial_positions=None,
+               floating_base=True)
+    assert sat.reset() == "state reset to initial_base_pose and initial_positions, at rest"
+    assert sat.wrench_frame == ("odom", "world") and sat.frames == ("odom", "base_link")
+    assert loop().wrench_frame == ("base_link", "base")
+
+
+def test_the_report_real_time_factor_late_steps_and_the_push():
+    clock = Clock()
+    sim = loop(clock=clock, real_time_factor=1.0)
+    for _ in range(10):
+        sim.step()
+    clock.t += 0.02                    # 10 ms simulated in 20 ms of wall time
+    sim.session.push(np.array([1.0, 0.0, -2.5, 0.0, 0.125, 0.0]))
+    assert sim.report() == [("real-time factor", "0.500", True), ("late steps", 0),
+                            ("divergence events", 0), ("external wrench", "1 0 -2.5 0 0.125 0"),
+                            ("servoed joints", 0)]
+    for _ in range(10):
+        sim.step()
+    clock.t += 0.01                            # on time: not slow
+    assert sim.report()[0] == ("real-time factor", "1.000", False)
+    sim.session.pause(True)
+    assert sim.report()[0] == ("real-time factor", "paused", False)
+
+
+def test_the_thread_steps_on_schedule_publishes_while_paused_and_warns_once():
+    # a clock 1 s later at every look: every step is more than MAX_LAG late
+    clock, stop, warned = Clock(step=1.0), threading.Event(), []
+    sim = loop(clock=clock, real_time_factor=1.0)
+
+    def step():
+        sim.step()
+        if sim.session.k == 25:
+            stop.set()
+    sim.run(stop, step, lambda: None, warned.append)
+    assert sim.session.k == 25 and sim.pacer.reanchors == 25 and sim.pacer.late_steps == 25
+    assert warned == ["cannot keep up with real_time_factor 1.0: the simulation runs slower "
+                      "(logged once)"]
+    # the closing line: 25 ms simulated; since run began the clock was read 27 times (1 s
+    # each): the anchor, 25 looks at the schedule, the summary
+    assert sim.summary() == ("simulated 0.025 s in 27.000 s of wall time (real-time factor "
+                             "0.001, pauses included)")
+    # paused: publishes the state (once here: the publisher stops it), no step
+    stop, published = threading.Event(), []
+    paused = loop(start_paused=True, real_time_factor=0.0)
+    paused.run(stop, lambda: pytest.fail("stepped while paused"),
+               lambda: (published.append(paused.session.k), stop.set()), warned.append)
+    assert published == [0] and paused.summary() is None

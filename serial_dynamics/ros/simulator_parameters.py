@@ -46,8 +46,8 @@ PARAMETERS = {
                  "joint, for joint_commands with position and/or velocity targets"),
     **parameters.PAYLOAD_PARAMETERS,
     "floating_base": ("bool", False, "the chain's base link floats free (FloatingRobot): the "
-                      "base pose on odom (nav_msgs/Odometry), ~/set_base_state; no joint "
-                      "servo, no position_limits"),
+                      "base pose on odom (nav_msgs/Odometry), ~/set_base_state; the joint "
+                      "servo with semi_implicit_euler only, no position_limits"),
     "initial_base_pose": ("double[]", floating_state.IDENTITY, "floating_base: the base pose "
                           "at start and after ~/reset, [x, y, z, qx, qy, qz, qw] in odom_frame "
                           "(the quaternion is normalized)"),

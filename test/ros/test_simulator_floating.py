@@ -6,7 +6,8 @@ The base pose published on ``odom`` (and the joints on ``joint_states``) after t
 the library's own ``sd.simulate`` of the same commands (the node's method and dt): a node
 that let the base stand still, published the twist in the world frame, or mixed the
 quaternion order would be far off. ``~/set_base_state`` and ``~/reset`` move the base; a
-push on the tip (``external_wrench``) is in world coordinates; servo targets are refused.
+push on the tip (``external_wrench``) is in world coordinates; servo targets drive the
+joint servo on the floating base as the library's ``FixedStepIntegrator`` does.
 """
 import numpy as np
 import pytest
@@ -19,6 +20,8 @@ from std_srvs.srv import Trigger
 
 import serial_dynamics as sd
 from serial_dynamics.ros import floating_state
+from serial_dynamics.sim.fixed_step import FixedStepIntegrator
+from serial_dynamics.sim.servo import servo
 
 from conftest import HOME, Latest
 
@@ -136,20 +139,21 @@ def test_odom_is_the_library_run_then_set_base_state_and_reset(sim):
     assert_state(odom, joints, q, v)
     assert sim.diag[f"{NS}/simulator"]["refused ~/set_base_state"] == "1"
 
-    # a push on the tip in world coordinates (odom); servo targets are refused (no servo on
-    # a floating base) and leave the effort in force
+    # a push on the tip in world coordinates (odom) and servo targets (the implicit joint
+    # servo on the floating base, default gains), with the effort in force
     push = WrenchStamped()
     push.header.frame_id = "odom"
     push.wrench.force.x, push.wrench.force.z, push.wrench.torque.y = WRENCH[[0, 2, 4]].tolist()
     sim.wrench.publish(push)
-    sim.joint.publish(JointState(name=ROBOT.joint_names, position=HOME))
+    sim.joint.publish(JointState(name=ROBOT.joint_names, position=HOME, effort=EFFORT.tolist()))
     received(sim, "external_wrench", 1)
     received(sim, "joint_commands", 1)
     odom, joints = step(sim)
-    q, v = library(q, v, EFFORT, STEPS, WRENCH)
+    integ = FixedStepIntegrator(ROBOT, "semi_implicit_euler", DT)
+    for _ in range(STEPS):
+        q, v = integ.step(q, v, EFFORT, WRENCH, servo=servo(1e4, 200.0, HOME, None, 6))
     assert_state(odom, joints, q, v)
-    assert sim.diag[f"{NS}/simulator"]["refused joint_commands"] == "1"
-    assert "the joint servo is not available on a floating base" in sim.proc.output()
+    assert "refused joint_commands" not in sim.diag[f"{NS}/simulator"]
 
     # ~/reset: back to initial_base_pose and initial_positions, at rest
     assert sim.ros.call(sim.reset, Trigger.Request()).success

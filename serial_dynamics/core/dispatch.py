@@ -148,6 +148,7 @@ class _Kernels:
     floating_tree_rnea = _EntryPoint()
     floating_tree_fd = _EntryPoint()
     floating_tree_crba = _EntryPoint()
+    tree_kinetic_energy_gradient = _EntryPoint()
 
     def load_all(self, names=None):
         """Compile or load ``names`` (default: every entry point)."""
@@ -173,7 +174,8 @@ class TreeTable:
              "fd": "tree_fd", "rnea_batch": "tree_rnea_batch", "crba_batch": "tree_crba_batch",
              "fd_batch": "tree_fd_batch", "floating_rnea": "floating_tree_rnea",
              "floating_fd": "floating_tree_fd", "floating_crba": "floating_tree_crba",
-             "floating_rows": "floating_rows", "floating_accelerations": "floating_accelerations"}
+             "floating_rows": "floating_rows", "floating_accelerations": "floating_accelerations",
+             "kinetic_energy_gradient": "tree_kinetic_energy_gradient"}
 
     def __getattr__(self, name):
         if name not in self.NAMES:

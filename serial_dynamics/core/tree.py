@@ -1,5 +1,5 @@
-"""Kinematic trees, compiled: Newton-Euler, the composite-rigid-body algorithm and forward
-dynamics (the sparse L^T D L factor of M) on the parent array lambda(i) (``P[i, PARENT]``; Featherstone 2008,
+"""Kinematic trees, compiled: Newton-Euler, the composite-rigid-body algorithm, forward
+dynamics (the sparse L^T D L factor of M) and dT/dq (symplectic Euler's gradient) on the parent array lambda(i) (``P[i, PARENT]``; Featherstone 2008,
 Tables 5.1 and 6.2, whose loops are written for trees).
 
 The same steps as the chain kernels (``rnea.py``'s ``outward_step``, ``body_wrench``,
@@ -169,6 +169,51 @@ tree_fd_core = internal(f8(Pm, D2, D3, D2, D2, D2, D2, D2, In1, In1, In1, In1, i
                                "ltdl_solve_factored"))(tree_fd_core)
 
 
+def tree_ke_gradient_core(P, R, p, qd, V, out):
+    """dT/dq of a tree at fixed qd into ``out`` (energy.py's ``ke_gradient_core`` on
+    lambda(i)); R, p the joint transforms at q; V (n, 12) each body's velocity (omega; v) at
+    its origin and then the momentum H of its subtree, in its frame."""
+    n = out.shape[0]
+    for i in range(n):
+        # the parent's velocity at body i's origin, in frame i; then the joint's rate
+        l = int(P[i, PARENT])
+        wx, wy, wz, vx, vy, vz = ((0.0, 0.0, 0.0, 0.0, 0.0, 0.0) if l < 0 else
+                                  (V[l, 0], V[l, 1], V[l, 2], V[l, 3], V[l, 4], V[l, 5]))
+        px, py, pz = p[i, 0], p[i, 1], p[i, 2]
+        vx, vy, vz = to_child(R, i, vx + wy * pz - wz * py, vy + wz * px - wx * pz,
+                              vz + wx * py - wy * px)
+        wx, wy, wz = to_child(R, i, wx, wy, wz)
+        if P[i, KIND] == 0.0:
+            wz = wz + qd[i]
+        else:
+            vz = vz + qd[i]
+        m, hx, hy, hz = P[i, MASS], P[i, H], P[i, H + 1], P[i, H + 2]
+        Ixx, Iyy, Izz, Ixy, Ixz, Iyz = (P[i, IO], P[i, IO + 1], P[i, IO + 2], P[i, IO + 3],
+                                        P[i, IO + 4], P[i, IO + 5])
+        V[i, 0], V[i, 1], V[i, 2], V[i, 3], V[i, 4], V[i, 5] = wx, wy, wz, vx, vy, vz
+        # h_i: angular I_O omega + h x v, linear m v + omega x h
+        V[i, 6] = Ixx * wx + Ixy * wy + Ixz * wz + hy * vz - hz * vy
+        V[i, 7] = Ixy * wx + Iyy * wy + Iyz * wz + hz * vx - hx * vz
+        V[i, 8] = Ixz * wx + Iyz * wy + Izz * wz + hx * vy - hy * vx
+        V[i, 9] = m * vx + wy * hz - wz * hy
+        V[i, 10] = m * vy + wz * hx - wx * hz
+        V[i, 11] = m * vz + wx * hy - wy * hx
+    for k in range(n - 1, -1, -1):    # H_k complete: its children were added before it
+        nx, ny, nz, fx, fy, fz = V[k, 6], V[k, 7], V[k, 8], V[k, 9], V[k, 10], V[k, 11]
+        wx, wy, wz, vx, vy, vz = V[k, 0], V[k, 1], V[k, 2], V[k, 3], V[k, 4], V[k, 5]
+        # dT/dq_k = -S_k . (V_k x* H_k): -(omega x Hn + v x Hf)_z or -(omega x Hf)_z
+        out[k] = (-(wx * ny - wy * nx + vx * fy - vy * fx) if P[k, KIND] == 0.0
+                  else -(wx * fy - wy * fx))
+        l = int(P[k, PARENT])
+        if l >= 0:                    # H_lambda(k) += X_k^T H_k
+            nx, ny, nz, fx, fy, fz = to_parent(R, p, k, nx, ny, nz, fx, fy, fz)
+            V[l, 6], V[l, 7], V[l, 8] = V[l, 6] + nx, V[l, 7] + ny, V[l, 8] + nz
+            V[l, 9], V[l, 10], V[l, 11] = V[l, 9] + fx, V[l, 10] + fy, V[l, 11] + fz
+
+
+tree_ke_gradient_core = internal(types.void(Pm, D3, D2, In1, D2, Out1))(tree_ke_gradient_core)
+
+
 # ------------------------------------------------------------------ entry points
 # The chain kernels' signatures (dispatch.py), so that ``Robot`` calls either table alike.
 def tree_rnea(P, q, qd, qdd, flags, out):
@@ -292,6 +337,19 @@ def floating_tree_crba(P, q, out):
     return status(chk)
 
 
+def tree_kinetic_energy_gradient(P, q, qd, out):
+    """dT/dq of one state of a fixed-base tree into ``out`` (n,)."""
+    n = P.shape[0] - 1
+    if q.shape[0] != n or qd.shape[0] != n or out.shape[0] != n:
+        return BAD_LENGTH
+    d = new_kin(n)
+    chk = joint_transforms(P, d.sc, d.R, d.p, q, n)
+    for i in range(n):
+        chk += finite(qd[i])
+    tree_ke_gradient_core(P, d.R, d.p, qd, stack_empty((n, 12)), out)
+    return status(chk)
+
+
 _FD = ("tree_fd_core",)
 ENTRY_POINTS = {
     "tree_rnea": (tree_rnea, i8(Pm, Vec, Vec, Vec, i8, Vec), False, ("tree_rnea_core",)),
@@ -307,6 +365,8 @@ ENTRY_POINTS = {
                            ("tree_rnea_core",)),
     "floating_tree_fd": (floating_tree_fd, i8(Pm, Vec, Vec, Vec, Vec, i8, Vec), False, _FD),
     "floating_tree_crba": (floating_tree_crba, i8(Pm, Vec, Mat), False, ("tree_crba_core",)),
+    "tree_kinetic_energy_gradient": (tree_kinetic_energy_gradient, i8(Pm, Vec, Vec, Vec), False,
+                                     ("tree_ke_gradient_core",)),
 }
 SINGLE_STATE = ("tree_rnea", "tree_rnea_wrench", "tree_crba", "tree_fd", "floating_tree_rnea",
-                "floating_tree_fd", "floating_tree_crba")
+                "floating_tree_fd", "floating_tree_crba", "tree_kinetic_energy_gradient")

@@ -367,10 +367,10 @@ class Robot:
 
     def kinetic_energy_gradient(self, q, qd):
         """dT/dq (n,) at fixed qd, T = 1/2 qd^T M(q) qd: C(q, qd)^T qd (one state)."""
-        if self._compiled:
+        if self._k is not None:
             out = _empty(self._n)
-            if K.kinetic_energy_gradient(self._P, np.asarray(q, float), np.asarray(qd, float),
-                                         out) == OK:
+            if self._k.kinetic_energy_gradient(self._P, np.asarray(q, float),
+                                               np.asarray(qd, float), out) == OK:
                 return out
         return energy.kinetic_energy_gradient(self.model, q, qd)
 

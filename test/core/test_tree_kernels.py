@@ -42,6 +42,7 @@ def test_compiled_trees_match_the_reference(rel):
         close(fast.mass_matrix(q[k]), ref.mass_matrix(q[k]))
         close(fast.forward_dynamics(q[k], qd[k], tau[k], wrench=w),
               ref.forward_dynamics(q[k], qd[k], tau[k], wrench=w))
+        close(fast.kinetic_energy_gradient(q[k], qd[k]), ref.kinetic_energy_gradient(q[k], qd[k]))
     for name, args in (("inverse_dynamics", (q, qd, qdd)), ("mass_matrix", (q,)),
                        ("forward_dynamics", (q, qd, tau))):
         batch = getattr(fast, name)(*args)

@@ -33,10 +33,11 @@ def energy_band(robot, method, q0, q_rest, T=100.0, dt=2e-3):
     E0 = robot.total_energy(q, qd)
     swing = E0 - robot.potential_energy(q_rest)
     N = int(round(T / dt))
-    E = np.empty(N)
+    Q, QD = np.empty((N, robot.dof)), np.empty((N, robot.dof))
     for k in range(N):
         q, qd = integ.step(q, qd, zero)
-        E[k] = robot.kinetic_energy(q, qd) + robot.potential_energy(q)
+        Q[k], QD[k] = q, qd
+    E = robot.kinetic_energy(Q, QD) + robot.potential_energy(Q)      # one batch
     err = np.abs(E - E0) / swing
     return err[:N // 10].max(), err[-(N // 10):].max()
 

@@ -252,8 +252,10 @@ def test_identical_across_processes(tmp_path):
                 for dirpath, _, fs in os.walk(cold_a) for f in fs}
     # (b): the same order on the cache (a) filled; (d): the same order on the cache (c)
     # filled in the reverse order (so each kernel was first compiled for another caller)
-    b, tb = _run_helper(tmp_path, "b_warm", "forward", cold_a, second)
-    d, td = _run_helper(tmp_path, "d_warm_from_reversed", "forward", cold_c, second)
+    with ThreadPoolExecutor(max_workers=2) as pool:     # each on its own cache: side by side
+        fb = pool.submit(_run_helper, tmp_path, "b_warm", "forward", cold_a, second)
+        fd = pool.submit(_run_helper, tmp_path, "d_warm_from_reversed", "forward", cold_c, second)
+        (b, tb), (d, td) = fb.result(), fd.result()
     recompiled = sorted(os.path.relpath(p, cold_a) for dirpath, _, fs in os.walk(cold_a)
                         for f in fs for p in [os.path.join(dirpath, f)]
                         if snapshot.get(p) != os.stat(p).st_mtime_ns)

@@ -55,9 +55,13 @@ def test_the_observer_estimates_a_push_on_the_simulated_arm(ros):
             return tau_ext.wait(lambda m: stamp_s(m) >= t0 + seconds,
                                 timeout=120.0, what=f"{seconds} s more of estimates")
 
+        def flag(on, what):           # the latest collision flag is `on` (its own topic: it
+            ros.spin_until(lambda: collision.msgs and collision.msgs[-1].data == on,
+                           30.0, what)    # may trail the estimates on a loaded machine)
+
         quiet = np.array(after(0.5).effort)
         assert np.max(np.abs(quiet)) < 0.05          # nothing pushes yet: ~0
-        assert not collision.msgs[-1].data
+        flag(False, "no collision before the push")
         msg = WrenchStamped()
         f, m = msg.wrench.force, msg.wrench.torque
         f.x, f.y, f.z, m.x, m.y, m.z = W.tolist()
@@ -71,10 +75,10 @@ def test_the_observer_estimates_a_push_on_the_simulated_arm(ros):
         w = np.array([est.force.x, est.force.y, est.force.z,
                       est.torque.x, est.torque.y, est.torque.z])
         assert np.linalg.norm(w - W) <= 0.02 * np.linalg.norm(W)
-        assert collision.msgs[-1].data                # |r| is far beyond 3 N m
+        flag(True, "a collision with the push")       # |r| is far beyond 3 N m
         push.publish(WrenchStamped())                 # a zero wrench: the push ends
         after(0.5)
-        assert not collision.msgs[-1].data            # below 0.5 x 3 N m everywhere again
+        flag(False, "no collision after it")          # below 0.5 x 3 N m everywhere again
     finally:
         for sub in (states, tau_ext, wrench, collision):
             sub.destroy()

@@ -47,7 +47,7 @@ PARAMETERS = {
     **parameters.PAYLOAD_PARAMETERS,
     "floating_base": ("bool", False, "the chain's base link floats free (FloatingRobot): the "
                       "base pose on odom (nav_msgs/Odometry), ~/set_base_state; the joint "
-                      "servo with semi_implicit_euler only, no position_limits"),
+                      "servo with semi_implicit_euler only"),
     "initial_base_pose": ("double[]", floating_state.IDENTITY, "floating_base: the base pose "
                           "at start and after ~/reset, [x, y, z, qx, qy, qz, qw] in odom_frame "
                           "(the quaternion is normalized)"),
@@ -99,14 +99,11 @@ def session(robot, p: dict):
     pose = floating_state.initial_pose(p["initial_base_pose"]) if floating else None
     out = Session(robot, q0, base_pose=pose, integrator=p["integrator"], dt=dt_ns(p) * 1e-9,
                   dissipation=p["dissipation.enabled"],
-                  position_limits=p["position_limits"] and not floating,
+                  position_limits=p["position_limits"],
                   effort_limits=limit if p["clamp_effort"] else None, servo_kp=kp,
                   servo_kd=kd, command_timeout=p["command_timeout"],
                   command_timeout_action=p["command_timeout_action"],
                   wrench_timeout=p["external_wrench_timeout"], paused=p["start_paused"])
-    if floating and p["position_limits"]:
-        notes.append(("info", "floating base: no hard stops at the joint limits "
-                      "(position_limits is not available on a floating base)"))
     if out.timeout_action != p["command_timeout_action"]:
         notes.append(("warning", "command_timeout_action 'brake' needs the joint servo "
                       f"(integrator {' or '.join(out.integrator.SERVO_METHODS)}): the arm "

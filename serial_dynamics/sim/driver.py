@@ -198,10 +198,11 @@ def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853"
             raise ValueError(f"{name} has a NaN or Inf entry")
     if robot.is_floating:           # the pose on SE(3): sim/floating.py
         check_floating(method, position_limits, base_motion, dt, rtol, atol)
-    outside = np.flatnonzero((q0 < robot.lower) | (q0 > robot.upper)) if position_limits else []
+    qj = q0[q0.shape[0] - n:]                       # the joints (after a floating base's pose)
+    outside = np.flatnonzero((qj < robot.lower) | (qj > robot.upper)) if position_limits else []
     if len(outside):
         j = outside[0]
-        raise ValueError(f"q0: {robot.joint_names[j]} = {q0[j]:g} is outside its limits "
+        raise ValueError(f"q0: {robot.joint_names[j]} = {qj[j]:g} is outside its limits "
                          f"[{robot.lower[j]:g}, {robot.upper[j]:g}]; start inside them, or "
                          "simulate without position_limits")
     torque_fn, torque_kind = input_fn(torque, n, "torque", duration, robot.joint_names)
@@ -223,7 +224,8 @@ def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853"
                                rtol=None if fixed else (DEFAULT_RTOL if rtol is None else rtol),
                                atol=None if fixed else (DEFAULT_ATOL if atol is None else atol),
                                max_step=max_step, first_step=first_step, dissipation=dissipation,
-                               output_dt=output_dt, check_energy=check_energy, bar=bar)
+                               output_dt=output_dt, check_energy=check_energy, bar=bar,
+                               position_limits=position_limits)
         elif method in FIXED_STEP:
             if rtol is not None or atol is not None:
                 raise ValueError(f"{method!r} is a fixed-step method: give dt, not rtol/atol")
@@ -261,9 +263,12 @@ def check_floating(method, position_limits, base_motion, dt, rtol, atol):
     if method not in FLOATING_METHODS:
         raise ValueError(f"method {method!r} is not available for a floating base; use one of "
                          f"{list(FLOATING_METHODS)}")
-    if position_limits or base_motion is not None:
-        raise ValueError("position_limits and base_motion are not available for a floating "
-                         "base (its base moves by its own dynamics)")
+    if base_motion is not None:
+        raise ValueError("base_motion is not available for a floating base (its base moves "
+                         "by its own dynamics)")
+    if position_limits and method not in FLOATING_FIXED_STEP:
+        raise ValueError(f"position_limits needs a fixed-step method "
+                         f"{list(FLOATING_FIXED_STEP)}: {method!r} has no impact events")
     if method in FLOATING_FIXED_STEP and (rtol is not None or atol is not None):
         raise ValueError(f"{method!r} is a fixed-step method: give dt, not rtol/atol")
     if method not in FLOATING_FIXED_STEP and dt is not None:

@@ -18,7 +18,10 @@ when |dtheta| exceeds CHART_LIMIT = 1 rad (far from the chart's singularity at 2
 Methods: the adaptive ones ("RK45", "DOP853", "Radau", "BDF", "LSODA"; the implicit ones
 with scipy's finite-difference Jacobian) and the fixed-step "semi_implicit_euler" (v, then
 the pose with the new v: q(dt phi'(v_new)) in the chart at q; with the joint servo of
-``servo.py`` integrated implicitly, its gains on the joints' rows of the whole M) and "rk4".
+``servo.py`` integrated implicitly, its gains on the joints' rows of the whole M) and "rk4";
+both with hard stops at the joint limits (``stops.py``'s plastic impact on the whole M: the
+base is never stopped, the impulse moves it; a joint resting on its stop is put back on it
+each step, without ``JointStops.hold``).
 Joint dissipation as for a fixed base, with Coulomb friction smoothed (tanh) by every method (no stick-slip). Energies and
 works as for a fixed base: E(t) - E(0) = W_act + W_diss + W_ext.
 """
@@ -34,6 +37,7 @@ from ..model.errors import SimulationError
 from .methods import ADAPTIVE, advice
 from .result import SolverStats, finish
 from .servo import Servo, euler_servo
+from .stops import JointStops
 
 CHART_LIMIT = 1.0          # rad: an adaptive run moves to a new chart beyond this turn
 FLOATING_FIXED_STEP = ("semi_implicit_euler", "rk4")
@@ -119,15 +123,13 @@ class FloatingStepIntegrator(FixedStepIntegrator):
         if method not in self.METHODS:
             raise ValueError(f"fixed-step method {method!r} is not available for a floating "
                              f"base; use one of {self.METHODS}")
-        if kw.get("position_limits"):
-            raise ValueError("position_limits is not available for a floating base")
         if not dt > 0:
             raise ValueError(f"dt = {dt}; the step must be > 0 s")
         self.robot, self.method, self.dt, self.dissipation = robot, method, float(dt), dissipation
         self.rhs = FloatingStepper(robot, dissipation, method, self.dt)
         self.eq = self.rhs.eq
         self.stages = self.jacobians = self.newton_iterations = self.newton_stalls = 0
-        self.stops = None
+        self.stops = JointStops.of(self.eq) if kw.get("position_limits") else None
         self.servo_torque = np.zeros(robot.dof)
 
     def step(self, q, qd, tau, wrench=None, t=None, servo=None):
@@ -170,6 +172,9 @@ class FloatingStepIntegrator(FixedStepIntegrator):
             nv = self.robot.nv
             q1, v1, dW = chart_point(q, x1[:nv]), x1[nv:2 * nv], x1[2 * nv:]
         rhs.check(t + dt, q1, v1)
+        if self.stops:                              # plastic impacts at the joints' stops
+            q1, v1, dE = self.stops.impact(q1, v1, energy)
+            dW = dW + np.array([0.0, dE, 0.0])
         return q1, v1, (tau, delta, a, dW)
 
     def _f(self, q_ref, x, known, inputs, t):
@@ -206,12 +211,13 @@ FixedStepIntegrator._kinds["floating"] = FloatingStepIntegrator
 
 
 def run_floating(robot, duration, q0, v0, inputs, method, *, rtol, atol, dt, max_step,
-                 first_step, dissipation, output_dt, check_energy, bar):
+                 first_step, dissipation, output_dt, check_energy, bar, position_limits=False):
     """``simulate`` for a floating robot (module docstring)."""
     if method in ADAPTIVE:
         return _run_adaptive(robot, duration, q0, v0, inputs, method, rtol, atol, max_step,
                              first_step, dissipation, output_dt, check_energy, bar)
-    integ = FloatingStepIntegrator(robot, method, dt, dissipation)
+    integ = FloatingStepIntegrator(robot, method, dt, dissipation,
+                                   position_limits=position_limits)
     eq = integ.eq
     nsteps = int(np.ceil(duration / dt - 1e-9))
     every = 1 if output_dt is None else max(1, int(round(output_dt / dt)))
@@ -229,7 +235,10 @@ def run_floating(robot, duration, q0, v0, inputs, method, *, rtol, atol, dt, max
     a, tau, delta, _ = integ.rhs.rates(nsteps * dt, q, v, inputs)
     rows.append((nsteps * dt, q, v, a, tau, delta, W))
     guard(nsteps * dt, q, v, W)
-    stats = SolverStats(method, steps=nsteps, nfev=integ.stages, message=f"fixed step dt = {dt:g} s")
+    stats = SolverStats(method, steps=nsteps, nfev=integ.stages,
+                        message=f"fixed step dt = {dt:g} s" + (
+                            f"; a joint reached a stop in {integ.impacts} steps"
+                            if integ.impacts else ""))
     return _finish(eq, rows, stats, robot)
 
 

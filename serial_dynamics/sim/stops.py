@@ -75,35 +75,44 @@ class JointStops:
         At the next step ``hold`` holds a stopped joint on its stop. Returns (q, qd, dE),
         dE = E(after) - E(before): the work of the stops (kinetic energy lost, and the
         potential energy of the position reset), counted with the dissipated work; 0.0
-        unless ``energy``."""
-        hi, lo = q > self.upper, q < self.lower                                  # beyond
+        unless ``energy``.
+
+        On a floating base (q (n+7), qd the twist and the joint rates, n+6) the joints are
+        the last n coordinates and the base is never stopped: the impulse moves it too."""
+        robot = self.eq.robot
+        nb = qd.shape[0] - self.eq.n                          # the base's rows of v first
+        qj = q[q.shape[0] - self.eq.n:]
+        hi, lo = qj > self.upper, qj < self.lower                                 # beyond
         if not (hi.any() or lo.any()):
             return q, qd, 0.0
         side = hi * 1.0 - lo
         self.impacts += 1
-        robot = self.eq.robot
         E0 = float(robot.kinetic_energy(q, qd) + robot.potential_energy(q)) if energy else 0.0
-        q = np.clip(q, self.lower, self.upper)
-        stopped = (side != 0.0) & (qd * side > 0.0)           # moving outward
-        if stopped.any():
-            on = self.side(q)                                 # beyond before, or already on
-            M = robot.mass_matrix(q)
-            for _ in range(2 * self.eq.n):                    # active set over the stops
-                free = ~stopped
-                v = qd.copy()
-                v[stopped] = 0.0
-                if free.any():
-                    v[free] += np.linalg.solve(M[np.ix_(free, free)],
-                                               M[np.ix_(free, stopped)] @ qd[stopped])
-                pull = np.where(stopped, (M @ (v - qd)) * on, 0.0)   # impulse > 0: pulls
-                if np.any(pull > 0.0):
-                    stopped[int(np.argmax(pull))] = False
-                    continue
-                kicked = free & (v * on > 0.0)                # pushed out through its stop
-                if not kicked.any():
-                    break
-                stopped |= kicked
-            qd = v
+        q = np.concatenate([q[:q.shape[0] - self.eq.n], np.clip(qj, self.lower, self.upper)])
+        stopped = np.r_[np.zeros(nb, dtype=bool), (side != 0.0) & (qd[nb:] * side > 0.0)]
+        if stopped.any():                                     # moving outward
+            on = np.r_[np.zeros(nb), self.side(q[q.shape[0] - self.eq.n:])]   # beyond or on
+            qd = _plastic(robot.mass_matrix(q), qd, stopped, on)
         dE = (float(robot.kinetic_energy(q, qd) + robot.potential_energy(q)) - E0
               if energy else 0.0)
         return q, qd, dE
+
+
+def _plastic(M, qd, stopped, on):
+    """The rates after the plastic impact at the ``stopped`` coordinates, with the active
+    set over the stops (``JointStops.impact``); ``on``: +1 / -1 on an upper / lower stop."""
+    for _ in range(2 * qd.shape[0]):
+        free = ~stopped
+        v = qd.copy()
+        v[stopped] = 0.0
+        if free.any():
+            v[free] += np.linalg.solve(M[np.ix_(free, free)], M[np.ix_(free, stopped)] @ qd[stopped])
+        pull = np.where(stopped, (M @ (v - qd)) * on, 0.0)    # impulse > 0: pulls
+        if np.any(pull > 0.0):
+            stopped[int(np.argmax(pull))] = False
+            continue
+        kicked = free & (v * on > 0.0)                        # pushed out through its stop
+        if not kicked.any():
+            break
+        stopped |= kicked
+    return v

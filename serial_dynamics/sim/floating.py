@@ -18,12 +18,14 @@ when |dtheta| exceeds CHART_LIMIT = 1 rad (far from the chart's singularity at 2
 Methods: the adaptive ones ("RK45", "DOP853", "Radau", "BDF", "LSODA"; the implicit ones
 with scipy's finite-difference Jacobian) and the fixed-step "semi_implicit_euler" (v, then
 the pose with the new v: q(dt phi'(v_new)) in the chart at q; with the joint servo of
-``servo.py`` integrated implicitly, its gains on the joints' rows of the whole M) and "rk4";
-both with hard stops at the joint limits (``stops.py``'s plastic impact on the whole M: the
-base is never stopped, the impulse moves it; a joint resting on its stop is put back on it
-each step, without ``JointStops.hold``).
-Joint dissipation as for a fixed base, with Coulomb friction smoothed (tanh) by every method (no stick-slip). Energies and
-works as for a fixed base: E(t) - E(0) = W_act + W_diss + W_ext.
+``servo.py`` integrated implicitly, its gains on the joints' rows of the whole M), "rk4",
+and "implicit_midpoint" (x1 = x0 + dt f((x0 + x1)/2) in the chart at q: symmetric, by
+simplified Newton with a finite-difference Jacobian, ``_midpoint``); each with hard stops
+at the joint limits (``stops.py``'s plastic impact on the whole M: the base is never
+stopped, the impulse moves it; a joint resting on its stop is put back on it each step,
+without ``JointStops.hold``). Joint dissipation as for a fixed base, with Coulomb friction
+smoothed (tanh) by every method (no stick-slip). Energies and works as for a fixed base:
+E(t) - E(0) = W_act + W_diss + W_ext.
 """
 from __future__ import annotations
 
@@ -40,7 +42,8 @@ from .servo import Servo, euler_servo
 from .stops import JointStops
 
 CHART_LIMIT = 1.0          # rad: an adaptive run moves to a new chart beyond this turn
-FLOATING_FIXED_STEP = ("semi_implicit_euler", "rk4")
+FLOATING_FIXED_STEP = ("semi_implicit_euler", "rk4", "implicit_midpoint")
+NEWTON_TOL, MAX_NEWTON = 1e-10, 10   # implicit midpoint: relative correction, iterations
 FLOATING_METHODS = ADAPTIVE + FLOATING_FIXED_STEP
 _ZERO_CHART = np.zeros(6)                 # phi's rotation part at the chart's centre
 
@@ -114,7 +117,7 @@ class FloatingStepper:
 class FloatingStepIntegrator(FixedStepIntegrator):
     """``FixedStepIntegrator`` for a floating robot: ``step(q, v, tau, wrench=None,
     servo=None)`` with q (n+7), v (n+6) and joint torques tau (n,); "semi_implicit_euler"
-    (with the joint servo) or "rk4"."""
+    (with the joint servo), "rk4" or "implicit_midpoint"."""
 
     METHODS = FLOATING_FIXED_STEP
     SERVO_METHODS = ("semi_implicit_euler",)
@@ -161,6 +164,11 @@ class FloatingStepIntegrator(FixedStepIntegrator):
             phi[6:] += q[7:]                        # the chart holds the joints themselves
             q1 = chart_point(q, phi)
             dW = dt * np.array([tau @ v1[6:], delta @ v1[6:], p[2]])
+        elif self.method == "implicit_midpoint":    # x1 = x0 + dt f((x0 + x1) / 2) in the chart
+            x0 = np.concatenate([np.zeros(6), q[7:], v, np.zeros(3)])
+            x1 = self._midpoint(q, x0, x0 + dt * self._f(q, x0, (a, p), inputs, t), inputs, t)
+            nv = self.robot.nv
+            q1, v1, dW = chart_point(q, x1[:nv]), x1[nv:2 * nv], x1[2 * nv:]
         else:                                       # RK4 in the chart at q (RKMK)
             self.stages += 4
             x0 = np.concatenate([np.zeros(6), q[7:], v, np.zeros(3)])
@@ -176,6 +184,42 @@ class FloatingStepIntegrator(FixedStepIntegrator):
             q1, v1, dE = self.stops.impact(q1, v1, energy)
             dW = dW + np.array([0.0, dE, 0.0])
         return q1, v1, (tau, delta, a, dW)
+
+    def _midpoint(self, q, x0, x1, inputs, t):
+        """The implicit midpoint rule's x1 in the chart at q, by simplified Newton from the
+        guess x1 (explicit Euler): the Jacobian of f by forward differences at the guess's
+        midpoint (2 nv + 1 calls), then x1 += (1 - dt/2 J)^-1 (x0 + dt f(xm) - x1) until the
+        correction is below NEWTON_TOL (relative). The works (x's last three) follow f at
+        the final midpoint; they do not feed back."""
+        dt, m, tm = self.dt, 2 * self.robot.nv, t + 0.5 * self.dt
+
+        def f(x):
+            self.stages += 1
+            return self._f(q, x, None, inputs, tm)
+
+        xm = 0.5 * (x0 + x1)
+        fm = f(xm)
+        J = np.empty((m, m))
+        for j in range(m):
+            h = 1e-7 * max(1.0, abs(xm[j]))
+            xp = xm.copy()
+            xp[j] += h
+            J[:, j] = (f(xp)[:m] - fm[:m]) / h
+        self.jacobians += 1
+        A = np.eye(m) - 0.5 * dt * J
+        for _ in range(MAX_NEWTON):
+            dx = np.linalg.solve(A, x0[:m] + dt * fm[:m] - x1[:m])
+            x1[:m] += dx
+            fm = f(0.5 * (x0 + x1))
+            self.newton_iterations += 1
+            if np.linalg.norm(dx) <= NEWTON_TOL * (1.0 + np.linalg.norm(x1[:m])):
+                break
+        else:
+            raise SimulationError(f"implicit midpoint: Newton did not converge within "
+                                  f"{MAX_NEWTON} iterations at t = {t:.6g} s. "
+                                  f"{advice(self.method, dt)}", t, None, "newton")
+        x1[m:] = x0[m:] + dt * fm[m:]
+        return x1
 
     def _f(self, q_ref, x, known, inputs, t):
         nv = self.robot.nv

@@ -51,7 +51,7 @@ def cases(tmp):
          "initial_base_pose has a quaternion [qx, qy, qz, qw] = [0.0, 0.0, 0.0, 0.0] of length 0"),
         ("simulator", {"floating_base": True, "integrator": "symplectic_euler"},
          "'symplectic_euler' is not available for a floating base; use one of "
-         "('semi_implicit_euler', 'rk4')"),
+         "('semi_implicit_euler', 'rk4', 'implicit_midpoint')"),
     ]
 
 

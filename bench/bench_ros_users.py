@@ -1,5 +1,5 @@
 """What ROS users ask next: the cost of the dynamics node's ~/estimate_payload and
-~/time_parameterize calls (round trip from a client node, p50 and p99, with ~/inverse_dynamics
+~/time_parameterize and ~/task_space calls (round trip from a client node, p50 and p99, with ~/inverse_dynamics
 as the baseline in the same run), the time-parameterization's cost and result against its
 grid size (our batched path torques against toppra's own JointTorqueConstraint, which calls
 inverse dynamics point by point), TOPP-RA against the textbook's minimum-time maneuver
@@ -113,7 +113,8 @@ def services(calls, blas_threads=None):
     from builtin_interfaces.msg import Time
     from rclpy.executors import SingleThreadedExecutor
     from sensor_msgs.msg import JointState
-    from serial_dynamics_interfaces.srv import EstimatePayload, InverseDynamics, TimeParameterize
+    from serial_dynamics_interfaces.srv import (EstimatePayload, InverseDynamics, TaskSpace,
+                                                TimeParameterize)
     from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
     from serial_dynamics.ros.processes import NodeProcess
@@ -144,7 +145,7 @@ def services(calls, blas_threads=None):
         pub = node.create_publisher(JointState, "/bench_users/joint_states", 50)
         clients = {k: node.create_client(s, f"/bench_users/dynamics/{k}") for k, s in (
             ("estimate_payload", EstimatePayload), ("time_parameterize", TimeParameterize),
-            ("inverse_dynamics", InverseDynamics))}
+            ("inverse_dynamics", InverseDynamics), ("task_space", TaskSpace))}
         spin_until(lambda: all(c.service_is_ready() for c in clients.values())
                    and pub.get_subscription_count() > 0)
         for k in range(t.size):
@@ -160,7 +161,9 @@ def services(calls, blas_threads=None):
             "inverse_dynamics": InverseDynamics.Request(positions=HOME.tolist()),
             "estimate_payload": EstimatePayload.Request(window=0.0),
             "time_parameterize": TimeParameterize.Request(path=path, effort_limits=EFFORT.tolist(),
-                                                          grid=200)}
+                                                          grid=200),
+            "task_space": TaskSpace.Request(positions=HOME.tolist(), velocities=[0.5] * 6,
+                                            damping=0.01)}
         rows = []
         for key, req in requests.items():
             ms, answer = [], None
@@ -178,7 +181,11 @@ def services(calls, blas_threads=None):
         # the library calls behind them, in this process
         lib = {"estimate_payload": lambda: ident.estimate_payload(robot, t, q, tau),
                "time_parameterize": lambda: tj.time_parameterize(robot, PATH, effort_limit=EFFORT,
-                                                                 grid=200)}
+                                                                 grid=200),
+               "task_space": lambda: (robot.jacobian(HOME), robot.frame_acceleration(
+                   HOME, np.full(6, 0.5), np.zeros(6)), robot.jacobian_dot_qd(HOME, np.full(6, 0.5)),
+                   robot.operational_space_inertia(HOME, None, 0.01),
+                   robot.dynamically_consistent_inverse(HOME, None, 0.01))}
         return rows, {k: 1e3 * best(f) for k, f in lib.items()}, t.size
     finally:
         proc.stop()
@@ -206,7 +213,8 @@ def main(argv=None):
              "| service | p50 (ms) | p99 (ms) | the library call alone (ms) |", "|---|---|---|---|"]
     what = {"inverse_dynamics": "one state (the baseline)",
             "estimate_payload": f"{samples} joint_states (6 s at 100 Hz)",
-            "time_parameterize": f"{len(PATH)} waypoints, grid 200"}
+            "time_parameterize": f"{len(PATH)} waypoints, grid 200",
+            "task_space": "the tip at one state, damping 0.01: J, its acceleration, J-dot qd, Lambda, J-bar"}
     for key, p50, p99, _ in svc:
         alone = f"{lib[key]:.1f}" if key in lib else "-"
         lines.append(f"| `~/{key}` ({what[key]}) | {p50:.2f} | {p99:.2f} | {alone} |")

@@ -7,7 +7,8 @@ trajectory as ROS 2 services, and the inverse-dynamics request/response topic pa
 Services (types in serial_dynamics_interfaces/srv; checked and answered by ``requests.py``):
 ``~/inverse_dynamics``, ``~/forward_dynamics``, ``~/mass_matrix``, ``~/trajectory_torques``;
 ``~/estimate_payload`` (from the ``joint_states`` with efforts it has seen; on request it sets
-its own payload.*) and ``~/time_parameterize`` (``payload_timing.py``).
+its own payload.*) and ``~/time_parameterize`` (``payload_timing.py``); ``~/task_space``
+(a link's J, acceleration, J-dot qd, Lambda and J-bar).
 A refused request is answered with ``success: false`` and a message naming the field and
 the fix; the node carries on.
 
@@ -31,7 +32,8 @@ from rclpy.qos import QoSProfile
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from serial_dynamics_interfaces.srv import (EstimatePayload, ForwardDynamics, InverseDynamics,
-                                            MassMatrix, TimeParameterize, TrajectoryTorques)
+                                            MassMatrix, TaskSpace, TimeParameterize,
+                                            TrajectoryTorques)
 from trajectory_msgs.msg import JointTrajectory
 
 from . import common, parameters, payload_timing, requests
@@ -76,7 +78,8 @@ class Dynamics(Node):
                 ("trajectory_torques", TrajectoryTorques, self._trajectory_torques),
                 ("estimate_payload", EstimatePayload, self._estimate_payload),
                 ("time_parameterize", TimeParameterize, lambda robot, req:
-                 payload_timing.answer_time_parameterize(robot, req, self.compensate))):
+                 payload_timing.answer_time_parameterize(robot, req, self.compensate)),
+                ("task_space", TaskSpace, requests.answer_task_space)):
             self._latency[f"~/{name}"] = requests.Latency()
             self.create_service(srv_type, f"~/{name}", self._serve(f"~/{name}", answer),
                                 qos_profile=SERVICE_QOS)

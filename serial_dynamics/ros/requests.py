@@ -125,6 +125,33 @@ def answer_mass_matrix(robot, req):
             "mass_matrix": to_array(_finite(robot.mass_matrix(q), "mass matrix").ravel())}
 
 
+def answer_task_space(robot, req):
+    """J, J qdd + J-dot qd, J-dot qd, Lambda and J-bar of ``req.link`` (the tip if empty),
+    row-major, columns (J) and rows (J-bar) in the robot's joint order (TaskSpace.srv)."""
+    index = joint_order(robot, req.joint_names)
+    q = joint_vector(robot, index, req.positions, "positions")
+    qd = joint_vector(robot, index, req.velocities, "velocities", empty_is_zero=True)
+    qdd = joint_vector(robot, index, req.accelerations, "accelerations", empty_is_zero=True)
+    link = req.link or robot.tip_link
+    if link not in robot.link_names and link != robot.tip_link:
+        raise Rejected("link", f"link {link!r} is not a link of the model: name one of "
+                       f"{_show(robot.link_names)}, or leave it empty for the tip")
+    if not (np.isfinite(req.damping) and req.damping >= 0.0):
+        raise Rejected("damping", f"damping = {req.damping}: give a finite value >= 0 "
+                       "(0: none)")
+    return {"joint_names": robot.joint_names,
+            "jacobian": to_array(_finite(robot.jacobian(q, link), "Jacobian").ravel()),
+            "frame_acceleration": to_array(_finite(
+                robot.frame_acceleration(q, qd, qdd, link), "frame acceleration")),
+            "jacobian_dot_qd": to_array(_finite(robot.jacobian_dot_qd(q, qd, link),
+                                                "bias acceleration")),
+            "operational_space_inertia": to_array(_finite(robot.operational_space_inertia(
+                q, link, req.damping), "operational-space inertia").ravel()),
+            "dynamically_consistent_inverse": to_array(_finite(
+                robot.dynamically_consistent_inverse(q, link, req.damping),
+                "dynamically consistent inverse").ravel())}
+
+
 # ------------------------------------------------------------------ the topic pair
 def wrench_in_base(robot, wrench, in_tip, q):
     """A tip wrench (6,) [force; moment] given in the tip frame (``in_tip``) or the base frame,

@@ -1,9 +1,10 @@
-"""The dynamics node's ~/estimate_payload and ~/time_parameterize: their requests in plain
-Python (ros/payload_timing.py, no node), then the node in its own process with real rclpy:
+"""The dynamics node's ~/estimate_payload, ~/time_parameterize and ~/task_space: their
+requests in plain Python (ros/payload_timing.py, ros/requests.py, no node), then the node in
+its own process with real rclpy:
 it records joint_states with efforts of an arm carrying a payload along an excitation, fits
 the payload, sets it on itself on request (its ~/inverse_dynamics then answers with it), and
 times a path within torque limits, refusing an infeasible one with the joint and the
-waypoint."""
+waypoint, and answers a link's task-space dynamics."""
 from types import SimpleNamespace as Msg
 
 import numpy as np
@@ -15,6 +16,7 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 import serial_dynamics as sd
 from serial_dynamics import identification as ident
 from serial_dynamics.ros import payload_timing as pt
+from serial_dynamics.ros.requests import answer_task_space
 from serial_dynamics.ros.throttle import Rejected
 
 srv = pytest.importorskip("serial_dynamics_interfaces.srv")
@@ -104,6 +106,44 @@ def test_time_parameterize_answer():
         pt.answer_time_parameterize(ROBOT, tp_request(path_msg(PATH), effort_limits=[20.0]))
 
 
+def ts_request(q, qd=(), qdd=(), names=(), link="", damping=0.0):
+    return Msg(link=link, joint_names=list(names), positions=list(q), velocities=list(qd),
+               accelerations=list(qdd), damping=damping)
+
+
+def test_task_space_answer():
+    """Every field against its definition composed here from M and J: Lambda = (J M^-1 J^T +
+    d^2 1)^-1, J-bar = M^-1 J^T Lambda, the acceleration J qdd + J-dot qd, with J-dot qd by
+    central differences of J along qd; the state in another joint order."""
+    q, qd = ROBOT.random_state(7)
+    qdd = np.linspace(-1.0, 1.0, 6)
+    order = [4, 0, 5, 1, 3, 2]
+    out = answer_task_space(ROBOT, ts_request(q[order], qd[order], qdd[order],
+                                              [ROBOT.joint_names[i] for i in order],
+                                              "forearm_link", 0.05))
+    J = np.reshape(out["jacobian"], (6, 6))
+    np.testing.assert_array_equal(J, ROBOT.jacobian(q, "forearm_link"))
+    M = ROBOT.mass_matrix(q)
+    lam = np.linalg.inv(J @ np.linalg.solve(M, J.T) + 0.05**2 * np.eye(6))
+    np.testing.assert_allclose(np.reshape(out["operational_space_inertia"], (6, 6)), lam,
+                               rtol=1e-9, atol=1e-9 * np.abs(lam).max())
+    np.testing.assert_allclose(np.reshape(out["dynamically_consistent_inverse"], (6, 6)),
+                               np.linalg.solve(M, J.T) @ lam, rtol=1e-9, atol=1e-9)
+    h = 1e-6
+    jdqd = (ROBOT.jacobian(q + h * qd, "forearm_link") - ROBOT.jacobian(q - h * qd, "forearm_link")) @ qd / (2 * h)
+    np.testing.assert_allclose(out["jacobian_dot_qd"], jdqd, atol=1e-7)
+    np.testing.assert_allclose(out["frame_acceleration"], J @ qdd + jdqd, atol=1e-7)
+    tip = answer_task_space(ROBOT, ts_request(q))              # the tip, at rest: no bias
+    np.testing.assert_array_equal(np.reshape(tip["jacobian"], (6, 6)), ROBOT.jacobian(q))
+    assert not np.any(tip["jacobian_dot_qd"])
+    with pytest.raises(Rejected, match="link 'nose' is not a link of the model"):
+        answer_task_space(ROBOT, ts_request(q, link="nose"))
+    with pytest.raises(Rejected, match="damping = -1.0: give a finite value >= 0"):
+        answer_task_space(ROBOT, ts_request(q, damping=-1.0))
+    with pytest.raises(Rejected, match="positions has 2 values"):
+        answer_task_space(ROBOT, ts_request(q[:2]))
+
+
 # ----------------------------------------------------------------- the node
 def test_the_node_estimates_sets_and_times(ros):
     proc = ros.start("dynamics", {"urdf_path": sd.builtin_path("ur5e")},
@@ -145,4 +185,15 @@ def test_the_node_estimates_sets_and_times(ros):
                                                           effort_limits=[20.0]))
     assert not answer.success and "'shoulder_lift_joint'" in answer.message \
         and "waypoint 0" in answer.message
+    # a link's task-space dynamics, with the payload held
+    task = ros.node.create_client(srv.TaskSpace, "/payload_timing/dynamics/task_space")
+    q, qd = ROBOT.random_state(3)
+    answer = ros.call(task, srv.TaskSpace.Request(link="wrist_2_link", positions=q.tolist(),
+                                                  velocities=qd.tolist(), damping=0.01))
+    assert answer.success, answer.message
+    np.testing.assert_array_equal(answer.operational_space_inertia,
+                                  held.operational_space_inertia(q, "wrist_2_link", 0.01).ravel())
+    np.testing.assert_array_equal(answer.jacobian_dot_qd, held.jacobian_dot_qd(q, qd, "wrist_2_link"))
+    answer = ros.call(task, srv.TaskSpace.Request(link="nose", positions=q.tolist()))
+    assert not answer.success and "'nose'" in answer.message
     assert proc.running()

@@ -36,45 +36,60 @@ from .spatial import finite, joint_transforms, to_child, to_parent
 ROUNDOFF = 1e-10        # a correction below this (relative) that stops shrinking is round-off
 
 
+@internal
+def body_velocity(P, R, p, i, wx, wy, wz, vx, vy, vz, qdi):
+    """Body i's velocity (omega; v at its origin) in frame i from its parent's (omega; v
+    at the parent's origin, parent frame): moved to i's origin, turned into frame i, plus the
+    joint's rate qdi about (along) z."""
+    px, py, pz = p[i, 0], p[i, 1], p[i, 2]
+    vx, vy, vz = to_child(R, i, vx + wy * pz - wz * py, vy + wz * px - wx * pz,
+                          vz + wx * py - wy * px)
+    wx, wy, wz = to_child(R, i, wx, wy, wz)
+    if P[i, KIND] == 0.0:
+        wz = wz + qdi
+    else:
+        vz = vz + qdi
+    return wx, wy, wz, vx, vy, vz
+
+
+@internal
+def body_momentum(P, i, wx, wy, wz, vx, vy, vz):
+    """h_i = I_i V_i about body i's origin: angular I_O omega + h x v, linear m v + omega x h."""
+    m, hx, hy, hz = P[i, MASS], P[i, H], P[i, H + 1], P[i, H + 2]
+    Ixx, Iyy, Izz, Ixy, Ixz, Iyz = (P[i, IO], P[i, IO + 1], P[i, IO + 2], P[i, IO + 3],
+                                    P[i, IO + 4], P[i, IO + 5])
+    return (Ixx * wx + Ixy * wy + Ixz * wz + hy * vz - hz * vy,
+            Ixy * wx + Iyy * wy + Iyz * wz + hz * vx - hx * vz,
+            Ixz * wx + Iyz * wy + Izz * wz + hx * vy - hy * vx,
+            m * vx + wy * hz - wz * hy, m * vy + wz * hx - wx * hz, m * vz + wx * hy - wy * hx)
+
+
+@internal
+def axis_gradient(P, k, wx, wy, wz, vx, vy, vz, nx, ny, nz, fx, fy, fz):
+    """dT/dq_k = -S_k . (V_k x* H_k): -(omega x Hn + v x Hf)_z or -(omega x Hf)_z."""
+    if P[k, KIND] == 0.0:
+        return -(wx * ny - wy * nx + vx * fy - vy * fx)
+    return -(wx * fy - wy * fx)
+
+
 @internal(types.void(Pm, D3, D2, In1, D2, Out1), calls=())
 def ke_gradient_core(P, R, p, qd, V, out):
     """dT/dq into ``out``; R, p the joint transforms at q; V (n, 12) scratch."""
     n = out.shape[0]
     wx = wy = wz = vx = vy = vz = 0.0
     for i in range(n):
-        # body i-1's velocity at body i's origin, in frame i; then the joint's rate
-        px, py, pz = p[i, 0], p[i, 1], p[i, 2]
-        vx, vy, vz = to_child(R, i, vx + wy * pz - wz * py, vy + wz * px - wx * pz,
-                              vz + wx * py - wy * px)
-        wx, wy, wz = to_child(R, i, wx, wy, wz)
-        if P[i, KIND] == 0.0:
-            wz = wz + qd[i]
-        else:
-            vz = vz + qd[i]
-        m = P[i, MASS]
-        hx, hy, hz = P[i, H], P[i, H + 1], P[i, H + 2]
-        Ixx, Iyy, Izz, Ixy, Ixz, Iyz = (P[i, IO], P[i, IO + 1], P[i, IO + 2], P[i, IO + 3],
-                                        P[i, IO + 4], P[i, IO + 5])
+        wx, wy, wz, vx, vy, vz = body_velocity(P, R, p, i, wx, wy, wz, vx, vy, vz, qd[i])
         V[i, 0], V[i, 1], V[i, 2], V[i, 3], V[i, 4], V[i, 5] = wx, wy, wz, vx, vy, vz
-        # h_i: angular I_O omega + h x v, linear m v + omega x h
-        V[i, 6] = Ixx * wx + Ixy * wy + Ixz * wz + hy * vz - hz * vy
-        V[i, 7] = Ixy * wx + Iyy * wy + Iyz * wz + hz * vx - hx * vz
-        V[i, 8] = Ixz * wx + Iyz * wy + Izz * wz + hx * vy - hy * vx
-        V[i, 9] = m * vx + wy * hz - wz * hy
-        V[i, 10] = m * vy + wz * hx - wx * hz
-        V[i, 11] = m * vz + wx * hy - wy * hx
+        V[i, 6], V[i, 7], V[i, 8], V[i, 9], V[i, 10], V[i, 11] = body_momentum(
+            P, i, wx, wy, wz, vx, vy, vz)
     nx = ny = nz = fx = fy = fz = 0.0
     for k in range(n - 1, -1, -1):
         if k < n - 1:               # H of bodies k+1.. into frame k
             nx, ny, nz, fx, fy, fz = to_parent(R, p, k + 1, nx, ny, nz, fx, fy, fz)
         nx, ny, nz = nx + V[k, 6], ny + V[k, 7], nz + V[k, 8]
         fx, fy, fz = fx + V[k, 9], fy + V[k, 10], fz + V[k, 11]
-        wx, wy, wz, vx, vy, vz = V[k, 0], V[k, 1], V[k, 2], V[k, 3], V[k, 4], V[k, 5]
-        # -V_k x* H_k on the joint axis: -(omega x Hn + v x Hf)_z or -(omega x Hf)_z
-        if P[k, KIND] == 0.0:
-            out[k] = -(wx * ny - wy * nx + vx * fy - vy * fx)
-        else:
-            out[k] = -(wx * fy - wy * fx)
+        out[k] = axis_gradient(P, k, V[k, 0], V[k, 1], V[k, 2], V[k, 3], V[k, 4], V[k, 5],
+                               nx, ny, nz, fx, fy, fz)
 
 
 @internal(types.void(D2, In1))

@@ -18,6 +18,7 @@ from .cholesky import ltdl_factor, ltdl_solve_factored
 from .crba import add_in_parent
 from .floating import GW, _chain_inputs, _products, fd_inputs, rnea_inputs
 from .data import new_chol, new_kin, stack_empty
+from .energy import axis_gradient, body_momentum, body_velocity
 from .layout import ARM, H, IO, KIND, MASS, PARENT, ROOT, TIPPATH, W_ALL, W_WRENCH
 from .rnea import base_state, body_wrench, joint_rates, outward_step, tip_load
 from .signatures import D1, D2, D3, In1, In2, Mat, Out1, Out2, Out3, Pm, Vec, f8, i8, internal
@@ -175,35 +176,18 @@ def tree_ke_gradient_core(P, R, p, qd, V, out):
     its origin and then the momentum H of its subtree, in its frame."""
     n = out.shape[0]
     for i in range(n):
-        # the parent's velocity at body i's origin, in frame i; then the joint's rate
         l = int(P[i, PARENT])
-        wx, wy, wz, vx, vy, vz = ((0.0, 0.0, 0.0, 0.0, 0.0, 0.0) if l < 0 else
-                                  (V[l, 0], V[l, 1], V[l, 2], V[l, 3], V[l, 4], V[l, 5]))
-        px, py, pz = p[i, 0], p[i, 1], p[i, 2]
-        vx, vy, vz = to_child(R, i, vx + wy * pz - wz * py, vy + wz * px - wx * pz,
-                              vz + wx * py - wy * px)
-        wx, wy, wz = to_child(R, i, wx, wy, wz)
-        if P[i, KIND] == 0.0:
-            wz = wz + qd[i]
-        else:
-            vz = vz + qd[i]
-        m, hx, hy, hz = P[i, MASS], P[i, H], P[i, H + 1], P[i, H + 2]
-        Ixx, Iyy, Izz, Ixy, Ixz, Iyz = (P[i, IO], P[i, IO + 1], P[i, IO + 2], P[i, IO + 3],
-                                        P[i, IO + 4], P[i, IO + 5])
+        wx = wy = wz = vx = vy = vz = 0.0           # the parent's velocity (the base's: 0)
+        if l >= 0:
+            wx, wy, wz, vx, vy, vz = V[l, 0], V[l, 1], V[l, 2], V[l, 3], V[l, 4], V[l, 5]
+        wx, wy, wz, vx, vy, vz = body_velocity(P, R, p, i, wx, wy, wz, vx, vy, vz, qd[i])
         V[i, 0], V[i, 1], V[i, 2], V[i, 3], V[i, 4], V[i, 5] = wx, wy, wz, vx, vy, vz
-        # h_i: angular I_O omega + h x v, linear m v + omega x h
-        V[i, 6] = Ixx * wx + Ixy * wy + Ixz * wz + hy * vz - hz * vy
-        V[i, 7] = Ixy * wx + Iyy * wy + Iyz * wz + hz * vx - hx * vz
-        V[i, 8] = Ixz * wx + Iyz * wy + Izz * wz + hx * vy - hy * vx
-        V[i, 9] = m * vx + wy * hz - wz * hy
-        V[i, 10] = m * vy + wz * hx - wx * hz
-        V[i, 11] = m * vz + wx * hy - wy * hx
+        V[i, 6], V[i, 7], V[i, 8], V[i, 9], V[i, 10], V[i, 11] = body_momentum(
+            P, i, wx, wy, wz, vx, vy, vz)
     for k in range(n - 1, -1, -1):    # H_k complete: its children were added before it
         nx, ny, nz, fx, fy, fz = V[k, 6], V[k, 7], V[k, 8], V[k, 9], V[k, 10], V[k, 11]
-        wx, wy, wz, vx, vy, vz = V[k, 0], V[k, 1], V[k, 2], V[k, 3], V[k, 4], V[k, 5]
-        # dT/dq_k = -S_k . (V_k x* H_k): -(omega x Hn + v x Hf)_z or -(omega x Hf)_z
-        out[k] = (-(wx * ny - wy * nx + vx * fy - vy * fx) if P[k, KIND] == 0.0
-                  else -(wx * fy - wy * fx))
+        out[k] = axis_gradient(P, k, V[k, 0], V[k, 1], V[k, 2], V[k, 3], V[k, 4], V[k, 5],
+                               nx, ny, nz, fx, fy, fz)
         l = int(P[k, PARENT])
         if l >= 0:                    # H_lambda(k) += X_k^T H_k
             nx, ny, nz, fx, fy, fz = to_parent(R, p, k, nx, ny, nz, fx, fy, fz)

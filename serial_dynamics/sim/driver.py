@@ -38,7 +38,7 @@ from .compiled_run import run_compiled
 from .fixed_step import run_fixed
 from .floating import FLOATING_FIXED_STEP, FLOATING_METHODS, run_floating
 from .jacobians import check_jacobian
-from .methods import DEFAULT_ATOL, DEFAULT_DT, DEFAULT_RTOL, FIXED_STEP, METHODS
+from .methods import DEFAULT_ATOL, DEFAULT_DT, DEFAULT_RTOL, FIXED_STEP, METHODS, on_a_group
 from .progress import Progress
 from .result import SimulationResult
 
@@ -196,7 +196,7 @@ def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853"
                              + f"one per joint ({n}: {robot.joint_names})")
         if not np.all(np.isfinite(x)):
             raise ValueError(f"{name} has a NaN or Inf entry")
-    if robot.is_floating:           # the pose on SE(3): sim/floating.py
+    if on_a_group(robot):           # the pose on SE(3): sim/floating.py
         check_floating(method, position_limits, base_motion, dt, rtol, atol)
     qj = q0[q0.shape[0] - n:]                       # the joints (after a floating base's pose)
     outside = np.flatnonzero((qj < robot.lower) | (qj > robot.upper)) if position_limits else []
@@ -217,7 +217,7 @@ def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853"
     bar = Progress(duration, progress)
     start = time.perf_counter()
     try:
-        if robot.is_floating:
+        if on_a_group(robot):
             fixed = method in FLOATING_FIXED_STEP
             out = run_floating(robot, duration, robot.integrate(q0, np.zeros(robot.nv), 0.0),
                                qd0, inputs, method, dt=(DEFAULT_DT if dt is None else float(dt)),

@@ -14,7 +14,7 @@ from .equations import EnergyGuard, Equations, Inputs, StepStart
 from .explicit import euler_update, rk4, semi_implicit_euler
 from .implicit import implicit_midpoint
 from .jacobians import analytical
-from .methods import FIXED_STEP
+from .methods import FIXED_STEP, on_a_group
 from .result import SolverStats, finish
 from .stops import JointStops
 from .servo import euler_servo
@@ -58,7 +58,7 @@ class FixedStepIntegrator:
     _kinds = {}        # sim/floating.py registers the integrator of a floating base
 
     def __new__(cls, robot, *args, **kwargs):
-        if cls is FixedStepIntegrator and robot.is_floating:
+        if cls is FixedStepIntegrator and on_a_group(robot):   # q on SE(3) x R^n
             cls = FixedStepIntegrator._kinds["floating"]
         return super().__new__(cls)
 

@@ -11,6 +11,13 @@ IMPLICIT = ("Radau", "BDF", "LSODA", "implicit_midpoint")
 DEFAULT_RTOL, DEFAULT_ATOL, DEFAULT_DT = 1e-6, 1e-9, 1e-3
 
 
+def on_a_group(robot) -> bool:
+    """Whether q has coordinates beyond v's (nq > nv: a floating base's unit quaternion), so
+    that q moves on a Lie group, in a chart (``floating.py``), not as q + dt v: what sim/
+    asks of the configuration space instead of the kind of robot."""
+    return robot.nq != robot.nv
+
+
 def advice(method, dt=None):
     """What to try when ``method`` (with step ``dt``) diverged or failed."""
     if method in FIXED_STEP:

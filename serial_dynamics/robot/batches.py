@@ -15,7 +15,17 @@ import numpy as np
 from .base_motion import BaseMotion
 from ..core import flags as F
 
-WORKERS = min(os.cpu_count() or 1, 8)      # threads of a split batch (os.cpu_count() costs ~2 us)
+
+def cores() -> int:
+    """The cores this process may run on: its affinity mask (``taskset``, a container's
+    cpuset), or ``os.cpu_count()`` on a platform without one."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:
+        return os.cpu_count() or 1
+
+
+WORKERS = cores()                          # threads of a split batch: one per core
 PAGE = 512                                 # float64 per 4 KiB page
 W_BAD = np.zeros(0)                        # a w that no entry point accepts (BAD_LENGTH)
 _pool = None

@@ -63,6 +63,9 @@ class Mimic:
         fi = np.flatnonzero(model.mimic_leader >= 0)         # the followers, in chain order:
         self._fi, self._fk, self._fm = bv + fi, bv + self._src[fi], self._m[fi]
         self._view = _Independent([model.joint_names[i] for i in model.independent])
+        k = len(model.independent)           # name -> (the reduced shape, the map to all joints)
+        self._maps = {"q": ((k + bq,), self._q_map), "qd": ((k + bv,), self._v_map),
+                      "qdd": ((k + bv,), self._v_map), "tau": ((k + bv,), None)}
         if dissipation is None:
             dissipation = _reduced_dissipation(model, self._G, self._view.joint_names)
         super().__init__(model, dissipation, backend, **kwargs)
@@ -119,20 +122,35 @@ class Mimic:
             return out
         return np.swapaxes(self._reduce(np.swapaxes(self._reduce(M), -1, -2)), -1, -2)
 
+    def _lean(self, named):
+        """Every joint's arrays of one state whose arrays are float64, C-contiguous, 1-D of
+        their lengths and finite (torques: None); else None (``_all``'s general path)."""
+        full = []
+        for name, x in named:
+            size, mp = self._maps[name]
+            if type(x) is not np.ndarray or x.shape != size or x.dtype != _F8 \
+                    or not x.flags.c_contiguous:
+                return None
+            if mp is None:
+                if _not_finite(x):
+                    return None
+                full.append(None)
+            else:
+                f = np.empty(mp[0].shape[0])
+                if _gather(mp[0], mp[1], mp[2], x, f):
+                    return None
+                full.append(f)
+        return full
+
     def _all(self, *named):
         """Validate the reduced states together (as ``as_batch``: errors name the culprit);
         return (single, the reduced arrays, every joint's arrays): q_all = G q + o, rates
         G x (torques are not expanded: None). A single state's are 1-D arrays (the compiled
         single-state path); a batch's (N, k) and (N, n)."""
-        maps = [None if name == "tau" else self._q_map if name == "q" else self._v_map
-                for name, _ in named]
-        if all(type(x) is np.ndarray and x.shape == (self.nq if name == "q" else self.nv,)
-               and x.dtype == np.float64 and x.flags.c_contiguous
-               for name, x in named):                             # one state: the lean path
-            full = [None if mp is None else np.empty(mp[0].shape[0]) for mp in maps]
-            if all(np.isfinite(x).all() if f is None else _gather(*mp, x, f) == 0
-                   for (_, x), mp, f in zip(named, maps, full)):
-                return True, [x for _, x in named], full
+        full = self._lean(named)                          # one state: the lean path
+        if full is not None:
+            return True, [x for _, x in named], full
+        maps = [self._maps[name][1] for name, _ in named]
         if self._bq:                                     # a floating base (q: k + 7, v: k + 6)
             d = dict(named)
             single, q, _, rest = fb.as_batch(self._view, d.pop("q", None), False, **d)
@@ -262,6 +280,18 @@ class Mimic:
         return -Minv @ dq, -Minv @ dqd, Minv
 
 
+_F8 = np.dtype(np.float64)
+
+
+@njit(cache=True)
+def _not_finite(x):
+    """1 if x has a NaN/Inf, else 0."""
+    bad = 0
+    for i in range(x.shape[0]):
+        bad |= not (x[i] * 0.0 == 0.0)
+    return bad
+
+
 @njit(cache=True)
 def _gather(src, m, o, x, out):
     """out = x[src] m + o (G x + o); returns 1 if x has a NaN/Inf, else 0."""
@@ -284,14 +314,23 @@ def _scatter_add(ind, fi, fk, fm, y, out):
 
 @njit(cache=True)
 def _congruence(ind, fi, fk, fm, M, A, out):
-    """out = G^T M G: A = M G row by row (``_scatter_add``), then G^T A column by column."""
+    """out = G^T M G: A = M G row by row (``_scatter_add``'s sums), then G^T A, whole rows
+    at a time (each entry's sum in the same order as ``_reduce``'s on a stack)."""
+    k = out.shape[0]
     for r in range(M.shape[0]):
-        _scatter_add(ind, fi, fk, fm, M[r], A[r])
-    for c in range(out.shape[1]):
-        for a in range(out.shape[0]):
-            out[a, c] = A[ind[a], c]
+        Mr, Ar = M[r], A[r]
+        for c in range(k):
+            Ar[c] = Mr[ind[c]]
         for j in range(fi.shape[0]):
-            out[fk[j], c] += fm[j] * A[fi[j], c]
+            Ar[fk[j]] += fm[j] * Mr[fi[j]]
+    for a in range(k):
+        src, dst = A[ind[a]], out[a]
+        for c in range(k):
+            dst[c] = src[c]
+    for j in range(fi.shape[0]):
+        src, dst, m = A[fi[j]], out[fk[j]], fm[j]
+        for c in range(k):
+            dst[c] += m * src[c]
 
 
 @njit(cache=True)

@@ -30,6 +30,7 @@ from ..algorithms import derivatives as derivatives_reference
 from ..algorithms import kinematics
 from ..algorithms import regressor as ref_regressor
 from ..algorithms._batch import skew
+from ..algorithms.energy import kinetic_energy_gradient as ke_gradient_reference
 from ..algorithms.rnea import _wrench_batch as rnea_wrench_rows
 from ..core import ENTRY_POINTS, OK
 from ..core import K as CHAIN
@@ -271,8 +272,23 @@ class Floating:
         Minv = 0.5 * (Minv + np.swapaxes(Minv, -1, -2))
         return -Minv @ dq, -Minv @ dv, Minv
 
-    def kinetic_energy_gradient(self, *args, **kwargs):
-        raise NotImplementedError("dT/dq of a floating base is not available")
+    def kinetic_energy_gradient(self, q, qd):
+        """dT/dq at fixed v (n+6,): six zeros (T = 1/2 v^T M v does not depend on the base's
+        pose at a fixed twist in the base frame), then the joints' dT/dq_j, one state: the
+        fixed-base recursion on the instantaneous chain or tree (its virtual joints at zero,
+        their rates the twist: the same T)."""
+        q, v = np.asarray(q, dtype=float), np.asarray(qd, dtype=float)
+        if q.shape != (self._nq,) or v.shape != (self._nv,):
+            raise ValueError(f"q and qd: give one state, ({self._nq},) and ({self._nv},)")
+        qv = np.concatenate([np.zeros(6), q[7:]])
+        if self._compiled:
+            out = np.empty(self._nv)
+            if self._k.kinetic_energy_gradient(self._chain, qv, v, out) == OK:
+                out[:6] = 0.0
+                return out
+        out = ke_gradient_reference(virtual_chain(self.model), qv, v)
+        out[:6] = 0.0
+        return out
 
     compiled_chain = None    # sim/'s whole-step kernels know no floating base (sim/floating.py)
 

@@ -49,9 +49,6 @@ def cases(tmp):
         ("inverse_dynamics", {"gravity": [0.0, -9.81]}, "gravity"),
         ("simulator", {"floating_base": True, "initial_base_pose": [0.0] * 7},
          "initial_base_pose has a quaternion [qx, qy, qz, qw] = [0.0, 0.0, 0.0, 0.0] of length 0"),
-        ("simulator", {"floating_base": True, "integrator": "symplectic_euler"},
-         "'symplectic_euler' is not available for a floating base; use one of "
-         "('semi_implicit_euler', 'rk4', 'implicit_midpoint')"),
     ]
 
 

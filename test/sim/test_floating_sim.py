@@ -67,8 +67,8 @@ def test_the_fixed_step_methods_and_the_node_integrator(satellite):
 
 
 def test_what_a_floating_base_cannot_simulate_is_named(satellite):
-    with pytest.raises(ValueError, match="not available for a floating base"):
-        sd.simulate(satellite, 1.0, method="symplectic_euler", dt=1e-3)
+    with pytest.raises(ValueError, match="base_motion is not available for a floating base"):
+        sd.simulate(satellite, 1.0, base_motion=sd.BaseMotion((0, 0, 1.0)))
     with pytest.raises(ValueError, match=r"q0 has 7 values; give the base's pose"):
         sd.simulate(satellite, 1.0, np.zeros(7))
     with pytest.raises(ValueError, match="quaternion .* zero length"):
@@ -163,5 +163,36 @@ def test_the_implicit_midpoint_rule_on_a_floating_base(satellite):
     q, v = satellite.neutral(), v0
     for k in range(2):
         q, v = integ.step(q, v, np.zeros(satellite.dof))
+        np.testing.assert_array_equal(q, res.q[k + 1])
+        np.testing.assert_array_equal(v, res.qd[k + 1])
+
+
+def test_symplectic_euler_on_a_floating_base(satellite):
+    """symplectic_euler in momentum form in the chart at each step's start: first order
+    against DOP853 (the end pose's error halves with dt: measured 0.61, 0.30 rad on the
+    satellite's light, whipping wrist), the world's linear momentum kept to round-off under
+    joint torques (the chart's translation is a symmetry of the discrete Lagrangian), the
+    energy balance first order, and the node's integrator the same bits. (Over 10 s at 2 ms
+    its energy error stays in its band, 1.3e-4 in the first and the last second, where
+    semi-implicit Euler's grows from 3.6e-4 to 2.0e-3: measured, not run here.)"""
+    from serial_dynamics.algorithms.floating import quaternion_matrix
+    v0 = np.r_[0.1, -0.2, 0.05, 0.3, -0.5, 0.8, np.linspace(-0.5, 0.5, 7)]
+    tau = 0.5 * np.diag(satellite.mass_matrix(satellite.neutral()))[6:] * np.linspace(1, -1, 7)
+    ref = sd.simulate(satellite, 0.4, satellite.neutral(), v0, torque=tau, method="DOP853",
+                      rtol=1e-12, atol=1e-12, dissipation=False)
+    err, balance = [], []
+    for dt in (0.004, 0.002):
+        res = sd.simulate(satellite, 0.4, satellite.neutral(), v0, torque=tau,
+                          method="symplectic_euler", dt=dt, dissipation=False)
+        err.append(np.max(np.abs(res.q[-1] - ref.q[-1])))
+        balance.append(res.relative_energy_error())
+        P = np.array([quaternion_matrix(q[None, 3:7])[0] @ (satellite.mass_matrix(q) @ v)[:3]
+                      for q, v in zip(res.q, res.qd)])
+        np.testing.assert_allclose(P, np.broadcast_to(P[0], P.shape), rtol=0, atol=1e-11)
+    assert 1.7 <= err[0] / err[1] <= 2.3 and 1.7 <= balance[0] / balance[1] <= 2.5
+    integ = FixedStepIntegrator(satellite, "symplectic_euler", 0.002, dissipation=False)
+    q, v = satellite.neutral(), v0
+    for k in range(2):
+        q, v = integ.step(q, v, tau)
         np.testing.assert_array_equal(q, res.q[k + 1])
         np.testing.assert_array_equal(v, res.qd[k + 1])

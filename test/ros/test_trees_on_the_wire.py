@@ -49,7 +49,8 @@ def test_a_two_arm_robot_on_the_wire(ros):
 def test_the_controller_and_the_observer_run_the_two_arm_tree(ros):
     """The controller holds the two-arm tree's simulated joints at a target (every joint,
     both arms and their fingers, through effort_commands), and the observer, reading the
-    simulator's joint_states, sees no external torque once the arms are at rest: a
+    simulator's joint_states, sees no external torque once the arms are at rest (within 0.1
+    N m, and the held effort is gravity's within 0.1 N m, where gravity's exceed 1 N m): a
     controller or an observer on the wrong model (one arm, the chain, another joint order)
     leaves errors of the size of gravity's torques."""
     from builtin_interfaces.msg import Duration
@@ -58,6 +59,7 @@ def test_the_controller_and_the_observer_run_the_two_arm_tree(ros):
     robot = sd.load_urdf(xml)
     target = np.array([0.4, 0.6, 0.02, 0.015, -0.3, -0.5, 0.01, 0.02])
     ros.start("simulator", {"robot_description": xml, "dissipation.enabled": False,
+                            "real_time_factor": 0.5,            # margin on two loaded cores
                             "initial_positions": [0.0, 0.3, 0.01, 0.01, 0.0, -0.3, 0.01, 0.01]},
               ns)
     ros.start("computed_torque_controller", {"robot_description": xml, "kp": [100.0],
@@ -69,15 +71,15 @@ def test_the_controller_and_the_observer_run_the_two_arm_tree(ros):
     ros.wait_matched(traj, also=lambda: states.msgs and estimates.msgs, what="the three nodes")
     traj.publish(JointTrajectory(joint_names=robot.joint_names, points=[JointTrajectoryPoint(
         positions=target.tolist(), time_from_start=Duration(sec=0))]))
-    held = states.wait(lambda m: np.max(np.abs(np.array(m.position) - target)) < 1e-4
-                       and np.max(np.abs(m.velocity)) < 1e-4, timeout=120.0,
+    held = states.wait(lambda m: np.max(np.abs(np.array(m.position) - target)) < 1e-3
+                       and np.max(np.abs(m.velocity)) < 1e-3, timeout=120.0,
                        what="the arms held at the target")
     assert list(held.name) == robot.joint_names
     assert np.max(np.abs(robot.gravity_torques(target))) > 1.0        # gravity is felt
     np.testing.assert_allclose(held.effort, robot.gravity_torques(np.array(held.position)),
-                               atol=1e-2)                             # the effort holds it
+                               atol=0.1)                              # the effort holds it
     quiet = estimates.wait(lambda m: m.header.stamp.sec * 10**9 + m.header.stamp.nanosec
                            >= held.header.stamp.sec * 10**9 + held.header.stamp.nanosec,
                            what="an estimate at rest")
     assert list(quiet.name) == robot.joint_names
-    assert np.max(np.abs(quiet.effort)) < 0.05                        # N m, N: none
+    assert np.max(np.abs(quiet.effort)) < 0.1                         # N m, N: none

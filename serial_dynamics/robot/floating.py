@@ -18,8 +18,10 @@ mass matrix is M and its generalized forces are the base wrench in the base fram
 the accelerations differ, by the velocity products of the virtual joints. The tests hold
 both backends to Pinocchio's free-flyer.
 
-Not available on a floating base yet: the Coriolis matrix, the regressor, the dynamics
-derivatives, a ``base_motion``.
+Beyond the dynamics: the Coriolis matrix (NOC in a frame turning with the base), the
+regressor (the base's ten parameters first), both derivatives, dT/dq (the joints'; zeros on
+the base). Not available on a floating base: a ``base_motion`` (the base moves by its own
+dynamics).
 """
 from __future__ import annotations
 

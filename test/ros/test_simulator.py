@@ -50,17 +50,23 @@ def assert_library_states(robot, msgs, rest, effort, method="semi_implicit_euler
 
 
 class Sim:
-    def __init__(self, ros, **params):
+    """A simulator node; its commands hold until replaced (command_timeout 0: a test's
+    resending timer starved on a loaded machine cannot let the arm fall), unless a test
+    asks for a timeout (then in a namespace of its own, ``ns``)."""
+
+    def __init__(self, ros, ns="", **params):
         self.ros = ros
         self.proc = ros.start("simulator", {"publish_clock": True, "initial_positions": HOME,
                                             "command_timeout_action": "limp",
-                                            **params})
+                                            "command_timeout": 0.0, **params},
+                              ros_args=["-r", f"__ns:={ns}"] if ns else ())
         self.robot = sd.default_robot()
-        self.states = Latest(ros, JointState, "joint_states", depth=100)
-        self.effort = ros.node.create_publisher(Float64MultiArray, "effort_commands", 10)
-        self.joint = ros.node.create_publisher(JointState, "joint_commands", 10)
-        self.reset_client = ros.node.create_client(Trigger, "simulator/reset")
-        self.pause_client = ros.node.create_client(SetBool, "simulator/pause")
+        p = f"{ns}/" if ns else ""
+        self.states = Latest(ros, JointState, f"{p}joint_states", depth=100)
+        self.effort = ros.node.create_publisher(Float64MultiArray, f"{p}effort_commands", 10)
+        self.joint = ros.node.create_publisher(JointState, f"{p}joint_commands", 10)
+        self.reset_client = ros.node.create_client(Trigger, f"{p}simulator/reset")
+        self.pause_client = ros.node.create_client(SetBool, f"{p}simulator/pause")
         ros.wait_matched(self.effort, self.joint, also=lambda: self.states.msgs,
                          what="the simulator")
 
@@ -84,7 +90,7 @@ class Sim:
 
     @contextmanager
     def running_with(self, effort):
-        """Resume with ``effort`` applied, resent every 50 ms (within command_timeout);
+        """Resume with ``effort`` applied (resent every 50 ms, as a controller would);
         reset afterwards."""
         timer = self.ros.node.create_timer(0.05, lambda: self.send(effort))
         try:
@@ -197,19 +203,23 @@ def test_a_joint_driven_into_its_limit_stops_and_rests_there(sim):
     assert np.all(ref.q[:, 5] <= upper) and np.max(ref.qd[:, 5]) > 100.0
 
 
-def test_command_timeout_returns_effort_to_zero_with_one_warning(ros, sim):
-    sim.reset()
-    before = sim.proc.output().count("command_timeout")
-    sim.pause(False)
-    c = [1.0, 2.0, 1.0, 0.5, 0.25, 0.1]
-    sim.send(c)
-    held = sim.wait_effort(c)
-    released = sim.states.wait(lambda m: not any(m.effort), what="the timeout")
-    # command_timeout = 0.5 s of simulated time; joint_states come every 10 ms
-    assert 0.49e9 <= ns(released) - ns(held) <= 0.52e9
-    ros.spin_for(0.5)
-    assert sim.proc.output().count("command_timeout") - before == 1
-    sim.reset()
+def test_command_timeout_returns_effort_to_zero_with_one_warning(ros):
+    sim = Sim(ros, ns="/timeout", command_timeout=0.5)
+    try:
+        sim.reset()
+        before = sim.proc.output().count("command_timeout")
+        sim.pause(False)
+        c = [1.0, 2.0, 1.0, 0.5, 0.25, 0.1]
+        sim.send(c)
+        held = sim.wait_effort(c)
+        released = sim.states.wait(lambda m: not any(m.effort), what="the timeout")
+        # command_timeout = 0.5 s of simulated time; joint_states come every 10 ms
+        assert 0.49e9 <= ns(released) - ns(held) <= 0.52e9
+        ros.spin_for(0.5)
+        assert sim.proc.output().count("command_timeout") - before == 1
+    finally:
+        sim.states.destroy()
+        sim.proc.stop()
 
 
 def test_joint_commands_by_name_and_effort_clamping(sim):

@@ -34,6 +34,8 @@ import math
 
 import numpy as np
 
+from ..algorithms._batch import skew
+from ..algorithms.floating import quaternion_matrix
 from .equations import EnergyGuard, Equations
 from .fixed_step import FixedStepIntegrator
 from ..model.errors import SimulationError
@@ -309,11 +311,8 @@ class FloatingStepIntegrator(FixedStepIntegrator):
 
 
 def _rotation(q):
-    """R (3, 3) of q's unit quaternion [x, y, z, w]: base axes to world axes."""
-    x, y, z, w = q[3:7].tolist()
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+    """R (3, 3) of q's unit quaternion: base axes to world axes."""
+    return quaternion_matrix(q[None, 3:7])[0]
 
 
 def _right_jacobian(x):
@@ -322,7 +321,7 @@ def _right_jacobian(x):
     t = math.sqrt(float(x @ x))
     a, b = (0.5 - t * t / 24.0, 1.0 / 6.0 - t * t / 120.0) if t < 1e-4 else (
         (1.0 - math.cos(t)) / t**2, (t - math.sin(t)) / t**3)
-    X = np.array([[0.0, -x[2], x[1]], [x[2], 0.0, -x[0]], [-x[1], x[0], 0.0]])
+    X = skew(x)
     return np.eye(3) - a * X + b * (X @ X)
 
 

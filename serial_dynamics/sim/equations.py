@@ -243,19 +243,35 @@ class Equations:
         bad_q, bad_qd = ~np.isfinite(q), ~np.isfinite(qd)
         if bad_q.any() or bad_qd.any():
             j = int(np.flatnonzero(bad_q | bad_qd)[0])
-            reason = "nan"
-            what = f"its {'position' if bad_q[j] else 'speed'} is {q[j] if bad_q[j] else qd[j]}"
+            reason, value = ("nan_q", q[j]) if bad_q[j] else ("nan_qd", qd[j])
         elif np.any(np.abs(qd) > self.speed_bound):
             j = int(np.argmax(np.abs(qd) / self.speed_bound))
-            reason = "speed"
-            what = (f"its speed {qd[j]:.4g} exceeds the bound {self.speed_bound[j]:.4g} "
-                    f"({SPEED_BOUND_FACTOR:g} x its velocity limit, or 1e5 where none)")
+            reason, value = "speed", qd[j]
         else:
             j = int(np.argmax(self.prismatic * np.abs(q)))
-            reason = "position"
-            what = f"its position {q[j]:.4g} m is beyond {PRISMATIC_BOUND:g} m"
-        raise SimulationError(f"simulation diverged at t = {t:.6g} s: joint {self.names[j]!r}: "
-                              f"{what}. {advice(method, dt)}", t, self.names[j], reason)
+            reason, value = "position", q[j]
+        raise state_error(t, self.names[j], reason, value, self.speed_bound[j], method, dt)
+
+
+def state_error(t, joint, reason, value, bound, method, dt):
+    """The SimulationError of a state that left the physical bounds at time t: ``reason``
+    "nan_q" or "nan_qd" (a position or speed not finite), "speed" (beyond ``bound``) or
+    "position" (a prismatic joint beyond PRISMATIC_BOUND); ``value`` the joint's."""
+    what = {"nan_q": f"its position is {value}", "nan_qd": f"its speed is {value}",
+            "speed": (f"its speed {value:.4g} exceeds the bound {bound:.4g} "
+                      f"({SPEED_BOUND_FACTOR:g} x its velocity limit, or 1e5 where none)"),
+            "position": f"its position {value:.4g} m is beyond {PRISMATIC_BOUND:g} m"}[reason]
+    return SimulationError(f"simulation diverged at t = {t:.6g} s: joint {joint!r}: {what}. "
+                           f"{advice(method, dt)}", t, joint, "nan" if reason.startswith("nan") else reason)
+
+
+def energy_error(t, excess, scale, joint, speed, method, dt):
+    """The SimulationError of energy from nowhere: E - E0 - W grew by ``excess`` beyond half
+    the energy ``scale`` (J); ``joint`` the fastest, at ``speed``."""
+    return SimulationError(
+        f"simulation diverged at t = {t:.6g} s: the energy grew by {excess:.4g} J more "
+        f"than the work put in (energy scale {scale:.4g} J); the fastest joint is "
+        f"{joint!r} at {speed:.4g}. {advice(method, dt)}", t, joint, "energy")
 
 
 def _with_external(method, states, w):
@@ -284,14 +300,17 @@ def held(M, r, stuck, delta):
     return qdd, delta
 
 
-def energy_scale_static(robot):
+def energy_scale_static(robot, mass=None, com=None):
     """An upper bound of the potential-energy swing, |g| sum m_i 2 r_i with r_i the
-    largest distance of body i's center of mass from the base origin."""
+    largest distance of body i's center of mass from the base origin. ``mass`` (..., n) and
+    ``com`` (..., n, 3) (link frames) in place of the model's: one bound per row."""
     m = robot.model
-    reach = np.cumsum(np.linalg.norm(m.p_parent, axis=1)) + np.linalg.norm(m.com, axis=1)
+    mass = m.mass if mass is None else np.asarray(mass, float)
+    com = m.com if com is None else np.asarray(com, float)
+    reach = np.cumsum(np.linalg.norm(m.p_parent, axis=1)) + np.linalg.norm(com, axis=-1)
     travel = np.cumsum(np.where(m.kind == 1, np.minimum(np.abs(m.lower), PRISMATIC_BOUND)
                                 + np.minimum(np.abs(m.upper), PRISMATIC_BOUND), 0.0))
-    return float(np.linalg.norm(m.gravity) * np.sum(m.mass * 2 * (reach + travel)))
+    return np.linalg.norm(m.gravity) * np.sum(mass * 2 * (reach + travel), axis=-1)
 
 
 class EnergyGuard:
@@ -304,7 +323,7 @@ class EnergyGuard:
             r = eq.robot
             self.T0 = float(r.kinetic_energy(q0, qd0))
             self.E0 = self.T0 + float(r.potential_energy(q0))
-            self.static = energy_scale_static(r)
+            self.static = float(energy_scale_static(r))
             self.wmax = 0.0
 
     def __call__(self, t, q, qd, W):
@@ -318,8 +337,4 @@ class EnergyGuard:
         if excess > 0.5 * scale:
             qd = qd[len(qd) - self.eq.n:]          # the joints' (a floating base: v's last n)
             j = int(np.argmax(np.abs(qd)))
-            name = self.eq.names[j]
-            raise SimulationError(
-                f"simulation diverged at t = {t:.6g} s: the energy grew by {excess:.4g} J more "
-                f"than the work put in (energy scale {scale:.4g} J); the fastest joint is "
-                f"{name!r} at {qd[j]:.4g}. {advice(self.method, self.dt)}", t, name, "energy")
+            raise energy_error(t, excess, scale, self.eq.names[j], qd[j], self.method, self.dt)

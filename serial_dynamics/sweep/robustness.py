@@ -25,7 +25,7 @@ import pandas as pd
 
 from .. import SimulationError, control, default_robot, simulate
 from ..trajectory import Waypoints, pick_and_place
-from .run import run
+from .run import ERROR, assemble, run
 
 # nominal friction when the URDF gives none (the built-in UR5e's carries none): viscous and
 # Coulomb torques per joint as fractions of the joint's effort limit (rated torque), N m s/rad
@@ -39,7 +39,7 @@ def monte_carlo(robot=None, cases=1000, *, seed=0, payload=(0.0, 3.0), payload_c
                 link_mass_scale=(0.9, 1.1), friction_scale=(0.5, 2.0), start_offset=0.05,
                 law="computed_torque", kp=400.0, kd=40.0, compensate_friction=True,
                 waypoints=None, settle=0.5, dt=0.002, lost=1.0, client=None, progress=True,
-                workers=None) -> pd.DataFrame:
+                workers=None, device="cpu") -> pd.DataFrame:
     """A Monte-Carlo study of ``cases`` plants (see the module docstring); the table of
     ``sweep.run``: the draws, then the outcomes, one row per case.
 
@@ -56,11 +56,19 @@ def monte_carlo(robot=None, cases=1000, *, seed=0, payload=(0.0, 3.0), payload_c
     waypoints: a ``trajectory.Waypoints`` (default ``pick_and_place(robot)``).
     dt: the control period and simulation step (s). lost: |e| (rad or m) beyond which a
         run counts as diverged. client, progress, workers: as ``sweep.run``.
+    device: "cpu" (the cases on Dask, ``sweep.run``) or "cuda" (every case one thread of
+        one batched simulation on the card, ``gpu/rollouts.py``; the ``[gpu]`` extra; client
+        and workers unused): the same table, each outcome within 1e-9 relative.
     """
     study = Study(robot, waypoints, law, kp, kd, compensate_friction, payload_com, settle, dt,
                   lost)
     table = draw(study.nominal, cases, seed, payload, link_mass_scale, friction_scale,
                  start_offset)
+    if device == "cuda":
+        from ..gpu.rollouts import run_study
+        return assemble(table, [{**row, ERROR: ""} for row in run_study(study, table, progress)])
+    if device != "cpu":
+        raise ValueError(f"device = {device!r}; use 'cpu' (Dask) or 'cuda' (one NVIDIA card)")
     return run(study, table, client, progress, workers=workers)
 
 

@@ -21,7 +21,7 @@ except Exception as exc:            # no NVVM or NVRTC here
 if not cuda.is_available():         # device functions ask the current card for its
     import numba.cuda.dispatcher as d     # compute capability: say sm_90
     d.get_current_device = lambda: types.SimpleNamespace(compute_capability=(9, 0))
-from serial_dynamics.gpu import crba, derivatives, forward, rnea
+from serial_dynamics.gpu import crba, derivatives, forward, rnea, rollouts
 A1, A2, A3, I1 = float64[::1], float64[:, ::1], float64[:, :, ::1], int64[::1]
 for mod, outs in ((rnea, (A2, A2, A2, A2)), (crba, (A2, A3)), (forward, (A2, A2, A2, A2))):
     # a 3-joint chain; a tree of 4 joints with mimic joints (3 coordinates): every branch of
@@ -35,6 +35,12 @@ for key in ((3, 3, False), (4, 2, True)):      # chains only
                               (A2, I1, I1, A1, A1, A2, A2, A2, A3, A3), cc=(9, 0))
     assert ".entry" in ptx
     print("derivatives", key, "ok")
+for key in ((3, True, "computed_torque", 7), (4, False, "gravity_compensation", 1)):
+    ptx, _ = cuda.compile_ptx(rollouts.kernel(*key).py_func,
+                              (A2, I1, A3) + (A2,) * 6 + (A1,) * 5 + (A2, float64, int64)
+                              + (A2,) * 3, cc=(9, 0))
+    assert ".entry" in ptx
+    print("rollouts", key, "ok")
 """
 
 
@@ -46,4 +52,4 @@ def test_every_kernel_compiles_to_ptx():
     if p.returncode == 77:
         pytest.skip(p.stdout.strip())
     assert p.returncode == 0, p.stdout + p.stderr[-3000:]
-    assert p.stdout.count(" ok") == 8
+    assert p.stdout.count(" ok") == 10

@@ -39,6 +39,7 @@ import sys
 from functools import lru_cache
 
 import numpy as np
+import pandas as pd
 from numba import float64
 
 from ..core import layout
@@ -116,13 +117,12 @@ def kernel(n, chain, law, check_every):
         f, st = cuda.local.array((n, 6), float64), cuda.local.array((ns, 9), float64)
         c10, M = cuda.local.array((n, 10), float64), cuda.local.array((n, n), float64)
         Rw, ow = cuda.local.array((n, 9), float64), cuda.local.array((n, 3), float64)
+        e2, emax = cuda.local.array(n, float64), cuda.local.array(n, float64)
         for i in range(n):
-            q[i], qd[i], zero[i] = Q0[s, i], 0.0, 0.0
-            E2[s, i], EMAX[s, i] = 0.0, 0.0
+            q[i], qd[i], zero[i], e2[i], emax[i] = Q0[s, i], 0.0, 0.0, 0.0, 0.0
         for j in range(OUTS):
             OUT[s, j] = 0.0
-        OUT[s, LOST_ROW] = -1.0
-        lost = static[s, 1]
+        lost, lost_row, peak, saturated = static[s, 1], -1, 0.0, 0
         transforms(P, q, R, p)
         crba(P, parent, R, p, c10, M)
         E0 = energy(P, parent, R, p, Rw, ow, M, qd)          # T0 = 0: the start is at rest
@@ -132,11 +132,11 @@ def kernel(n, chain, law, check_every):
             far = False
             for i in range(n):
                 e = abs(Q_REF[k, i] - q[i])
-                E2[s, i] += e * e
-                EMAX[s, i] = max(EMAX[s, i], e)
+                e2[i] += e * e
+                emax[i] = max(emax[i], e)
                 far = far or e > lost
-            if far and OUT[s, LOST_ROW] < 0.0:
-                OUT[s, LOST_ROW] = k
+            if far and lost_row < 0:
+                lost_row = k
             # the controller on the nominal model at the sample k (control.torque)
             transforms(P, q, R, p)
             if computed_torque:
@@ -149,13 +149,16 @@ def kernel(n, chain, law, check_every):
             for i in range(n):
                 tau[i] -= FF[k, i]
                 r = abs(tau[i]) / limit[i]
-                OUT[s, PEAK] = max(OUT[s, PEAK], r)
+                peak = max(peak, r)
                 hit = hit or r > 1.0
                 u[i] = min(max(tau[i], -limit[i]), limit[i])
             if hit:
-                OUT[s, SATURATED] += 1.0
-            if k == nsteps:
-                break
+                saturated += 1
+            if k == nsteps:                      # the run is over: its sums out
+                for i in range(n):
+                    E2[s, i], EMAX[s, i] = e2[i], emax[i]
+                OUT[s, PEAK], OUT[s, SATURATED], OUT[s, LOST_ROW] = peak, saturated, lost_row
+                return
             # the plant: qdd = M^-1 (u - beta qd - b), M = L L^T
             newton_euler(P, parent, R, p, f, st, qd, zero, b)
             crba(P, parent, R, p, c10, M)
@@ -260,10 +263,11 @@ def plants(study, table):
 
 
 def run_study(study, table, progress=True):
-    """The rows of ``study`` (a ``sweep.robustness.Study``) for the cases of ``table``, in
-    order, as ``Study.__call__`` gives them, computed on the card."""
-    require_card()
+    """The outcomes of ``study`` (a ``sweep.robustness.Study``) for the cases of ``table``,
+    a DataFrame in case order with the columns of ``Study.__call__``'s rows, computed on
+    the card."""
     refuse(study)
+    require_card()
     robot, dt = study.nominal, study.dt
     n, N = robot.dof, len(table)
     nsteps = len(study.t) - 1
@@ -290,35 +294,34 @@ def run_study(study, table, progress=True):
         e2[a:z], emax[a:z], out[a:z] = E2.copy_to_host(), EMAX.copy_to_host(), OUT.copy_to_host()
         if progress and N > chunk:
             print(f"sweep (cuda): {z}/{N} cases", file=sys.stderr)
-    return rows(study, e2, emax, out)
+    return outcomes(study, e2, emax, out)
 
 
-def rows(study, e2, emax, out):
-    """The rows of ``Study.__call__`` from the kernel's sums and scalars."""
+def outcomes(study, e2, emax, out):
+    """The DataFrame of ``Study.__call__``'s rows (in ``sweep.run``'s column order: as
+    they first appear) from the kernel's sums and scalars."""
     names, bound = study.nominal.joint_names, Equations(study.nominal, True).speed_bound
-    rows_, count = [], len(study.t)
-    for s in range(len(out)):
-        code = int(out[s, FAIL])
-        if code:
-            t = out[s, FAIL_STEP] * study.dt
-            j = names[int(out[s, FAIL_JOINT])]
-            if FAIL_CODES[code] == "energy":
-                exc = energy_error(t, out[s, FAIL_EXCESS], out[s, FAIL_SCALE], j,
-                                   out[s, FAIL_VALUE], "semi_implicit_euler", study.dt)
-            else:
-                exc = state_error(t, j, FAIL_CODES[code], out[s, FAIL_VALUE],
-                                  bound[int(out[s, FAIL_JOINT])], "semi_implicit_euler", study.dt)
-            rows_.append({"diverged": True, "diverged_at": exc.t, "reason": str(exc)})
-            continue
-        row = {"rms_error": float(np.sqrt(e2[s].sum() / (count * len(names)))),
-               "max_error": float(emax[s].max())}
-        for j, name in enumerate(names):
-            row[f"rms_{name}"] = float(np.sqrt(e2[s, j] / count))
-            row[f"max_{name}"] = float(emax[s, j])
-        row["peak_torque_ratio"] = float(out[s, PEAK])
-        row["saturation_time"] = float(out[s, SATURATED] * study.dt)
-        row["diverged"] = bool(row["max_error"] > study.lost)
-        row["diverged_at"] = float(study.t[int(out[s, LOST_ROW])]) if row["diverged"] else np.nan
-        row["reason"] = f"|e| > {study.lost:g}" if row["diverged"] else ""
-        rows_.append(row)
-    return rows_
+    N, count, code = len(out), len(study.t), out[:, FAIL].astype(int)
+    ran = code == 0
+    e2, emax = np.where(ran[:, None], e2, 0.0), np.where(ran[:, None], emax, 0.0)  # unwritten
+    cols = {"rms_error": np.sqrt(e2.sum(1) / (count * len(names))), "max_error": emax.max(1)}
+    for j, name in enumerate(names):
+        cols[f"rms_{name}"], cols[f"max_{name}"] = np.sqrt(e2[:, j] / count), emax[:, j]
+    cols["peak_torque_ratio"] = out[:, PEAK]
+    cols["saturation_time"] = out[:, SATURATED] * study.dt
+    cols = {k: np.where(ran, v, np.nan) for k, v in cols.items()}
+    far = ran & (cols["max_error"] > study.lost)
+    at = np.where(far, study.t[np.maximum(out[:, LOST_ROW], 0).astype(int)], np.nan)
+    reason = np.where(far, f"|e| > {study.lost:g}", "").astype(object)
+    for s in np.flatnonzero(~ran):     # the simulator's verdict, in its own words
+        t, j = out[s, FAIL_STEP] * study.dt, int(out[s, FAIL_JOINT])
+        if FAIL_CODES[code[s]] == "energy":
+            exc = energy_error(t, out[s, FAIL_EXCESS], out[s, FAIL_SCALE], names[j],
+                               out[s, FAIL_VALUE], "semi_implicit_euler", study.dt)
+        else:
+            exc = state_error(t, names[j], FAIL_CODES[code[s]], out[s, FAIL_VALUE], bound[j],
+                              "semi_implicit_euler", study.dt)
+        at[s], reason[s] = exc.t, str(exc)
+    verdict = {"diverged": far | ~ran, "diverged_at": at, "reason": reason}
+    table = pd.DataFrame({**verdict, **cols} if N and not ran[0] else {**cols, **verdict})
+    return table if ran.any() else table[list(verdict)]

@@ -25,7 +25,7 @@ import pandas as pd
 
 from .. import SimulationError, control, default_robot, simulate
 from ..trajectory import Waypoints, pick_and_place
-from .run import ERROR, assemble, run
+from .run import ERROR, run
 
 # nominal friction when the URDF gives none (the built-in UR5e's carries none): viscous and
 # Coulomb torques per joint as fractions of the joint's effort limit (rated torque), N m s/rad
@@ -66,7 +66,8 @@ def monte_carlo(robot=None, cases=1000, *, seed=0, payload=(0.0, 3.0), payload_c
                  start_offset)
     if device == "cuda":
         from ..gpu.rollouts import run_study
-        return assemble(table, [{**row, ERROR: ""} for row in run_study(study, table, progress)])
+        out = run_study(study, table, progress).set_index(table.index)
+        return pd.concat([table, out.assign(**{ERROR: ""})], axis=1)
     if device != "cpu":
         raise ValueError(f"device = {device!r}; use 'cpu' (Dask) or 'cuda' (one NVIDIA card)")
     return run(study, table, client, progress, workers=workers)

@@ -59,6 +59,20 @@ def test_diverged_runs_say_why_as_on_the_cpu():
     same_table(cpu, gpu)
 
 
+@pytest.mark.parametrize("seed", [1, 2])
+def test_tables_that_mix_verdicts_keep_the_cpus_columns(seed):
+    # dt = 6 ms on the short task: seed 1 starts with a run whose error grew past `lost`
+    # and goes on with runs the simulator stopped; seed 2 starts with a stopped run (its
+    # verdict's columns come first, as sweep.run orders them) and has one that tracked
+    robot = sd.default_robot()
+    kw = dict(cases=4, seed=seed, waypoints=short_task(robot), settle=0.1, dt=0.006,
+              progress=False)
+    cpu = sweep.monte_carlo(robot, client="serial", **kw)
+    gpu = sweep.monte_carlo(robot, device="cuda", **kw)
+    assert cpu["reason"].iloc[0].startswith("|e| >" if seed == 1 else "simulation diverged")
+    same_table(cpu, gpu)
+
+
 def test_plants_on_the_host_are_study_plants():
     robot = sd.default_robot()
     st = Study(robot, None, "computed_torque", 400.0, 40.0, True, (0.01, -0.02, 0.05), 0.0,

@@ -5,8 +5,9 @@ same machine, in one run.
     python bench/bench_gpu.py --quick         # smaller batches, nothing written
     python bench/bench_gpu.py --out FILE      # the section also to FILE
 
-Batches, float64, N random states, for the UR5e (6 joints) and a 7-joint spatial chain
-(``robots.synthetic.chain_urdf(7)``):
+Batches, float64, N random states, for the UR5e (6 joints), a 7-joint spatial chain
+(``robots.synthetic.chain_urdf(7)``) and the UR5e on a free-floating base (nq 13, nv 12; no
+derivatives on the card for it yet):
 
 - CPU: the facade's batch call (its default split over the cores), median of ``ROUNDS``;
 - GPU, device arrays in and out (no host transfer; synchronized after the call), and
@@ -91,19 +92,24 @@ def copy_bandwidth(cuda, nbytes=1 << 30):
 
 def calls(robot):
     """name: (CPU call of a batch, GPU call, float64 numbers read and written a state)."""
-    n = robot.dof
-    return {
+    nq, nv = (robot.nq, robot.nv) if robot.is_floating else (robot.dof, robot.dof)
+    out = {
         "inverse_dynamics": (lambda q, qd, x: robot.inverse_dynamics(q, qd, x),
-                             lambda g, q, qd, x: g.inverse_dynamics(robot, q, qd, x), 4 * n),
+                             lambda g, q, qd, x: g.inverse_dynamics(robot, q, qd, x),
+                             nq + 3 * nv),
         "mass_matrix": (lambda q, qd, x: robot.mass_matrix(q),
-                        lambda g, q, qd, x: g.mass_matrix(robot, q), n + n * n),
+                        lambda g, q, qd, x: g.mass_matrix(robot, q), nq + nv * nv),
         "forward_dynamics": (lambda q, qd, x: robot.forward_dynamics(q, qd, x),
-                             lambda g, q, qd, x: g.forward_dynamics(robot, q, qd, x), 4 * n),
+                             lambda g, q, qd, x: g.forward_dynamics(robot, q, qd, x),
+                             nq + 3 * nv),
         "inverse_dynamics_derivatives": (
             lambda q, qd, x: robot.inverse_dynamics_derivatives(q, qd, x),
             lambda g, q, qd, x: g.inverse_dynamics_derivatives(robot, q, qd, x),
-            3 * n + 2 * n * n),
+            nq + 2 * nv + 2 * nv * nv),
     }
+    if robot.is_floating:       # not on the card yet
+        del out["inverse_dynamics_derivatives"]
+    return out
 
 
 def batch_rows(name, robot, gpu, quick, bw):
@@ -111,13 +117,13 @@ def batch_rows(name, robot, gpu, quick, bw):
     rng = np.random.default_rng(0)
     N_cpu = 1 << (14 if quick else 17)
     q, qd = robot.random_state(rng, batch=N_cpu)
-    x = rng.uniform(-1, 1, q.shape)
+    x = rng.uniform(-1, 1, qd.shape)
     rows = []
     if gpu is not None:
         from serial_dynamics.gpu.runtime import cuda
         N = 1 << (18 if quick else 22)
         qg, qdg = robot.random_state(rng, batch=N)
-        xg = rng.uniform(-1, 1, qg.shape)
+        xg = rng.uniform(-1, 1, qdg.shape)
         dq, dqd, dx = cuda.to_device(qg), cuda.to_device(qdg), cuda.to_device(xg)
     for call, (c, g, numbers) in calls(robot).items():
         cpu = median_ns(lambda c=c: c(q, qd, x), N_cpu)
@@ -208,7 +214,9 @@ def main():
     if gpu is not None:
         from serial_dynamics.gpu.runtime import cuda
         bw = copy_bandwidth(cuda)
-    robots = {"UR5e (6)": sd.default_robot(), "chain_urdf(7)": sd.load_urdf(chain_urdf(7))}
+    robots = {"UR5e (6)": sd.default_robot(), "chain_urdf(7)": sd.load_urdf(chain_urdf(7)),
+              "UR5e, floating base (6 + 6)": sd.load_urdf(sd.robots.ur5e_urdf(),
+                                                          floating_base=True)}
     rows = [r for name, robot in robots.items() for r in batch_rows(name, robot, gpu,
                                                                     args.quick, bw)]
     table = ("| robot | call (float64) | CPU batch ns/state | GPU, device arrays ns/state | "

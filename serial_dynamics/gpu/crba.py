@@ -11,11 +11,13 @@ from functools import lru_cache
 
 from numba import float64
 
-from ..core.layout import ARM, H, IO, KIND, MASS
+from ..core.layout import ARM, H, IO, KIND, MASS, W_ALL
 from .device_model import device_model
 from .rnea import passes
 from .runtime import Batch, cuda, launch
-from .steps import composite_to_parent, coordinates, force_to_parent, get9, get10, put10
+from ..core.floating import GW
+from .steps import (composite_to_parent, coordinates, floating_chain_inputs, force_to_parent,
+                    get9, get10, put10, row)
 
 
 @lru_cache(maxsize=None)
@@ -59,21 +61,29 @@ def crba_pass(n, chain):
 
 
 @lru_cache(maxsize=None)
-def kernel(n, k, chain, mimic):
-    """The mass-matrix kernel for n bodies and k coordinates."""
+def kernel(n, k, chain, mimic, floating):
+    """The mass-matrix kernel for n bodies and k coordinates (``floating``: a floating base's
+    instantaneous chain, whose mass matrix is the floating base's M)."""
     transforms, _ = passes(n, chain)
     crba = crba_pass(n, chain)
     load, _, reduce_matrix = coordinates(n, k, mimic)
+    nq = n + 1
 
     @cuda.jit
-    def crba_kernel(P, parent, src, mult, off, Q, OUT):
+    def crba_kernel(P, parent, src, mult, off, gw, Q, OUT):
         s = cuda.grid(1)
         if s >= Q.shape[0]:
             return
-        q = cuda.local.array(n, float64)
+        q, w = cuda.local.array(n, float64), cuda.local.array(W_ALL, float64)
         R, p = cuda.local.array((n, 9), float64), cuda.local.array((n, 3), float64)
         c, M = cuda.local.array((n, 10), float64), cuda.local.array((n, n), float64)
-        load(Q, s, src, mult, off, True, q)
+        if floating:        # q of the chain: six zeros, then the joints
+            qf, g9 = cuda.local.array(nq, float64), cuda.local.array(GW, float64)
+            row(Q, s, qf)
+            row(gw, 0, g9)
+            floating_chain_inputs(qf, g9, 0, q, w)
+        else:
+            load(Q, s, src, mult, off, True, q)
         transforms(P, q, R, p)
         crba(P, parent, R, p, c, M)
         if mimic:
@@ -91,11 +101,11 @@ def kernel(n, k, chain, mimic):
 
 
 def mass_matrix(robot, Q):
-    """M(q) of N configurations (N, dof, dof), as ``robot.mass_matrix``: Q (N, robot.dof)
+    """M(q) of N configurations (N, nv, nv), as ``robot.mass_matrix``: Q (N, robot's nq)
     float64, a NumPy array (the result is NumPy) or a device array (it stays on the card)."""
     op = "gpu.mass_matrix"
     dm = device_model(robot, "mass_matrix")
-    batch = Batch(op, dm.k, [("Q", Q)])
+    batch = Batch(op, [("Q", Q, dm.nq)])
     (q,) = batch.to_card(dm.k * dm.k, op)
     out = cuda.device_array((batch.N, dm.k, dm.k))
     launch(kernel(*dm.key), batch.N, *dm.arrays, q, out)

@@ -84,13 +84,18 @@ def inverse_dynamics_derivatives(robot, Q, QD, QDD):
     results) or device arrays (results on the card)."""
     op = "gpu.inverse_dynamics_derivatives"
     dm = device_model(robot, "inverse_dynamics_derivatives")
+    if dm.floating:
+        raise NotImplementedError(
+            f"{op}: a free-floating base is not supported yet (its derivatives add the "
+            "base's rotation of gravity to the chain's, robot/floating.py); call "
+            "robot.inverse_dynamics_derivatives(...) on the CPU")
     if not dm.chain:
         raise NotImplementedError(
             f"{op}: a kinematic tree is not supported yet (the core's derivative recursion, "
             "core/derivatives.py, is written for a chain); call "
             "robot.inverse_dynamics_derivatives(...) on the CPU")
-    batch = Batch(op, dm.k, [("Q", Q), ("QD", QD), ("QDD", QDD)])
+    batch = Batch(op, [("Q", Q, dm.k), ("QD", QD, dm.k), ("QDD", QDD, dm.k)])
     q, qd, qdd = batch.to_card(2 * dm.k * dm.k, op)
     dq, dqd = cuda.device_array((batch.N, dm.k, dm.k)), cuda.device_array((batch.N, dm.k, dm.k))
-    launch(kernel(dm.n, dm.k, dm.mimic), batch.N, *dm.arrays, q, qd, qdd, dq, dqd)
+    launch(kernel(dm.n, dm.k, dm.mimic), batch.N, *dm.arrays[:5], q, qd, qdd, dq, dqd)
     return batch.result(dq), batch.result(dqd)

@@ -9,16 +9,26 @@ registers; a tree in a per-thread array); inward, each body's joint wrench added
 parent's (Featherstone 2008, Sec. 5.3). The model is the packed joint-frame array ``P``
 (``core/layout.py``), read by every thread; the per-body transforms and wrenches live in
 per-thread arrays. No tip wrench and no base motion here (the CPU's ``rnea_wrench`` has them).
+
+A free-floating base runs the CPU's instantaneous chain (``device_model``): the core's own
+``core/floating.rnea_inputs`` (compiled for CUDA) makes its q, its accelerations (a plus the
+virtual joints' velocity products) and the base's acceleration -R^T g from each state.
 """
 from functools import lru_cache
 
 from numba import float64
 
-from ..core.layout import ARM, G, KIND
+import math
+
+from ..core import flags as F
+from ..core.layout import ARM, G, KIND, W_ACC, W_ALL
 from .device_model import device_model
 from .runtime import Batch, cuda, launch
-from .steps import (body_wrench, coordinates, force_to_parent, get9, into_body, joint_rate,
-                    joint_transform, put9)
+from ..core.floating import GW
+from .steps import (body_wrench, coordinates, floating_rnea_inputs, force_to_parent, get9,
+                    into_body, joint_rate, joint_transform, put9, row)
+
+QD_QDD = F.QD | F.QDD
 
 
 @lru_cache(maxsize=None)
@@ -34,10 +44,10 @@ def passes(n, chain):
             p[i, 0], p[i, 1], p[i, 2] = px, py, pz
 
     @cuda.jit(device=True)
-    def newton_euler(P, parent, R, p, f, st, qd, qdd, tau):
+    def newton_euler(P, parent, R, p, f, st, qd, qdd, tau, gx, gy, gz):
         """tau = M(q) qdd + b(q, qd) of every joint; f: the body wrenches, then the joint
-        wrenches; st: each body's (omega, alpha, acc) (a tree only)."""
-        gx, gy, gz = -P[n, G], -P[n, G + 1], -P[n, G + 2]       # the base: acc = -g
+        wrenches; st: each body's (omega, alpha, acc) (a tree only); (gx, gy, gz): the
+        base's linear acceleration, -g for a fixed base (``base_acc``)."""
         wx = wy = wz = ax = ay = az = 0.0
         lx, ly, lz = gx, gy, gz
         for i in range(n):
@@ -74,15 +84,22 @@ def passes(n, chain):
     return transforms, newton_euler
 
 
+@cuda.jit(device=True)
+def base_acc(P, n):
+    """A fixed base's linear acceleration in the recursion: -g (Featherstone 2008, Sec. 5.3)."""
+    return -P[n, G], -P[n, G + 1], -P[n, G + 2]
+
+
 @lru_cache(maxsize=None)
-def kernel(n, k, chain, mimic):
-    """The inverse-dynamics kernel for n bodies and k coordinates."""
+def kernel(n, k, chain, mimic, floating):
+    """The inverse-dynamics kernel for n bodies and k coordinates (``floating``: the
+    instantaneous chain of a free-floating base, q of n + 1 numbers)."""
     transforms, newton_euler = passes(n, chain)
     load, store, _ = coordinates(n, k, mimic)
-    ns = 1 if chain else n
+    ns, nq = (1 if chain else n), n + 1
 
     @cuda.jit
-    def rnea_kernel(P, parent, src, mult, off, Q, QD, QDD, TAU):
+    def rnea_kernel(P, parent, src, mult, off, gw, Q, QD, QDD, TAU):
         s = cuda.grid(1)
         if s >= Q.shape[0]:
             return
@@ -90,11 +107,26 @@ def kernel(n, k, chain, mimic):
         qdd, tau = cuda.local.array(n, float64), cuda.local.array(n, float64)
         R, p = cuda.local.array((n, 9), float64), cuda.local.array((n, 3), float64)
         f, st = cuda.local.array((n, 6), float64), cuda.local.array((ns, 9), float64)
-        load(Q, s, src, mult, off, True, q)
+        w = cuda.local.array(W_ALL, float64)
         load(QD, s, src, mult, off, False, qd)
-        load(QDD, s, src, mult, off, False, qdd)
+        if floating:        # q, qdd = a + the velocity products, w[W_ACC:] = -R^T g
+            qf, af, g9 = (cuda.local.array(nq, float64), cuda.local.array(n, float64),
+                          cuda.local.array(GW, float64))
+            row(Q, s, qf)
+            row(QDD, s, af)
+            row(gw, 0, g9)
+            chk = floating_rnea_inputs(qf, qd, af, g9, QD_QDD, q, w, qdd)
+            gx, gy, gz = w[W_ACC], w[W_ACC + 1], w[W_ACC + 2]
+        else:
+            load(Q, s, src, mult, off, True, q)
+            load(QDD, s, src, mult, off, False, qdd)
+            chk = 0.0
+            gx, gy, gz = base_acc(P, n)
         transforms(P, q, R, p)
-        newton_euler(P, parent, R, p, f, st, qd, qdd, tau)
+        newton_euler(P, parent, R, p, f, st, qd, qdd, tau, gx, gy, gz)
+        if chk != 0.0:      # a quaternion of zero length
+            for i in range(n):
+                tau[i] = math.nan
         store(tau, src, mult, TAU, s)
 
     return rnea_kernel
@@ -102,11 +134,12 @@ def kernel(n, k, chain, mimic):
 
 def inverse_dynamics(robot, Q, QD, QDD):
     """tau = M(q) qdd + b(q, qd) of N states, as ``robot.inverse_dynamics`` (no wrench, no
-    base motion): Q, QD, QDD (N, robot.dof) float64, NumPy arrays (the result is NumPy) or
-    device arrays (``__cuda_array_interface__``: the result stays on the card)."""
+    base motion): Q (N, robot's nq), QD, QDD (N, nv) float64 (a fixed base: nq = nv = dof),
+    NumPy arrays (the result is NumPy) or device arrays (``__cuda_array_interface__``: the
+    result stays on the card)."""
     op = "gpu.inverse_dynamics"
     dm = device_model(robot, "inverse_dynamics")
-    batch = Batch(op, dm.k, [("Q", Q), ("QD", QD), ("QDD", QDD)])
+    batch = Batch(op, [("Q", Q, dm.nq), ("QD", QD, dm.k), ("QDD", QDD, dm.k)])
     q, qd, qdd = batch.to_card(dm.k, op)
     out = cuda.device_array((batch.N, dm.k))
     launch(kernel(*dm.key), batch.N, *dm.arrays, q, qd, qdd, out)

@@ -48,7 +48,7 @@ from ..model.model import inertia_in_joint_frames
 from ..sim.equations import (PRISMATIC_BOUND, Equations, energy_error, energy_scale_static,
                              state_error)
 from .crba import crba_pass
-from .rnea import passes
+from .rnea import base_acc, passes
 from .runtime import cuda, free_bytes, launch, require_card
 from .steps import cholesky_factor, cholesky_solve_factored, get9
 
@@ -123,6 +123,7 @@ def kernel(n, chain, law, check_every):
         for j in range(OUTS):
             OUT[s, j] = 0.0
         lost, lost_row, peak, saturated = static[s, 1], -1, 0.0, 0
+        gx, gy, gz = base_acc(Pn, n)
         transforms(P, q, R, p)
         crba(P, parent, R, p, c10, M)
         E0 = energy(P, parent, R, p, Rw, ow, M, qd)          # T0 = 0: the start is at rest
@@ -142,9 +143,9 @@ def kernel(n, chain, law, check_every):
             if computed_torque:
                 for i in range(n):
                     a[i] = QDD_REF[k, i] + kp[i] * (Q_REF[k, i] - q[i]) + kd[i] * (QD_REF[k, i] - qd[i])
-                newton_euler(Pn, parent, R, p, f, st, qd, a, tau)
+                newton_euler(Pn, parent, R, p, f, st, qd, a, tau, gx, gy, gz)
             else:
-                newton_euler(Pn, parent, R, p, f, st, zero, zero, tau)
+                newton_euler(Pn, parent, R, p, f, st, zero, zero, tau, gx, gy, gz)
             hit = False
             for i in range(n):
                 tau[i] -= FF[k, i]
@@ -160,7 +161,7 @@ def kernel(n, chain, law, check_every):
                 OUT[s, PEAK], OUT[s, SATURATED], OUT[s, LOST_ROW] = peak, saturated, lost_row
                 return
             # the plant: qdd = M^-1 (u - beta qd - b), M = L L^T
-            newton_euler(P, parent, R, p, f, st, qd, zero, b)
+            newton_euler(P, parent, R, p, f, st, qd, zero, b, gx, gy, gz)
             crba(P, parent, R, p, c10, M)
             for i in range(n):
                 a[i] = (u[i] + (-beta[s, i] * qd[i])) - b[i]

@@ -69,13 +69,14 @@ def on_device(x):
 
 
 class Batch:
-    """The state arrays of one call, checked: ``N`` states, each array (N, width), on the
-    card (``arrays``), and whether the results go back to the host (every input was a
-    NumPy array) or stay on the card (some input was already there)."""
+    """The state arrays of one call, checked: ``N`` states, each array (N, its width), on
+    the card (``arrays``), and whether the results go back to the host (every input was a
+    NumPy array) or stay on the card (some input was already there). ``named``:
+    (name, array, width or a tuple of the widths it may have)."""
 
-    def __init__(self, op, width, named):
+    def __init__(self, op, named):
         self.N = None
-        checked = [(name, _checked(op, name, x, width)) for name, x in named]
+        checked = [(name, _checked(op, name, x, width)) for name, x, width in named]
         for name, x in checked:
             if self.N is None:
                 self.N = x.shape[0]
@@ -115,18 +116,20 @@ def _size(b):
 
 
 def _checked(op, name, x, width):
+    widths = width if isinstance(width, tuple) else (width,)
     if on_device(x):
         if not SIMULATOR and not hasattr(x, "copy_to_host"):
             x = cuda.as_cuda_array(x)            # a view of CuPy's, PyTorch's memory: no copy
     elif not isinstance(x, np.ndarray):
         raise TypeError(f"{op}: {name} is a {type(x).__name__}; pass a NumPy array (N, "
-                        f"{width}) of float64 or a device array (__cuda_array_interface__)")
+                        f"{widths[0]}) of float64 or a device array (__cuda_array_interface__)")
     if x.dtype != np.float64:
         raise TypeError(f"{op}: {name} has dtype {x.dtype}; the kernels take float64 "
                         f"(convert once: {name}.astype(np.float64))")
-    if len(x.shape) != 2 or x.shape[1] != width:
-        raise ValueError(f"{op}: {name} has shape {tuple(x.shape)}; expected (N, {width}): "
-                         f"N states of the robot's {width} coordinates")
+    if len(x.shape) != 2 or x.shape[1] not in widths:
+        shape = " or ".join(f"(N, {w})" for w in widths)
+        raise ValueError(f"{op}: {name} has shape {tuple(x.shape)}; expected {shape}: "
+                         f"N states of the robot's {widths[0]} coordinates")
     if not on_device(x):
         bad = ~np.isfinite(x)
         if bad.any():

@@ -19,6 +19,7 @@ from functools import lru_cache
 from numba import float64
 
 from ..core import cholesky as _cholesky
+from ..core import floating as _floating
 from ..core import rnea as _rnea
 from ..core import spatial as _spatial
 from ..core.layout import KIND, XP, XR
@@ -37,6 +38,10 @@ force_to_parent = device(_spatial.force_to_parent)
 sincos = device(_spatial.sincos)
 cholesky_factor = device(_cholesky.cholesky_factor)
 cholesky_solve_factored = device(_cholesky.cholesky_solve_factored)
+floating_rnea_inputs = device(_floating.rnea_inputs)
+floating_fd_inputs = device(_floating.fd_inputs)
+floating_chain_inputs = device(_floating._chain_inputs)
+velocity_products = device(_floating._products)
 
 
 @cuda.jit(device=True)
@@ -84,6 +89,15 @@ def composite_to_parent(r, px, py, pz, c, a):
             a[7] + Jxy - gx * py - px * gy - m * px * py,
             a[8] + Jxz - gx * pz - px * gz - m * px * pz,
             a[9] + Jyz - gy * pz - py * gz - m * py * pz)
+
+
+@cuda.jit(device=True)
+def row(X, s, out):
+    """out[:m] = X[s] (m = X.shape[1]): a state's row in a per-thread array, which the core's
+    functions that take arrays (``core/floating.py``'s) read on the card and in the
+    simulator alike."""
+    for i in range(X.shape[1]):
+        out[i] = X[s, i]
 
 
 @cuda.jit(device=True)

@@ -2,7 +2,7 @@
 import numpy as np
 
 import serial_dynamics as sd
-from test_mimic import mimic_chain
+from mimic_cases import mimic_chain
 
 N = 4              # states a batch: the simulator runs one Python thread per state
 

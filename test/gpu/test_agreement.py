@@ -1,16 +1,18 @@
 """serial_dynamics.gpu against the CPU core, robot by robot (in numba's CUDA simulator on a
 machine without a card: conftest.py): inverse dynamics, mass matrix, forward dynamics and
-the derivatives of inverse dynamics of every fixed-base kind to 1e-12, trees (two chains on
-one base) against their chains, the same bits run after run and whatever the batch around a
-state."""
+the derivatives of inverse dynamics of every fixed-base kind to 1e-12, a free-floating base
+(a chain and a tree) to 1e-12, trees (two chains on one base) against their chains, the same
+bits run after run and whatever the batch around a state."""
 import numpy as np
 import pytest
 
 pytest.importorskip("numba_cuda")
 
+import serial_dynamics as sd  # noqa: E402
 from serial_dynamics import gpu  # noqa: E402
 from serial_dynamics.gpu import device_model as dmod  # noqa: E402
 from gpu_cases import robots, states  # noqa: E402
+from test_trees import two_arms  # noqa: E402
 
 ROBOTS = robots()
 
@@ -32,6 +34,23 @@ def test_every_kind_agrees_with_the_cpu(name):
     for got, cpu in zip(gpu.inverse_dynamics_derivatives(robot, q, qd, qdd),
                         robot.inverse_dynamics_derivatives(q, qd, qdd)):
         close(got, cpu)
+
+
+@pytest.mark.parametrize("urdf", ["ur5e", "two_arms"])
+def test_a_floating_base_agrees_with_the_cpu(urdf):
+    robot = sd.load_urdf(sd.robots.ur5e_urdf() if urdf == "ur5e" else two_arms(),
+                         floating_base=True)
+    rng = np.random.default_rng(4)
+    q, v = robot.random_state(rng, batch=3, speed=2.0)          # q: [x, y, z, quaternion, joints]
+    a = rng.uniform(-3.0, 3.0, v.shape)
+    tau = robot.inverse_dynamics(q, v, a)
+    close(gpu.inverse_dynamics(robot, q, v, a), tau)
+    close(gpu.mass_matrix(robot, q), robot.mass_matrix(q))
+    close(gpu.forward_dynamics(robot, q, v, tau), robot.forward_dynamics(q, v, tau))
+    joints = rng.uniform(-5.0, 5.0, (3, robot.dof))              # the base free
+    close(gpu.forward_dynamics(robot, q, v, joints), robot.forward_dynamics(q, v, joints))
+    with pytest.raises(NotImplementedError, match="free-floating base is not supported yet"):
+        gpu.inverse_dynamics_derivatives(robot, q, v, a)
 
 
 def test_same_bits_run_after_run_and_in_any_batch():
@@ -62,8 +81,9 @@ def _tree(a, b):
     P = np.vstack([A[:na], B[:nb], A[na:]])
     parent = np.concatenate([np.arange(na) - 1, np.r_[-1, np.arange(nb - 1) + na]])
     n = na + nb
-    return dmod.DeviceModel(n=n, k=n, chain=False, mimic=False,
-                            host=(P, parent, np.arange(n), np.ones(n), np.zeros(n)))
+    return dmod.DeviceModel(n=n, k=n, chain=False, mimic=False, floating=False,
+                            host=(P, parent, np.arange(n), np.ones(n), np.zeros(n),
+                                  np.zeros((1, 9))))
 
 
 def test_a_tree_is_its_chains(monkeypatch):
@@ -91,6 +111,7 @@ def test_a_chain_run_as_a_tree_gives_the_chains_bits(monkeypatch):
     chain = gpu.inverse_dynamics(robot, q, qd, qdd), gpu.mass_matrix(robot, q)
     dm = dmod.device_model(robot, "inverse_dynamics")
     monkeypatch.setitem(dmod._CACHE, robot, dmod.DeviceModel(n=dm.n, k=dm.k, chain=False,
-                                                             mimic=False, host=dm.host))
+                                                             mimic=False, floating=False,
+                                                             host=dm.host))
     assert gpu.inverse_dynamics(robot, q, qd, qdd).tobytes() == chain[0].tobytes()
     assert gpu.mass_matrix(robot, q).tobytes() == chain[1].tobytes()

@@ -24,10 +24,12 @@ if not cuda.is_available():         # device functions ask the current card for 
 from serial_dynamics.gpu import crba, derivatives, forward, rnea, rollouts
 A1, A2, A3, I1 = float64[::1], float64[:, ::1], float64[:, :, ::1], int64[::1]
 for mod, outs in ((rnea, (A2, A2, A2, A2)), (crba, (A2, A3)), (forward, (A2, A2, A2, A2))):
-    # a 3-joint chain; a tree of 4 joints with mimic joints (3 coordinates): every branch of
-    # the specializations compiled once (few joints: NVVM unrolls the loops over them)
-    for key in ((3, 3, True, False), (4, 3, False, True)):
-        ptx, _ = cuda.compile_ptx(mod.kernel(*key).py_func, (A2, I1, I1, A1, A1) + outs, cc=(9, 0))
+    # a 3-joint chain; a tree of 4 joints with mimic joints (3 coordinates); a floating
+    # base's instantaneous chain (6 + 2 bodies): every branch of the specializations
+    # compiled once (few joints: NVVM unrolls the loops over them)
+    for key in ((3, 3, True, False, False), (4, 3, False, True, False), (8, 8, True, False, True)):
+        ptx, _ = cuda.compile_ptx(mod.kernel(*key).py_func, (A2, I1, I1, A1, A1, A2) + outs,
+                                  cc=(9, 0))
         assert ".entry" in ptx and "sm_90" in ptx
         print(mod.__name__, key, "ok")
 for key in ((3, 3, False), (4, 2, True)):      # chains only
@@ -52,4 +54,4 @@ def test_every_kernel_compiles_to_ptx():
     if p.returncode == 77:
         pytest.skip(p.stdout.strip())
     assert p.returncode == 0, p.stdout + p.stderr[-3000:]
-    assert p.stdout.count(" ok") == 10
+    assert p.stdout.count(" ok") == 13

@@ -97,11 +97,14 @@ def test_a_batch_too_large_for_the_card_names_its_size(monkeypatch):
     assert gpu.mass_matrix(ROBOT, Q).shape == (3, 6, 6)
 
 
-def test_a_floating_base_is_not_implemented_and_says_what_is_missing():
+def test_a_floating_base_takes_its_own_widths():
     robot = sd.load_urdf(sd.robots.ur5e_urdf(), floating_base=True)
-    with pytest.raises(NotImplementedError, match="free-floating base is not on the card yet"):
+    with pytest.raises(ValueError, match=r"Q has shape \(1, 12\); expected \(N, 13\)"):
+        gpu.mass_matrix(robot, np.zeros((1, robot.nv)))
+    with pytest.raises(ValueError, match=r"TAU has shape \(1, 5\); expected \(N, 12\) or "
+                                         r"\(N, 6\)"):
         gpu.forward_dynamics(robot, np.zeros((1, robot.nq)), np.zeros((1, robot.nv)),
-                             np.zeros((1, robot.nv)))
+                             np.zeros((1, 5)))
 
 
 def test_an_empty_batch_gives_an_empty_result():

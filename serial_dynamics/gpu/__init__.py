@@ -8,12 +8,14 @@
 
 One CUDA thread per state. NumPy arrays in give NumPy arrays out (one transfer each way);
 device arrays in (anything with ``__cuda_array_interface__``: CuPy, PyTorch, numba) give
-device arrays out, without copies. float64 only. Every fixed-base kind: armature,
-payload, planar (through the general recursions), mimic joints; a free-floating base
-raises NotImplementedError. Importing ``serial_dynamics`` never imports this package (nor
-numba.cuda); without numba-cuda, importing it raises an ImportError naming the extra.
-``NUMBA_ENABLE_CUDASIM=1``, set before numba.cuda is first imported, runs the kernels in
-numba's simulator (slow; the tests use it on machines without a card). docs/scale.md.
+device arrays out, without copies. float64 only. Every fixed-base kind: armature, payload,
+planar (through the general recursions), mimic joints, trees; a free-floating base (Q of
+nq numbers) for inverse dynamics, the mass matrix and forward dynamics. Importing
+``serial_dynamics`` never imports this package (nor numba.cuda); without numba-cuda,
+importing it raises an ImportError naming the extra. ``NUMBA_ENABLE_CUDASIM=1``, set before
+numba.cuda is first imported, runs the kernels in numba's simulator (slow; the tests use it
+on machines without a card). ``sweep.monte_carlo(..., device="cuda")`` runs a whole
+Monte-Carlo study here (``rollouts.py``). docs/scale.md.
 """
 from .crba import mass_matrix
 from .derivatives import inverse_dynamics_derivatives

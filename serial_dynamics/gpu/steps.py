@@ -1,7 +1,8 @@
 """The steps the kernels share, as CUDA device functions.
 
-The Newton-Euler steps, the frame changes, sine and cosine and the Cholesky factor are the
-compiled core's own functions (``core/rnea.py``, ``core/spatial.py``, ``core/cholesky.py``):
+The Newton-Euler steps, the frame changes, sine and cosine, the Cholesky factor and a
+floating base's inputs are the compiled core's own functions (``core/rnea.py``,
+``core/spatial.py``, ``core/cholesky.py``, ``core/floating.py``):
 ``device`` compiles the same Python source for the CUDA target, and the core functions they
 call are compiled for it by numba-cuda too. What is new here is what the core does over
 Data arrays rather than on scalars:
@@ -11,7 +12,9 @@ Data arrays rather than on scalars:
 - ``composite_to_parent``: the composite-rigid-body step of ``core/crba.py``, written there
   inline in its chain loop; here a function of the child's and the parent's composites, so
   that a tree adds each child to its parent;
-- ``coordinate``: joint i's value from the robot's coordinates (mimic joints).
+- ``coordinates``: joint i's value from the robot's coordinates (mimic joints);
+- ``row``: a state's row copied into a per-thread array, for the core functions that take
+  arrays (in numba's simulator a device array's row is no NumPy array they can take).
 """
 import math
 from functools import lru_cache

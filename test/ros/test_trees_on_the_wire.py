@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 from geometry_msgs.msg import Vector3, Wrench
 from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
 
 import serial_dynamics as sd
 from conftest import Latest
@@ -59,10 +60,7 @@ def test_the_controller_and_the_observer_run_the_two_arm_tree(ros):
     robot = sd.load_urdf(xml)
     target = np.array([0.4, 0.6, 0.02, 0.015, -0.3, -0.5, 0.01, 0.02])
     ros.start("simulator", {"robot_description": xml, "dissipation.enabled": False,
-                            # a quarter of real time: a starved controller's late effort
-                            # is late by a quarter of the wall-clock delay in simulated time
-                            # (at 0.5, run 7 of 10 under load never settled in 120 s)
-                            "real_time_factor": 0.25,
+                            "real_time_factor": 0.5,
                             "initial_positions": [0.0, 0.3, 0.01, 0.01, 0.0, -0.3, 0.01, 0.01]},
               ns)
     ros.start("computed_torque_controller", {"robot_description": xml, "kp": [100.0],
@@ -71,7 +69,12 @@ def test_the_controller_and_the_observer_run_the_two_arm_tree(ros):
     traj = ros.node.create_publisher(JointTrajectory, "/tree_ctl/desired_trajectory", 10)
     states = Latest(ros, JointState, "/tree_ctl/joint_states", depth=100)
     estimates = Latest(ros, JointState, "/tree_ctl/estimated_external_torques", depth=100)
-    ros.wait_matched(traj, also=lambda: states.msgs and estimates.msgs, what="the three nodes")
+    efforts = Latest(ros, Float64MultiArray, "/tree_ctl/effort_commands")
+    # the controller commands once it has a joint state; a trajectory that reaches it
+    # before that is refused ("arrived before any joint_states message"), and the arms
+    # stay where they started: that race was lost in 2 of the 37 runs logged here, both under load
+    ros.wait_matched(traj, also=lambda: states.msgs and estimates.msgs and efforts.msgs,
+                     what="the three nodes")
     traj.publish(JointTrajectory(joint_names=robot.joint_names, points=[JointTrajectoryPoint(
         positions=target.tolist(), time_from_start=Duration(sec=0))]))
     held = states.wait(lambda m: np.max(np.abs(np.array(m.position) - target)) < 1e-3

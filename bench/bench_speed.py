@@ -217,6 +217,79 @@ def cores(robot, rounds):
     return rows
 
 
+YARDSTICK_ROBOTS = {"Panda": ("panda_description/urdf/panda.urdf", "panda_link8", None),
+                    "UR5": ("ur_description/urdf/ur5_robot.urdf", "tool0", None),
+                    "Baxter (tree, 15 joints)": ("baxter_description/urdf/baxter.urdf", None,
+                                                 ["left_wrist", "right_wrist", "head"])}
+# issue 29's targets, as a multiple of the plain scalar inverse dynamics of the same run
+YARDSTICK_TARGETS = {"inverse dynamics": 0.33, "mass matrix": 0.45, "forward dynamics": 1.1}
+
+
+def yardstick_rows(rounds):
+    """Each batch against the yardstick (bench/yardstick.py), on one core (this process
+    pinned to the first it may use, the batch split off): ns a state of ours and of the
+    plain scalar Newton-Euler loop, interleaved; the counted operations; the core's peak.
+    Returns (peak flop/s, rows of (robot, call, ours s, scalar s, flops or None))."""
+    import yardstick
+    from serial_dynamics.robot import batches
+    mask, workers = os.sched_getaffinity(0), batches.WORKERS
+    cpu = sorted(mask)[0]
+    os.sched_setaffinity(0, {cpu})
+    batches.WORKERS = 1
+    rows = []
+    try:
+        peak = yardstick.peak(cpu)
+        for name, (rel, tip, tips) in YARDSTICK_ROBOTS.items():
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", sd.HeldJointsWarning)
+                robot = sd.load_urdf(erd_path(rel), None, tip, tip_links=tips).warmup()
+            counts = yardstick.flops(robot)
+            rng = np.random.default_rng(3)
+            Q, QD = robot.random_state(rng, batch=N_BATCH, speed=2.0)
+            QDD = rng.normal(size=Q.shape)
+            T = robot.inverse_dynamics(Q, QD, QDD)
+            yardstick.check(f"{name}: the scalar loop", yardstick.scalar_inverse_dynamics(
+                robot, Q, QD, QDD), T)
+            scalar = lambda: yardstick.scalar_inverse_dynamics(robot, Q, QD, QDD)  # noqa: E731
+            for what, f in [("inverse dynamics", lambda: robot.inverse_dynamics(Q, QD, QDD)),
+                            ("mass matrix", lambda: robot.mass_matrix(Q)),
+                            ("forward dynamics", lambda: robot.forward_dynamics(Q, QD, T)),
+                            ("derivatives of inverse dynamics",
+                             lambda: robot.inverse_dynamics_derivatives(Q, QD, QDD))]:
+                a, b = pair(f, scalar, 1, rounds)
+                rows.append((name, what, a / N_BATCH, b / N_BATCH, counts.get(what)))
+            print(f"yardstick: {name} done", flush=True)
+    finally:
+        batches.WORKERS = workers
+        os.sched_setaffinity(0, mask)
+    return peak, rows
+
+
+def yardstick_lines(peak, rows):
+    lines = [f"**Batches against the yardstick** (issue 29; {N_BATCH:,} states a call, one "
+             "thread pinned to one core; `bench/yardstick.py`). *Scalar*: a plain recursive "
+             "Newton-Euler written for the yardstick from the URDF's fields (general axes, any "
+             "parent array), compiled by numba in this run, one state after the other, checked "
+             "against ours to 1e-10 before it is timed, interleaved with each row. *Flops*: the "
+             "operations of one state counted by running plain versions of the algorithm on "
+             "numbers that count (Newton-Euler; composite rigid bodies; forward dynamics = mass "
+             "matrix + Newton-Euler at qdd = 0 + Cholesky solve; a sine or cosine counts one); "
+             "each is checked against ours first. *Peak*: a 1024 x 1024 dgemm on the same core, "
+             f"one thread: {peak / 1e9:.1f} Gflop/s; *limit* = flops / peak. Targets: issue 29's, "
+             "as a multiple of the scalar inverse dynamics of the same robot in the same run.", "",
+             "| robot | batch | ours (ns/state) | scalar ID (ns/state) | x scalar | target "
+             "| flops | limit (ns) | x limit |", "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
+    for name, what, a, b, ops in rows:
+        target = YARDSTICK_TARGETS.get(what)
+        met = "" if target is None else (f"≤ {target:g} " + ("yes" if a / b <= target else
+                                                             f"**no** ({a / b / target:.1f}x)"))
+        limit = "" if ops is None else f"{ops / peak * 1e9:.1f}"
+        times = "" if ops is None else f"{a / (ops / peak):.1f}"
+        lines.append(f"| {name} | {what} | {a * 1e9:.0f} | {b * 1e9:.0f} | {a / b:.2f} | {met} | "
+                     f"{'' if ops is None else ops} | {limit} | {times} |")
+    return lines + [""]
+
+
 def mujoco_model(urdf_path):
     import mujoco
     xml = open(urdf_path).read()
@@ -506,6 +579,7 @@ def main():
     from serial_dynamics.robot import facade as robot_module
     core_rows = cores(robots["Panda"], rounds)
     print("cores done", flush=True)
+    peak, yard_rows = yardstick_rows(rounds)
     first = first_call(cold=not args.quick, earlier_root=root if args.before == EARLIER_REV else None)
     both_cores = None if args.quick else precompile_wall()
     print("first call done", flush=True)
@@ -557,6 +631,7 @@ def main():
     lines += ["", "The rows of the main table are measured with the default, so their batch rows use "
               "both cores; Pinocchio's `*InParallel` rows use one thread, as its `1` argument says "
               "(compare them with the one-thread column here).", ""]
+    lines += yardstick_lines(peak, yard_rows)
     lines += ["**First call in a fresh process** (import + URDF load — with a cold cache this compiles "
               "the core's algorithms, which have explicit signatures; the first `inverse_dynamics`; "
               "`Robot.warmup()`, which compiles or loads the entry points of the Robot methods; the "

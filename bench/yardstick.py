@@ -1,0 +1,364 @@
+"""The yardstick of the batch rows (issue 29): what a plain scalar implementation does, how
+many floating-point operations each algorithm takes, and what the core can do at most.
+
+- ``scalar_inverse_dynamics``: a textbook recursive Newton-Euler (Luh, Walker and Paul
+  1980, in the form of Siciliano et al., *Robotics*, 2009, Sec. 7.5), written here from
+  the URDF's own fields (general joint axes by Rodrigues' formula, centers of mass, any
+  parent array), compiled with numba, one state after the other. It shares nothing with
+  the library's kernels; ``check`` holds it to the library before it is timed.
+- ``flops``: the operations of each algorithm on a robot, counted by running plain
+  versions of them (Newton-Euler; composite rigid bodies with 3-vectors; the Cholesky
+  solve) in Python on numbers that count what is done to them (+, -, *, / and sqrt one
+  each; a sine or cosine one each, which flatters no one: libm's cost tens).
+- ``peak``: the core's measured arithmetic rate, a dense matrix product (BLAS dgemm, one
+  thread, pinned to the calling core) in a subprocess: 2 n^3 operations over its time.
+
+A batch row then reads "x scalar" (its time over the scalar loop's, same run) and
+"x limit" (its time over flops / peak): ratios that carry from machine to machine.
+"""
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+
+import numpy as np
+from numba import njit
+
+
+# ------------------------------------------------------------------ the algorithms, plain
+def _make_rnea(sin, cos, zeros):
+    """Newton-Euler over (N, n) states, one after the other; sin, cos and the scratch
+    arrays' ``zeros`` given (counted or libm's and NumPy's). Body i's frame is its URDF
+    link frame; R, p place it in its parent's."""
+    def rnea(parent, R0, p0, axis, prism, m, c, I, arm, g, Q, QD, QDD, TAU):
+        n = parent.shape[0]
+        R, p = zeros((n, 3, 3)), zeros((n, 3))
+        w, dw, a = zeros((n, 3)), zeros((n, 3)), zeros((n, 3))
+        f, t = zeros((n, 3)), zeros((n, 3))
+        E, ew, edw, ea, rf, rt = zeros((3, 3)), zeros(3), zeros(3), zeros(3), zeros(3), zeros(3)
+        for k in range(Q.shape[0]):
+            for i in range(n):                       # outward: kinematics and body wrenches
+                ux, uy, uz = axis[i, 0], axis[i, 1], axis[i, 2]
+                q, qd, qdd = Q[k, i], QD[k, i], QDD[k, i]
+                for r in range(3):
+                    p[i, r] = p0[i, r]
+                if prism[i]:                         # E = (1, u q)
+                    for r in range(3):
+                        for s in range(3):
+                            R[i, r, s] = R0[i, r, s]
+                        p[i, r] = p[i, r] + (R0[i, r, 0] * ux + R0[i, r, 1] * uy + R0[i, r, 2] * uz) * q
+                else:                                # E = Rot(u, q): c 1 + s [u]x + (1 - c) u u^T
+                    sq, cq = sin(q), cos(q)
+                    v = 1.0 - cq
+                    E[0, 0], E[0, 1], E[0, 2] = cq + v * ux * ux, v * ux * uy - sq * uz, v * ux * uz + sq * uy
+                    E[1, 0], E[1, 1], E[1, 2] = v * ux * uy + sq * uz, cq + v * uy * uy, v * uy * uz - sq * ux
+                    E[2, 0], E[2, 1], E[2, 2] = v * ux * uz - sq * uy, v * uy * uz + sq * ux, cq + v * uz * uz
+                    for r in range(3):
+                        for s in range(3):
+                            R[i, r, s] = R0[i, r, 0] * E[0, s] + R0[i, r, 1] * E[1, s] + R0[i, r, 2] * E[2, s]
+                l = parent[i]
+                # the parent's w, dw and origin acceleration a + dw x p + w x (w x p), in body i
+                if l < 0:
+                    pw, pdw, pa = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (-g[0], -g[1], -g[2])
+                else:
+                    pw = (w[l, 0], w[l, 1], w[l, 2])
+                    pdw = (dw[l, 0], dw[l, 1], dw[l, 2])
+                    x, y, z = p[i, 0], p[i, 1], p[i, 2]
+                    wpx, wpy, wpz = pw[1] * z - pw[2] * y, pw[2] * x - pw[0] * z, pw[0] * y - pw[1] * x
+                    pa = (a[l, 0] + pdw[1] * z - pdw[2] * y + pw[1] * wpz - pw[2] * wpy,
+                          a[l, 1] + pdw[2] * x - pdw[0] * z + pw[2] * wpx - pw[0] * wpz,
+                          a[l, 2] + pdw[0] * y - pdw[1] * x + pw[0] * wpy - pw[1] * wpx)
+                for r in range(3):
+                    ew[r] = R[i, 0, r] * pw[0] + R[i, 1, r] * pw[1] + R[i, 2, r] * pw[2]
+                    edw[r] = R[i, 0, r] * pdw[0] + R[i, 1, r] * pdw[1] + R[i, 2, r] * pdw[2]
+                    ea[r] = R[i, 0, r] * pa[0] + R[i, 1, r] * pa[1] + R[i, 2, r] * pa[2]
+                if prism[i]:     # w = R^T w_l; dw = R^T dw_l; a += 2 w x (u qd) + u qdd
+                    for r in range(3):
+                        w[i, r], dw[i, r] = ew[r], edw[r]
+                    a[i, 0] = ea[0] + 2.0 * qd * (ew[1] * uz - ew[2] * uy) + qdd * ux
+                    a[i, 1] = ea[1] + 2.0 * qd * (ew[2] * ux - ew[0] * uz) + qdd * uy
+                    a[i, 2] = ea[2] + 2.0 * qd * (ew[0] * uy - ew[1] * ux) + qdd * uz
+                else:            # w = R^T w_l + u qd; dw = R^T dw_l + R^T w_l x u qd + u qdd
+                    w[i, 0], w[i, 1], w[i, 2] = ew[0] + ux * qd, ew[1] + uy * qd, ew[2] + uz * qd
+                    dw[i, 0] = edw[0] + qd * (ew[1] * uz - ew[2] * uy) + qdd * ux
+                    dw[i, 1] = edw[1] + qd * (ew[2] * ux - ew[0] * uz) + qdd * uy
+                    dw[i, 2] = edw[2] + qd * (ew[0] * uy - ew[1] * ux) + qdd * uz
+                    for r in range(3):
+                        a[i, r] = ea[r]
+                # the body's wrench about its origin: F = m (a + dw x c + w x (w x c)),
+                # N = I_c dw + w x I_c w + c x F  (Newton and Euler at the center of mass)
+                wx, wy, wz = w[i, 0], w[i, 1], w[i, 2]
+                dx, dy, dz = dw[i, 0], dw[i, 1], dw[i, 2]
+                cx, cy, cz = c[i, 0], c[i, 1], c[i, 2]
+                wcx, wcy, wcz = wy * cz - wz * cy, wz * cx - wx * cz, wx * cy - wy * cx
+                Fx = m[i] * (a[i, 0] + dy * cz - dz * cy + wy * wcz - wz * wcy)
+                Fy = m[i] * (a[i, 1] + dz * cx - dx * cz + wz * wcx - wx * wcz)
+                Fz = m[i] * (a[i, 2] + dx * cy - dy * cx + wx * wcy - wy * wcx)
+                Lx = I[i, 0, 0] * wx + I[i, 0, 1] * wy + I[i, 0, 2] * wz
+                Ly = I[i, 1, 0] * wx + I[i, 1, 1] * wy + I[i, 1, 2] * wz
+                Lz = I[i, 2, 0] * wx + I[i, 2, 1] * wy + I[i, 2, 2] * wz
+                f[i, 0], f[i, 1], f[i, 2] = Fx, Fy, Fz
+                t[i, 0] = (I[i, 0, 0] * dx + I[i, 0, 1] * dy + I[i, 0, 2] * dz + wy * Lz - wz * Ly
+                           + cy * Fz - cz * Fy)
+                t[i, 1] = (I[i, 1, 0] * dx + I[i, 1, 1] * dy + I[i, 1, 2] * dz + wz * Lx - wx * Lz
+                           + cz * Fx - cx * Fz)
+                t[i, 2] = (I[i, 2, 0] * dx + I[i, 2, 1] * dy + I[i, 2, 2] * dz + wx * Ly - wy * Lx
+                           + cx * Fy - cy * Fx)
+            for i in range(n - 1, -1, -1):           # inward: f_l += R f_i, n_l += R n_i + p x R f_i
+                ux, uy, uz = axis[i, 0], axis[i, 1], axis[i, 2]
+                if prism[i]:
+                    TAU[k, i] = f[i, 0] * ux + f[i, 1] * uy + f[i, 2] * uz + arm[i] * QDD[k, i]
+                else:
+                    TAU[k, i] = t[i, 0] * ux + t[i, 1] * uy + t[i, 2] * uz + arm[i] * QDD[k, i]
+                l = parent[i]
+                if l >= 0:
+                    for r in range(3):
+                        rf[r] = R[i, r, 0] * f[i, 0] + R[i, r, 1] * f[i, 1] + R[i, r, 2] * f[i, 2]
+                        rt[r] = R[i, r, 0] * t[i, 0] + R[i, r, 1] * t[i, 1] + R[i, r, 2] * t[i, 2]
+                    x, y, z = p[i, 0], p[i, 1], p[i, 2]
+                    f[l, 0], f[l, 1], f[l, 2] = f[l, 0] + rf[0], f[l, 1] + rf[1], f[l, 2] + rf[2]
+                    t[l, 0] = t[l, 0] + rt[0] + y * rf[2] - z * rf[1]
+                    t[l, 1] = t[l, 1] + rt[1] + z * rf[0] - x * rf[2]
+                    t[l, 2] = t[l, 2] + rt[2] + x * rf[1] - y * rf[0]
+    return rnea
+
+
+def _dot3(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _minus(a, xs):
+    """a - (x0 + x1 + ...), no operation for an empty sum."""
+    xs = list(xs)
+    if not xs:
+        return a
+    total = xs[0]
+    for x in xs[1:]:
+        total = total + x
+    return a - total
+
+
+def _crba(parent, R0, p0, axis, prism, m, c, I, arm, q, sin, cos):
+    """The mass matrix by composite rigid bodies (Walker and Orin 1982; Featherstone 2008,
+    Sec. 6.2) with 3-vectors: composite mass, first moment h and rotational inertia J
+    about each body's origin; then the unit-acceleration wrench of composite i carried
+    inward. For counting only (Python)."""
+    n = parent.shape[0]
+    R, p = [None] * n, [None] * n
+    for i in range(n):
+        u = axis[i]
+        if prism[i]:
+            R[i] = [[R0[i][r][s] for s in range(3)] for r in range(3)]
+            p[i] = [p0[i][r] + _dot3(R0[i][r], u) * q[i] for r in range(3)]
+        else:
+            sq, cq = sin(q[i]), cos(q[i])
+            v = 1.0 - cq
+            E = [[cq + v * u[0] * u[0], v * u[0] * u[1] - sq * u[2], v * u[0] * u[2] + sq * u[1]],
+                 [v * u[0] * u[1] + sq * u[2], cq + v * u[1] * u[1], v * u[1] * u[2] - sq * u[0]],
+                 [v * u[0] * u[2] - sq * u[1], v * u[1] * u[2] + sq * u[0], cq + v * u[2] * u[2]]]
+            R[i] = [[_dot3(R0[i][r], [E[k][s] for k in range(3)]) for s in range(3)] for r in range(3)]
+            p[i] = [p0[i][r] for r in range(3)]
+    mc = [m[i] for i in range(n)]
+    h = [[m[i] * c[i][r] for r in range(3)] for i in range(n)]
+    # J about the origin: I_c - m [c]x [c]x
+    J = []
+    for i in range(n):
+        cc = _dot3(c[i], c[i])
+        J.append([[I[i][r][s] + m[i] * ((cc - c[i][r] * c[i][s]) if r == s else -(c[i][r] * c[i][s]))
+                   for s in range(3)] for r in range(3)])
+    for i in range(n - 1, -1, -1):            # composite i into its parent
+        l = parent[i]
+        if l < 0:
+            continue
+        Rh = [_dot3(R[i][r], h[i]) for r in range(3)]
+        RJ = [[_dot3(R[i][r], [J[i][k][s] for k in range(3)]) for s in range(3)] for r in range(3)]
+        RJR = [[_dot3(RJ[r], R[i][s]) for s in range(3)] for r in range(3)]
+        x = p[i]
+        # J' = R J R^T - m [p]x[p]x - [p]x[Rh]x - [Rh]x[p]x; h' = R h + m p
+        xx, xh = _dot3(x, x), _dot3(x, Rh)
+        for r in range(3):
+            for s in range(3):
+                extra = mc[i] * (xx - x[r] * x[s]) + 2.0 * xh if r == s else -(mc[i] * x[r] * x[s])
+                J[l][r][s] = J[l][r][s] + RJR[r][s] + extra - x[r] * Rh[s] - Rh[r] * x[s]
+        for r in range(3):
+            h[l][r] = h[l][r] + Rh[r] + mc[i] * x[r]
+        mc[l] = mc[l] + mc[i]
+    M = [[0.0] * n for _ in range(n)]
+    for i in range(n):
+        u = axis[i]
+        if prism[i]:    # n = h x u, f = m u
+            f = [mc[i] * u[r] for r in range(3)]
+            t = [h[i][1] * u[2] - h[i][2] * u[1], h[i][2] * u[0] - h[i][0] * u[2],
+                 h[i][0] * u[1] - h[i][1] * u[0]]
+        else:           # n = J u, f = u x h
+            f = [u[1] * h[i][2] - u[2] * h[i][1], u[2] * h[i][0] - u[0] * h[i][2],
+                 u[0] * h[i][1] - u[1] * h[i][0]]
+            t = [_dot3(J[i][r], u) for r in range(3)]
+        M[i][i] = _dot3(f if prism[i] else t, u) + arm[i]
+        j = i
+        while parent[j] >= 0:                   # carried to each ancestor
+            Rf = [_dot3(R[j][r], f) for r in range(3)]
+            Rt = [_dot3(R[j][r], t) for r in range(3)]
+            x = p[j]
+            t = [Rt[0] + x[1] * Rf[2] - x[2] * Rf[1], Rt[1] + x[2] * Rf[0] - x[0] * Rf[2],
+                 Rt[2] + x[0] * Rf[1] - x[1] * Rf[0]]
+            f = Rf
+            j = parent[j]
+            uj = axis[j]
+            M[i][j] = M[j][i] = _dot3(f if prism[j] else t, uj)
+    return M
+
+
+def _cholesky_solve(M, b):
+    """M x = b by Cholesky (L L^T), the textbook loops; for counting only."""
+    n = len(b)
+    L = [[0.0] * n for _ in range(n)]
+    for j in range(n):
+        d = _minus(M[j][j], (L[j][k] * L[j][k] for k in range(j)))
+        L[j][j] = d.sqrt() if hasattr(d, "sqrt") else math.sqrt(d)
+        for i in range(j + 1, n):
+            L[i][j] = _minus(M[i][j], (L[i][k] * L[j][k] for k in range(j))) / L[j][j]
+    y = [0.0] * n
+    for i in range(n):
+        y[i] = _minus(b[i], (L[i][k] * y[k] for k in range(i))) / L[i][i]
+    x = [0.0] * n
+    for i in range(n - 1, -1, -1):
+        x[i] = _minus(y[i], (L[k][i] * x[k] for k in range(i + 1, n))) / L[i][i]
+    return x
+
+
+# ------------------------------------------------------------------ counting
+class Flop:
+    """A number that counts the floating-point operations done on it (one shared tally)."""
+    count = 0
+    __slots__ = ("x",)
+
+    def __init__(self, x):
+        self.x = float(x)
+
+    @staticmethod
+    def _v(y):
+        return y.x if isinstance(y, Flop) else float(y)
+
+    def _op(self, y, f):
+        Flop.count += 1
+        return Flop(f(self.x, Flop._v(y)))
+
+    def __add__(self, y): return self._op(y, lambda a, b: a + b)
+    def __radd__(self, y): return self._op(y, lambda a, b: b + a)
+    def __sub__(self, y): return self._op(y, lambda a, b: a - b)
+    def __rsub__(self, y): return self._op(y, lambda a, b: b - a)
+    def __mul__(self, y): return self._op(y, lambda a, b: a * b)
+    def __rmul__(self, y): return self._op(y, lambda a, b: b * a)
+    def __truediv__(self, y): return self._op(y, lambda a, b: a / b)
+    def __rtruediv__(self, y): return self._op(y, lambda a, b: b / a)
+    def __neg__(self): return self._op(0.0, lambda a, b: -a)
+    def __float__(self): return self.x
+
+    def sqrt(self):
+        return self._op(0.0, lambda a, b: math.sqrt(a))
+
+    @staticmethod
+    def sin(y):
+        Flop.count += 1
+        return Flop(math.sin(Flop._v(y)))
+
+    @staticmethod
+    def cos(y):
+        Flop.count += 1
+        return Flop(math.cos(Flop._v(y)))
+
+
+def model_arrays(robot):
+    """The URDF-frame fields the plain algorithms read: parent, R, p, axis, prismatic,
+    mass, com, inertia about the com, armature, gravity."""
+    m = robot.model
+    if m.floating or m.has_mimic_joints:
+        raise ValueError("the yardstick is written for a fixed base without mimic joints")
+    arm = np.zeros(m.dof) if m.armature is None else np.asarray(m.armature, float)
+    parent = np.asarray(m.parent if m.parent is not None else np.arange(m.dof) - 1, np.int64)
+    return (parent, np.asarray(m.R_parent, float), np.asarray(m.p_parent, float),
+            np.asarray(m.axis, float), np.array([t == "prismatic" for t in m.joint_types]),
+            np.asarray(m.mass, float), np.asarray(m.com, float), np.asarray(m.inertia, float),
+            arm, np.asarray(m.gravity, float))
+
+
+def _counted(x):
+    return np.array([Flop(v) for v in np.ravel(x)], dtype=object).reshape(np.shape(x))
+
+
+def flops(robot, seed=0):
+    """Operations of one state, by algorithm: inverse dynamics (Newton-Euler), the mass
+    matrix (composite rigid bodies), forward dynamics (mass matrix, Newton-Euler at qdd = 0
+    for the bias, Cholesky solve)."""
+    parent, R0, p0, axis, prism, m, c, I, arm, g = model_arrays(robot)
+    n = len(parent)
+    rng = np.random.default_rng(seed)
+    q, qd, qdd = (rng.uniform(-1, 1, (1, n)) for _ in range(3))
+    model = (parent, *map(_counted, (R0, p0, axis)), prism, *map(_counted, (m, c, I, arm, g)))
+    rnea = _make_rnea(Flop.sin, Flop.cos, lambda shape: np.zeros(shape, dtype=object))
+    tau = np.empty((1, n), dtype=object)
+    Flop.count = 0
+    rnea(*model, _counted(q), _counted(qd), _counted(qdd), tau)
+    id_ops = Flop.count
+    Flop.count = 0
+    M = _crba(*model[:-1], list(_counted(q[0])), Flop.sin, Flop.cos)
+    m_ops = Flop.count
+    Flop.count = 0
+    rnea(*model, _counted(q), _counted(qd), _counted(np.zeros((1, n))), tau)
+    bias_ops = Flop.count
+    Flop.count = 0
+    _cholesky_solve(M, list(_counted(np.ones(n))))
+    solve_ops = Flop.count
+    # the counted algorithms give the library's answers (checked on plain floats)
+    tau_f = np.empty((1, n))
+    _make_rnea(math.sin, math.cos, np.zeros)(parent, R0, p0, axis, prism, m, c, I, arm, g, q, qd, qdd, tau_f)
+    M_f = np.array(_crba(parent, R0, p0, axis, prism, m, c, I, arm, list(q[0]), math.sin, math.cos))
+    check("the counted Newton-Euler", tau_f[0], robot.inverse_dynamics(q[0], qd[0], qdd[0]))
+    check("the counted composite rigid bodies", M_f, robot.mass_matrix(q[0]))
+    return {"inverse dynamics": id_ops, "mass matrix": m_ops,
+            "forward dynamics": m_ops + bias_ops + solve_ops}
+
+
+# ------------------------------------------------------------------ timing the plain loop
+scalar_rnea = njit(cache=True)(_make_rnea(math.sin, math.cos, np.zeros))
+
+
+def scalar_inverse_dynamics(robot, Q, QD, QDD):
+    """The plain scalar Newton-Euler of N states (N, n), compiled, one after the other."""
+    tau = np.empty(Q.shape)
+    scalar_rnea(*model_arrays(robot), np.ascontiguousarray(Q), np.ascontiguousarray(QD),
+                np.ascontiguousarray(QDD), tau)
+    return tau
+
+
+def check(what, ours, library, tol=1e-10):
+    err = np.max(np.abs(np.asarray(ours, float) - library)) / max(1.0, np.max(np.abs(library)))
+    if not err <= tol:
+        raise AssertionError(f"{what} differs from the library by {err:.2e} (relative)")
+    return err
+
+
+# ------------------------------------------------------------------ the core's peak
+_PEAK = """
+import os, time, numpy as np
+os.sched_setaffinity(0, {{{cpu}}})
+n = 1024
+a, b = np.random.default_rng(0).random((2, n, n))
+c = a @ b
+best = min((lambda t0: (a @ b, time.perf_counter() - t0)[1])(time.perf_counter()) for _ in range(8))
+print(2.0 * n ** 3 / best)
+"""
+
+
+def peak(cpu=None):
+    """Floating-point operations a second of a dense matrix product (BLAS dgemm, n = 1024,
+    best of 8) on one thread pinned to ``cpu`` (default: the first this process may use)."""
+    cpu = sorted(os.sched_getaffinity(0))[0] if cpu is None else cpu
+    env = {**os.environ, **{k: "1" for k in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS",
+                                              "MKL_NUM_THREADS", "BLIS_NUM_THREADS")}}
+    out = subprocess.run([sys.executable, "-c", _PEAK.format(cpu=cpu)], env=env, check=True,
+                         capture_output=True, text=True)
+    return float(out.stdout.split()[-1])

@@ -106,9 +106,19 @@ def rnea_block(P, q, qd, qdd, w, flags, out, k0):
     nl = min(L, N - k0)
     QV, WB, TB, ST = stack_empty((3 * n + 1, L)), stack_empty((W_ALL, L)), stack_empty((n, L)), stack_empty((15, L))
     RB, PB, FB = stack_empty((9 * n, L)), stack_empty((3 * n, L)), stack_empty((6 * n, L))
-    # --- gather the block
     small, fin = gather(P, q, qd, qdd, w, flags, QV, WB, k0, nl)
-    # --- the recursions, lane by lane
+    newton_euler_lanes(P, flags, QV, WB, RB, PB, FB, ST, TB, nl, small)
+    for b in range(nl):
+        for i in range(n):
+            out[k0 + b, i] = TB[i, b]
+    return OK if fin else NOT_FINITE
+
+
+@njit(cache=True, inline="always")
+def newton_euler_lanes(P, flags, QV, WB, RB, PB, FB, ST, TB, nl, small):
+    """The recursions of ``rnea_block`` on gathered lanes: the torques into TB (n, B),
+    the joint transforms left in RB, PB (scratch as there)."""
+    n = P.shape[0] - 1
     use_w, use_base = (flags & F.WRENCH) != 0, (flags & F.BASE) != 0
     for k in range(15):          # omega = alpha = 0, a = -g; moving base: WB[6:15] - (0, 0, g)
         v = -P[n, G + k - 6] if 6 <= k < 9 else 0.0
@@ -205,11 +215,6 @@ def rnea_block(P, q, qd, qdd, w, flags, out, k0):
             mx, my, mz = mx + FB[fi + 3, b], my + FB[fi + 4, b], mz + FB[fi + 5, b]
             ST[0, b], ST[1, b], ST[2, b], ST[3, b], ST[4, b], ST[5, b] = fx, fy, fz, mx, my, mz
             TB[i, b] = (mz if rev else fz) + P[i, ARM] * QV[2 * n + i, b]
-    # --- scatter
-    for b in range(nl):
-        for i in range(n):
-            out[k0 + b, i] = TB[i, b]
-    return OK if fin else NOT_FINITE
 
 
 # ------------------------------------------------------------------ entry point

@@ -272,7 +272,8 @@ def test_warmup_loads_every_kernel_of_the_robot_methods():
     # the kernels of the dynamics methods warmup() calls; the regressor, derivatives and
     # energy kernels are loaded on their first use (a node does not need them to start)
     dynamics = {name for name, (func, *_) in core.ENTRY_POINTS.items()
-                if func.__module__.rsplit(".", 1)[1] in ("rnea", "rnea_lanes", "crba", "forward")}
+                if func.__module__.rsplit(".", 1)[1] in ("rnea", "rnea_lanes", "crba", "crba_lanes",
+                                                       "forward")}
     assert set(ROBOT_KERNELS) == dynamics
     assert set(PLANAR_KERNELS) == {k for k in core.ENTRY_POINTS if k.startswith("planar")}
     for name in ROBOT_KERNELS:

@@ -1,0 +1,99 @@
+"""Forward dynamics of a batch by the Cholesky route, compiled: B samples at a time in SIMD
+lanes (``forward.cholesky_core``'s steps, lane by lane).
+
+b = Newton-Euler at zero acceleration (``rnea_lanes.newton_euler_lanes``), x = tau - b,
+M by composite rigid bodies on the same transforms (``crba_lanes.composite_lanes``), then
+M = L L^T and the two triangular solves with the loop over the lanes innermost. Each lane
+does ``cholesky_core``'s operations in its order (``cholesky.cholesky_factor`` and
+``cholesky_solve_factored``; sqrt and division are IEEE-exact in a vector as in a scalar),
+so a sample's qdd is bitwise the same alone or in any batch.
+"""
+import math
+
+from numba import njit
+
+from . import flags as F
+from .crba_lanes import composite_lanes
+from .data import stack_empty
+from .layout import LANES, W_ALL
+from .rnea_lanes import gather, newton_euler_lanes
+from .signatures import In2, Out2, Pm, i8, internal
+from .status import NOT_FINITE, OK
+
+
+@njit(cache=True, inline="always")
+def cholesky_lanes(n, MB, XB, SB, nl):
+    """x <- M^-1 x in every lane: MB (n * n, B) holds M's upper triangle (row i * n + j,
+    j >= i), which is M's lower one read transposed; its slots receive L (L_ij, i >= j, in
+    row j * n + i). XB (n, B) the right-hand sides, SB (1, B) scratch."""
+    for j in range(n):                   # M = L L^T, column by column
+        jj = j * n + j
+        for b in range(nl):
+            SB[0, b] = MB[jj, b]
+        for k in range(j):
+            jk = k * n + j
+            for b in range(nl):
+                SB[0, b] -= MB[jk, b] * MB[jk, b]
+        for b in range(nl):
+            MB[jj, b] = math.sqrt(SB[0, b])
+        for i in range(j + 1, n):
+            ij = j * n + i
+            for b in range(nl):
+                SB[0, b] = MB[ij, b]
+            for k in range(j):
+                ik, jk = k * n + i, k * n + j
+                for b in range(nl):
+                    SB[0, b] -= MB[ik, b] * MB[jk, b]
+            for b in range(nl):
+                MB[ij, b] = SB[0, b] / MB[jj, b]
+    for i in range(n):                   # L y = x
+        for k in range(i):
+            ik = k * n + i
+            for b in range(nl):
+                XB[i, b] -= MB[ik, b] * XB[k, b]
+        for b in range(nl):
+            XB[i, b] = XB[i, b] / MB[i * n + i, b]
+    for i in range(n - 1, -1, -1):       # L^T x = y
+        for k in range(i + 1, n):
+            ki = i * n + k
+            for b in range(nl):
+                XB[i, b] -= MB[ki, b] * XB[k, b]
+        for b in range(nl):
+            XB[i, b] = XB[i, b] / MB[i * n + i, b]
+
+
+@internal(i8(Pm, In2, In2, In2, In2, i8, Out2, i8))
+def fd_block(P, q, qd, tau, w, flags, out, k0):
+    """qdd of the samples k0 .. k0 + B - 1 (fewer at the batch's end) into the same rows of
+    ``out`` (flags as ``forward.fd``'s, without ABA). Returns 1 if one of them has a NaN/Inf
+    input, else 0."""
+    N = out.shape[0]
+    n = P.shape[0] - 1
+    L = int(P[n, LANES])                 # lanes (= B), read at run time on purpose
+    nl = min(L, N - k0)
+    QV, WB, TB, ST = stack_empty((3 * n + 1, L)), stack_empty((W_ALL, L)), stack_empty((n, L)), stack_empty((15, L))
+    RB, PB, FB = stack_empty((9 * n, L)), stack_empty((3 * n, L)), stack_empty((6 * n, L))
+    CB, MB, SB = stack_empty((10, L)), stack_empty((n * n, L)), stack_empty((1, L))
+    # b - J^T w: Newton-Euler at qdd = 0
+    small, fin = gather(P, q, qd, q, w, flags & (F.QD | F.WRENCH | F.BASE), QV, WB, k0, nl)
+    newton_euler_lanes(P, flags & (F.QD | F.WRENCH | F.BASE), QV, WB, RB, PB, FB, ST, TB, nl, small)
+    nt = tau.shape[0] > 1
+    for i in range(n):                   # x = tau - b
+        for b in range(nl):
+            x = tau[k0 + b if nt else 0, i]
+            fin &= x * 0.0 == 0.0
+            TB[i, b] = x - TB[i, b]
+    composite_lanes(P, RB, PB, CB, ST, MB, nl)   # M, on the transforms of q
+    cholesky_lanes(n, MB, TB, SB, nl)
+    for b in range(nl):
+        for i in range(n):
+            out[k0 + b, i] = TB[i, b]
+    return OK if fin else NOT_FINITE
+
+
+def fd_lanes(P, q, qd, tau, w, flags, out):
+    """Forward dynamics of N states by the Cholesky route, B at a time in lanes."""
+    bad = OK
+    for k0 in range(0, out.shape[0], int(P[P.shape[0] - 1, LANES])):
+        bad |= fd_block(P, q, qd, tau, w, flags, out, k0)
+    return bad

@@ -28,7 +28,7 @@ from numba.core.dispatcher import Dispatcher
 
 from . import crba, crba_lanes, derivatives, derivatives_lanes, energy, floating, forward, planar, planar_lanes
 from . import regressor
-from . import rnea, rnea_lanes, tree
+from . import rnea, rnea_lanes, tree, tree_derivatives
 from .signatures import In2, Mat, Out2, Out3, Pm, Vec, compile_internal, i8
 from .status import BAD_LENGTH, NOT_CONVERGED, NOT_FINITE, OK, OTHER_TYPES   # noqa: F401 (re-exported)
 
@@ -53,10 +53,11 @@ ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core fu
     **energy.ENTRY_POINTS,         # dT/dq and the symplectic Euler step
     **floating.ENTRY_POINTS,       # a free-floating base on the instantaneous chain
     **tree.ENTRY_POINTS,           # kinematic trees on the parent array
+    **tree_derivatives.ENTRY_POINTS,   # and their derivatives
 }
 SINGLE_STATE = ("rnea", "rnea_wrench", "crba", "fd", "planar_rnea", "planar_rnea_wrench",
                 "planar_crba", "regressor", "rnea_derivatives", "fd_derivatives",
-                *floating.SINGLE_STATE, *tree.SINGLE_STATE)
+                *floating.SINGLE_STATE, *tree.SINGLE_STATE, *tree_derivatives.SINGLE_STATE)
 
 
 def check_hook(dispatcher_class=Dispatcher, version=numba.__version__):
@@ -149,6 +150,10 @@ class _Kernels:
     floating_tree_fd = _EntryPoint()
     floating_tree_crba = _EntryPoint()
     tree_kinetic_energy_gradient = _EntryPoint()
+    tree_rnea_derivatives = _EntryPoint()
+    tree_fd_derivatives = _EntryPoint()
+    tree_rnea_derivatives_batch = _EntryPoint()
+    tree_fd_derivatives_batch = _EntryPoint()
 
     def load_all(self, names=None):
         """Compile or load ``names`` (default: every entry point)."""
@@ -175,7 +180,10 @@ class TreeTable:
              "fd_batch": "tree_fd_batch", "floating_rnea": "floating_tree_rnea",
              "floating_fd": "floating_tree_fd", "floating_crba": "floating_tree_crba",
              "floating_rows": "floating_rows", "floating_accelerations": "floating_accelerations",
-             "kinetic_energy_gradient": "tree_kinetic_energy_gradient"}
+             "kinetic_energy_gradient": "tree_kinetic_energy_gradient",
+             "rnea_derivatives": "tree_rnea_derivatives", "fd_derivatives": "tree_fd_derivatives",
+             "rnea_derivatives_batch": "tree_rnea_derivatives_batch",
+             "fd_derivatives_batch": "tree_fd_derivatives_batch"}
 
     def __getattr__(self, name):
         if name not in self.NAMES:

@@ -25,7 +25,7 @@ from ..algorithms import derivatives as reference
 from ..algorithms._batch import as_batch
 from .base_motion import check_base_motion
 from .batches import kernel_rows, run_split, single_external
-from ..core import K, OK, layout
+from ..core import OK, layout
 from ..core import flags as F
 
 _W0 = np.zeros(layout.W_WRENCH)      # w of a single call without wrench or base motion (not read)
@@ -38,30 +38,30 @@ PARALLEL_MIN = 256
 
 def inverse_dynamics_derivatives(robot, q, qd, qdd, wrench=None, base_motion=None):
     """(d tau/d q, d tau/d qd), each (n, n) for one state or (N, n, n) for a batch."""
-    if robot._compiled and base_motion is None:           # fast path
+    if robot._k is not None and base_motion is None:      # fast path
         n = robot._n
         o = _empty((2, n, n))
-        if (K.rnea_derivatives(robot._P, q, qd, qdd, _W0, 0, o) if wrench is None else
-                K.rnea_derivatives(robot._P, q, qd, qdd, wrench, _WRENCH, o)) == OK:
+        if (robot._k.rnea_derivatives(robot._P, q, qd, qdd, _W0, 0, o) if wrench is None else
+                robot._k.rnea_derivatives(robot._P, q, qd, qdd, wrench, _WRENCH, o)) == OK:
             return o[0], o[1]
     return chain_derivatives(robot, q, qd, qdd, wrench, base_motion, base_motion is not None)
 
 
 def forward_dynamics_derivatives(robot, q, qd, tau, wrench=None, base_motion=None):
     """(d qdd/d q, d qdd/d qd, d qdd/d tau), each (n, n) or (N, n, n)."""
-    if robot._compiled and base_motion is None:           # fast path
+    if robot._k is not None and base_motion is None:      # fast path
         n = robot._n
         o = _empty((3, n, n))
-        if (K.fd_derivatives(robot._P, q, qd, tau, _W0, 0, o) if wrench is None else
-                K.fd_derivatives(robot._P, q, qd, tau, wrench, _WRENCH, o)) == OK:
+        if (robot._k.fd_derivatives(robot._P, q, qd, tau, _W0, 0, o) if wrench is None else
+                robot._k.fd_derivatives(robot._P, q, qd, tau, wrench, _WRENCH, o)) == OK:
             return o[0], o[1], o[2]
-    if robot._compiled and base_motion is not None:      # one state with a base motion
+    if robot._k is not None and base_motion is not None:      # one state with a base motion
         o = _empty((3, robot._n, robot._n))
         w, flags = _single_w(wrench, base_motion)
-        if K.fd_derivatives(robot._P, q, qd, tau, w, flags, o) == OK:
+        if robot._k.fd_derivatives(robot._P, q, qd, tau, w, flags, o) == OK:
             return o[0], o[1], o[2]
     base_motion = check_base_motion(base_motion)
-    if not robot._compiled:
+    if robot._k is None:
         return reference.forward_dynamics_derivatives(robot.model, q, qd, tau, wrench,
                                                       base_motion)
     single, (q, qd, tau) = as_batch(robot.model, ("q", q), ("qd", qd), ("tau", tau))
@@ -76,13 +76,13 @@ def forward_dynamics_derivatives(robot, q, qd, tau, wrench=None, base_motion=Non
 def chain_derivatives(robot, q, qd, qdd, wrench, base_motion, single_first):
     """The chain's own derivatives (every joint of the model): compiled (first the
     single-state entry point, with ``single_first``) or reference."""
-    if robot._compiled and single_first:
+    if robot._k is not None and single_first:
         o = _empty((2, robot.model.dof, robot.model.dof))
         w, flags = _single_w(wrench, base_motion)
-        if K.rnea_derivatives(robot._P, q, qd, qdd, w, flags, o) == OK:
+        if robot._k.rnea_derivatives(robot._P, q, qd, qdd, w, flags, o) == OK:
             return o[0], o[1]
     base_motion = check_base_motion(base_motion)
-    if not robot._compiled:
+    if robot._k is None:
         return reference.inverse_dynamics_derivatives(robot.model, q, qd, qdd, wrench,
                                                       base_motion)
     single, (q, qd, qdd) = as_batch(robot.model, ("q", q), ("qd", qd), ("qdd", qdd))
@@ -106,4 +106,4 @@ def _run(robot, kernel, N, arrays, flags, out):
     """A batch kernel over the rows ``arrays`` into the (N, n, n) arrays ``out``, split
     over the cores from PARALLEL_MIN states. Returns the kernel's status."""
     arrays = [kernel_rows(a) for a in arrays]
-    return run_split(getattr(K, kernel), robot._P, N, arrays, (flags,), out, PARALLEL_MIN)
+    return run_split(getattr(robot._k, kernel), robot._P, N, arrays, (flags,), out, PARALLEL_MIN)

@@ -39,13 +39,14 @@ from ..core import K as CHAIN
 from ..core.dispatch import TREE
 from ..core.layout import TREE as TREE_FLAG
 from ..core import flags as F
-from ..core.layout import B, W_ALL
+from ..core.layout import B, W_ALL, W_WRENCH
 from ..core.layout import pack as layout_pack
 from ..model import Model
 from .batches import kernel_rows, run_split
 from . import regressor
 from .wrenches import generalized_forces
 from .common import PARALLEL_MIN
+from .derivatives import PARALLEL_MIN as DERIVATIVES_PARALLEL_MIN
 from .common import into as _into
 
 FD_METHODS = ("auto", "aba", "cholesky")
@@ -60,6 +61,7 @@ FLOATING_KERNELS = tuple(k for k in ENTRY_POINTS if k.startswith("floating"))   
 _ZERO_ROW = np.zeros((1, 1))  # an input floating_rows does not read
 CHUNK = 1024                  # states per chunk of a batch (a whole number of SIMD blocks)
 _GW_BAD = np.zeros(0)        # a gw that no entry point accepts (status 2): the general path
+_NO_W = np.zeros((1, W_WRENCH))   # the derivative kernels' w without a wrench (not read)
 
 
 class Floating:
@@ -256,9 +258,14 @@ class Floating:
         a[:, :3] -= g_b                                             # gravity as acceleration
         rates = a + _velocity_products(v)                           # the instantaneous tree's
         qv = np.concatenate([np.zeros((N, 6)), q[:, 7:]], axis=1)
-        dq, dv = derivatives_reference.inverse_dynamics_derivatives(virtual_chain(self.model), qv,
-                                                                    v, rates)
-        M = fb.mass_matrix(self.model, q)
+        dq, dv = np.empty((N, nv, nv)), np.empty((N, nv, nv))
+        if not (self._compiled and run_split(       # the chain's or the tree's kernel
+                self._k.rnea_derivatives_batch, self._chain, N,
+                [kernel_rows(x) for x in (qv, v, rates)] + [_NO_W], (0,), (dq, dv),
+                DERIVATIVES_PARALLEL_MIN) == OK):
+            dq, dv = derivatives_reference.inverse_dynamics_derivatives(
+                virtual_chain(self.model), qv, v, rates)
+        M = Floating.mass_matrix(self, q) if self._compiled else fb.mass_matrix(self.model, q)
         dq[:, :, :6] = 0.0
         dq[:, :, 3:6] = -M[:, :, :3] @ skew(g_b)
         dv = dv + M @ _products_jacobian(v)

@@ -19,11 +19,12 @@ from .crba import add_in_parent
 from .floating import GW, _chain_inputs, _products, fd_inputs, rnea_inputs
 from .data import new_chol, new_kin, stack_empty
 from .energy import axis_gradient, body_momentum, body_velocity
-from .layout import ARM, H, IO, KIND, MASS, PARENT, ROOT, TIPPATH, W_ALL, W_WRENCH
+from .layout import ARM, H, IO, KIND, LANES, MASS, PARENT, ROOT, TIPPATH, W_ALL, W_WRENCH
 from .rnea import base_state, body_wrench, joint_rates, outward_step, tip_load
 from .signatures import D1, D2, D3, In1, In2, Mat, Out1, Out2, Out3, Pm, Vec, f8, i8, internal
 from .spatial import finite, joint_transforms, rotation, to_child, to_parent
 from .status import BAD_LENGTH, NOT_FINITE, OK, status
+from .tree_lanes import tree_rnea_block
 
 
 def tree_rnea_core(P, sc, R, p, f, mo, q, qd, qdd, w, flags, tau):
@@ -240,8 +241,14 @@ def tree_fd(P, q, qd, tau, w, flags, out):
 
 
 def tree_rnea_batch(P, q, qd, qdd, w, flags, out):
-    """Inverse dynamics of N states (a row of 1 broadcasts). Returns OK or NOT_FINITE."""
+    """Inverse dynamics of N states (a row of 1 broadcasts): on a fixed base B at a time
+    in SIMD lanes (``tree_lanes.py``). Returns OK or NOT_FINITE."""
     N, n = out.shape[0], P.shape[0] - 1
+    if P[n, ROOT] == 0.0:
+        bad = OK
+        for k0 in range(0, N, int(P[n, LANES])):
+            bad |= tree_rnea_block(P, q, qd, qdd, w, flags, out, k0)
+        return bad
     d, mo = new_kin(n), stack_empty((n, 9))
     nq, nv, na, nw = q.shape[0] > 1, qd.shape[0] > 1, qdd.shape[0] > 1, w.shape[0] > 1
     bad = OK
@@ -342,7 +349,7 @@ ENTRY_POINTS = {
     "tree_crba": (tree_crba, i8(Pm, Vec, Mat), False, ("tree_crba_core",)),
     "tree_fd": (tree_fd, i8(Pm, Vec, Vec, Vec, Vec, i8, Vec), False, _FD),
     "tree_rnea_batch": (tree_rnea_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True,
-                        ("tree_rnea_core",)),
+                        ("tree_rnea_core", "tree_rnea_block")),
     "tree_crba_batch": (tree_crba_batch, i8(Pm, In2, Out3), True, ("tree_crba_core",)),
     "tree_fd_batch": (tree_fd_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True, _FD),
     "floating_tree_rnea": (floating_tree_rnea, i8(Pm, Vec, Vec, Vec, Vec, i8, Vec), False,

@@ -24,7 +24,7 @@ from .rnea import base_state, body_wrench, joint_rates, outward_step, tip_load
 from .signatures import D1, D2, D3, In1, In2, Mat, Out1, Out2, Out3, Pm, Vec, f8, i8, internal
 from .spatial import finite, joint_transforms, rotation, to_child, to_parent
 from .status import BAD_LENGTH, NOT_FINITE, OK, status
-from .tree_lanes import tree_rnea_block
+from .tree_lanes import tree_crba_block, tree_fd_block, tree_rnea_block
 
 
 def tree_rnea_core(P, sc, R, p, f, mo, q, qd, qdd, w, flags, tau):
@@ -261,6 +261,11 @@ def tree_rnea_batch(P, q, qd, qdd, w, flags, out):
 
 def tree_crba_batch(P, q, out):
     N, n = out.shape[0], P.shape[0] - 1
+    if P[n, ROOT] == 0.0:                # a fixed base: B at a time in SIMD lanes
+        bad = OK
+        for k0 in range(0, N, int(P[n, LANES])):
+            bad |= tree_crba_block(P, q, out, k0)
+        return bad
     d, IC = new_kin(n), stack_empty((n, 10))
     bad = OK
     for k in range(N):
@@ -272,6 +277,11 @@ def tree_crba_batch(P, q, out):
 
 def tree_fd_batch(P, q, qd, tau, w, flags, out):
     N, n = out.shape[0], P.shape[0] - 1
+    if P[n, ROOT] == 0.0:                # a fixed base: B at a time in SIMD lanes
+        bad = OK
+        for k0 in range(0, N, int(P[n, LANES])):
+            bad |= tree_fd_block(P, q, qd, tau, w, flags, out, k0)
+        return bad
     d, c, mo, IC = new_kin(n), new_chol(n), stack_empty((n, 9)), stack_empty((n, 10))
     nq, nv, nt, nw = q.shape[0] > 1, qd.shape[0] > 1, tau.shape[0] > 1, w.shape[0] > 1
     bad = OK
@@ -350,8 +360,9 @@ ENTRY_POINTS = {
     "tree_fd": (tree_fd, i8(Pm, Vec, Vec, Vec, Vec, i8, Vec), False, _FD),
     "tree_rnea_batch": (tree_rnea_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True,
                         ("tree_rnea_core", "tree_rnea_block")),
-    "tree_crba_batch": (tree_crba_batch, i8(Pm, In2, Out3), True, ("tree_crba_core",)),
-    "tree_fd_batch": (tree_fd_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True, _FD),
+    "tree_crba_batch": (tree_crba_batch, i8(Pm, In2, Out3), True, ("tree_crba_core", "tree_crba_block")),
+    "tree_fd_batch": (tree_fd_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True,
+                      _FD + ("tree_fd_block",)),
     "floating_tree_rnea": (floating_tree_rnea, i8(Pm, Vec, Vec, Vec, Vec, i8, Vec), False,
                            ("tree_rnea_core",)),
     "floating_tree_fd": (floating_tree_fd, i8(Pm, Vec, Vec, Vec, Vec, i8, Vec), False, _FD),

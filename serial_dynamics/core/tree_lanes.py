@@ -8,13 +8,17 @@ the tip wrench carried along the tip's path and ``tip_load`` on the last body, t
 computes exactly what ``tree_rnea_core`` computes for its sample, so a sample's torques are
 bitwise the same alone or in any batch.
 """
+import numpy as np
+from numba import njit
+
 from . import flags as F
 from .crba_lanes import lane_rotation
 from .data import stack_empty
-from .layout import ARM, G, KIND, LANES, PARENT, TIPPATH, W_ACC, W_ALL, W_OMEGA
+from .crba import add_in_parent
+from .layout import ARM, G, H, IO, KIND, LANES, MASS, PARENT, TIPPATH, W_ACC, W_ALL, W_OMEGA
 from .rnea import body_wrench, into_body, joint_rate, tip_load
 from .rnea_lanes import gather, lane_transforms
-from .signatures import In2, Out2, Pm, i8, internal
+from .signatures import In2, Out2, Out3, Pm, i8, internal
 from .spatial import force_to_parent, rotate_t
 from .status import NOT_FINITE, OK
 
@@ -23,9 +27,7 @@ from .status import NOT_FINITE, OK
 def tree_rnea_block(P, q, qd, qdd, w, flags, out, k0):
     """Inverse dynamics of the samples k0 .. k0 + B - 1 of a fixed-base tree (fewer at the
     batch's end) into the same rows of ``out``. Returns 1 if one of them has a NaN/Inf
-    input, else 0. Lanes' scratch: QV, WB as ``rnea_block``'s; RB, PB the joint transforms;
-    MO each body's (omega, alpha, acc), BS the base's, FB its wrench (n; f), then its joint wrench; EB
-    the tip wrench [f; m] carried along the tip's path."""
+    input, else 0."""
     N = out.shape[0]
     n = P.shape[0] - 1
     L = int(P[n, LANES])
@@ -33,8 +35,22 @@ def tree_rnea_block(P, q, qd, qdd, w, flags, out, k0):
     QV, WB = stack_empty((3 * n + 1, L)), stack_empty((W_ALL, L))
     RB, PB = stack_empty((9 * n, L)), stack_empty((3 * n, L))
     MO, FB, EB = stack_empty((9 * n, L)), stack_empty((6 * n, L)), stack_empty((6, L))
-    BS = stack_empty((9, L))
+    BS, TB = stack_empty((9, L)), stack_empty((n, L))
     small, fin = gather(P, q, qd, qdd, w, flags, QV, WB, k0, nl)
+    tree_newton_euler_lanes(P, flags, QV, WB, RB, PB, MO, FB, EB, BS, TB, nl, small)
+    for b in range(nl):
+        for i in range(n):
+            out[k0 + b, i] = TB[i, b]
+    return OK if fin else NOT_FINITE
+
+
+@njit(cache=True, inline="always")
+def tree_newton_euler_lanes(P, flags, QV, WB, RB, PB, MO, FB, EB, BS, TB, nl, small):
+    """``tree_rnea_core`` on gathered lanes: the torques into TB (n, B), the joint transforms
+    left in RB, PB. Scratch: MO each body's (omega, alpha, acc), BS the base's, FB each
+    body's wrench (n; f), then its joint wrench; EB the tip wrench [f; m] carried along
+    the tip's path."""
+    n = P.shape[0] - 1
     use_w, use_base = (flags & F.WRENCH) != 0, (flags & F.BASE) != 0
     for s in range(6):                   # the tip wrench (base frame): w[:6] or 0
         for b in range(nl):
@@ -78,7 +94,7 @@ def tree_rnea_block(P, q, qd, qdd, w, flags, out, k0):
         l, fi, ri, pi = int(P[i, PARENT]), 6 * i, 9 * i, 3 * i
         rev, arm, li = P[i, KIND] == 0.0, P[i, ARM], 6 * int(P[i, PARENT])
         for b in range(nl):
-            out[k0 + b, i] = (FB[fi + 2, b] if rev else FB[fi + 5, b]) + arm * QV[2 * n + i, b]
+            TB[i, b] = (FB[fi + 2, b] if rev else FB[fi + 5, b]) + arm * QV[2 * n + i, b]
         if l >= 0:
             for b in range(nl):
                 nx, ny, nz, fx, fy, fz = force_to_parent(
@@ -86,4 +102,174 @@ def tree_rnea_block(P, q, qd, qdd, w, flags, out, k0):
                     FB[fi, b], FB[fi + 1, b], FB[fi + 2, b], FB[fi + 3, b], FB[fi + 4, b], FB[fi + 5, b])
                 FB[li, b], FB[li + 1, b], FB[li + 2, b] = FB[li, b] + nx, FB[li + 1, b] + ny, FB[li + 2, b] + nz
                 FB[li + 3, b], FB[li + 4, b], FB[li + 5, b] = FB[li + 3, b] + fx, FB[li + 4, b] + fy, FB[li + 5, b] + fz
+
+
+@njit(cache=True, inline="always")
+def tree_composite_lanes(P, off, RB, PB, IC, FB, MB, nl):
+    """``tree.tree_crba_core`` (fixed base) on lanes whose joint transforms are in RB, PB:
+    M_ij for j = i and i's ancestors into MB row off[i] + (steps from i up to j) (the rest
+    of M is zero; ``ancestor_rows``). IC (10 n, B) the composite bodies, FB (6, B) the
+    carried force: scratch."""
+    n = P.shape[0] - 1
+    for i in range(n):
+        for r in range(10):
+            v = P[i, MASS] if r == 0 else (P[i, H + r - 1] if r < 4 else P[i, IO + r - 4])
+            for b in range(nl):
+                IC[10 * i + r, b] = v
+    for i in range(n - 1, -1, -1):
+        rev, arm, c = P[i, KIND] == 0.0, P[i, ARM], 10 * i
+        for b in range(nl):              # F = IC_i S_i; M_ii = S_i^T F + I_a,i
+            m, hx, hy = IC[c, b], IC[c + 1, b], IC[c + 2, b]
+            FB[0, b] = IC[c + 8, b] if rev else hy
+            FB[1, b] = IC[c + 9, b] if rev else -hx
+            FB[2, b] = IC[c + 6, b] if rev else 0.0
+            FB[3, b] = -hy if rev else 0.0
+            FB[4, b] = hx if rev else 0.0
+            FB[5, b] = 0.0 if rev else m
+            MB[off[i], b] = (IC[c + 6, b] if rev else m) + arm
+        j, row = i, off[i]
+        while P[j, PARENT] >= 0:         # up the ancestors: F = Xup_j^T F, M_ij = S_j^T F
+            rj, pj = 9 * j, 3 * j
+            j, row = int(P[j, PARENT]), row + 1
+            up = P[j, KIND] == 0.0
+            for b in range(nl):
+                nx, ny, nz, fx, fy, fz = force_to_parent(
+                    lane_rotation(RB, rj, b), PB[pj, b], PB[pj + 1, b], PB[pj + 2, b],
+                    FB[0, b], FB[1, b], FB[2, b], FB[3, b], FB[4, b], FB[5, b])
+                FB[0, b], FB[1, b], FB[2, b], FB[3, b], FB[4, b], FB[5, b] = nx, ny, nz, fx, fy, fz
+                MB[row, b] = nz if up else fz
+        l = int(P[i, PARENT])
+        if l >= 0:                       # IC_lambda(i) += Xup_i^T IC_i Xup_i
+            ri, pi, d = 9 * i, 3 * i, 10 * l
+            for b in range(nl):
+                (IC[d, b], IC[d + 1, b], IC[d + 2, b], IC[d + 3, b], IC[d + 4, b], IC[d + 5, b],
+                 IC[d + 6, b], IC[d + 7, b], IC[d + 8, b], IC[d + 9, b]) = add_in_parent(
+                    IC[d, b], IC[d + 1, b], IC[d + 2, b], IC[d + 3, b], IC[d + 4, b],
+                    IC[d + 5, b], IC[d + 6, b], IC[d + 7, b], IC[d + 8, b], IC[d + 9, b],
+                    lane_rotation(RB, ri, b), PB[pi, b], PB[pi + 1, b], PB[pi + 2, b],
+                    IC[c, b], IC[c + 1, b], IC[c + 2, b], IC[c + 3, b], IC[c + 4, b],
+                    IC[c + 5, b], IC[c + 6, b], IC[c + 7, b], IC[c + 8, b], IC[c + 9, b])
+
+
+@njit(cache=True, inline="always")
+def _scatter_tree_matrix(P, off, MB, out, k0, nl):
+    """M of each lane into out[k0 + b]: the ancestor entries from MB, zero elsewhere."""
+    n = P.shape[0] - 1
+    for b in range(nl):
+        for i in range(n):
+            for j in range(n):
+                out[k0 + b, i, j] = 0.0
+        for i in range(n):
+            j, row = i, off[i]
+            while j >= 0:
+                out[k0 + b, i, j] = out[k0 + b, j, i] = MB[row, b]
+                j, row = int(P[j, PARENT]), row + 1
+
+
+@njit(cache=True, inline="always")
+def ancestor_rows(P):
+    """(off, dep, rows): body i's depth dep[i] (0 at a root) and the first of its rows in
+    the lanes' sparse M, off[i]: row off[i] + dep[i] - dep[j] holds M_ij for j = i and each
+    of i's ancestors (sum of depths + n rows in all, against n^2 dense)."""
+    n = P.shape[0] - 1
+    off, dep = np.empty(n, np.int64), np.empty(n, np.int64)
+    rows = 0
+    for i in range(n):
+        l = int(P[i, PARENT])
+        dep[i] = 0 if l < 0 else dep[l] + 1
+        off[i] = rows
+        rows += dep[i] + 1
+    return off, dep, rows
+
+
+@internal(i8(Pm, In2, Out3, i8))
+def tree_crba_block(P, q, out, k0):
+    """Mass matrices of the samples k0 .. k0 + B - 1 of a fixed-base tree into the same rows
+    of ``out``; 1 if one of them has a NaN/Inf angle, else 0."""
+    N = out.shape[0]
+    n = P.shape[0] - 1
+    L = int(P[n, LANES])
+    nl = min(L, N - k0)
+    QV, WB = stack_empty((3 * n + 1, L)), stack_empty((W_ALL, L))
+    RB, PB = stack_empty((9 * n, L)), stack_empty((3 * n, L))
+    off, dep, rows = ancestor_rows(P)
+    IC, FB, MB = stack_empty((10 * n, L)), stack_empty((6, L)), stack_empty((rows, L))
+    small, fin = gather(P, q, q, q, q, 0, QV, WB, k0, nl)
+    for i in range(n):
+        lane_transforms(P, i, QV, RB, PB, nl, small)
+    tree_composite_lanes(P, off, RB, PB, IC, FB, MB, nl)
+    _scatter_tree_matrix(P, off, MB, out, k0, nl)
+    return OK if fin else NOT_FINITE
+
+
+@njit(cache=True, inline="always")
+def ltdl_lanes(P, off, dep, MB, XB, AB, nl):
+    """x <- M^-1 x in every lane by ``cholesky.ltdl_factor`` and ``ltdl_solve_factored``'s
+    operations: MB holds M_ij (j = i and its ancestors) in row off[i] + dep[i] - dep[j]
+    (``ancestor_rows``) and receives the factor there; XB (n, B) the right-hand sides; AB
+    (1, B) scratch."""
+    n = P.shape[0] - 1
+    for k in range(n - 1, -1, -1):       # M = L^T D L, from the leaves
+        i = int(P[k, PARENT])
+        while i >= 0:
+            ki, kk = off[k] + dep[k] - dep[i], off[k]
+            for b in range(nl):
+                AB[0, b] = MB[ki, b] / MB[kk, b]         # L_ki = M_ki / D_k
+            j = i
+            while j >= 0:                # M_ij -= M_kj L_ki (M_ki itself as it was)
+                ij, kj = off[i] + dep[i] - dep[j], off[k] + dep[k] - dep[j]
+                for b in range(nl):
+                    MB[ij, b] -= MB[kj, b] * AB[0, b]
+                j = int(P[j, PARENT])
+            for b in range(nl):
+                MB[ki, b] = AB[0, b]
+            i = int(P[i, PARENT])
+    for i in range(n - 1, -1, -1):       # L^T z = x
+        j = int(P[i, PARENT])
+        while j >= 0:
+            ij = off[i] + dep[i] - dep[j]
+            for b in range(nl):
+                XB[j, b] -= MB[ij, b] * XB[i, b]
+            j = int(P[j, PARENT])
+    for i in range(n):
+        for b in range(nl):
+            XB[i, b] /= MB[off[i], b]
+    for i in range(n):                   # L x = z
+        j = int(P[i, PARENT])
+        while j >= 0:
+            ij = off[i] + dep[i] - dep[j]
+            for b in range(nl):
+                XB[i, b] -= MB[ij, b] * XB[j, b]
+            j = int(P[j, PARENT])
+
+
+@internal(i8(Pm, In2, In2, In2, In2, i8, Out2, i8))
+def tree_fd_block(P, q, qd, tau, w, flags, out, k0):
+    """``tree.tree_fd_core`` (fixed base) of the samples k0 .. k0 + B - 1 into the same rows
+    of ``out``: b by Newton-Euler at qdd = 0, x = tau - b, M on the same transforms, its
+    sparse factor and solves, lane by lane. Returns 1 on a NaN/Inf input, else 0."""
+    N = out.shape[0]
+    n = P.shape[0] - 1
+    L = int(P[n, LANES])
+    nl = min(L, N - k0)
+    QV, WB = stack_empty((3 * n + 1, L)), stack_empty((W_ALL, L))
+    RB, PB = stack_empty((9 * n, L)), stack_empty((3 * n, L))
+    MO, FB, EB = stack_empty((9 * n, L)), stack_empty((6 * n, L)), stack_empty((6, L))
+    BS, TB = stack_empty((9, L)), stack_empty((n, L))
+    off, dep, rows = ancestor_rows(P)
+    IC, MB = stack_empty((10 * n, L)), stack_empty((rows, L))
+    flags = flags & (F.QD | F.WRENCH | F.BASE)
+    small, fin = gather(P, q, qd, q, w, flags, QV, WB, k0, nl)
+    tree_newton_euler_lanes(P, flags, QV, WB, RB, PB, MO, FB, EB, BS, TB, nl, small)
+    nt = tau.shape[0] > 1
+    for i in range(n):                   # x = tau - b
+        for b in range(nl):
+            x = tau[k0 + b if nt else 0, i]
+            fin &= x * 0.0 == 0.0
+            TB[i, b] = x - TB[i, b]
+    tree_composite_lanes(P, off, RB, PB, IC, FB, MB, nl)
+    ltdl_lanes(P, off, dep, MB, TB, BS, nl)
+    for b in range(nl):
+        for i in range(n):
+            out[k0 + b, i] = TB[i, b]
     return OK if fin else NOT_FINITE

@@ -188,8 +188,7 @@ def test_controller_payload_from_start_up_then_set_and_refused(ros, procs):
         bad = params.set_atomically(payload_mass=2.0, payload_inertia=[0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
         assert not bad.successful and "triangle inequality" in bad.reason, bad
         efforts.clear()
-        ros.spin_for(0.1)
-        assert len(efforts.msgs) > 5
+        ros.spin_until(lambda: len(efforts.msgs) > 5, 20.0, "five commands after the refusals")
         np.testing.assert_array_equal([m.data for m in efforts.msgs[-5:]], [new] * 5)
         assert proc.running()
     finally:

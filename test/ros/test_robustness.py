@@ -73,20 +73,25 @@ def test_controller_survives_huge_values_and_20001_names(ros, nodes):
         efforts.wait(lambda m: np.allclose(m.data, tau, rtol=1e-12, atol=1e-9),
                      what=f"effort {tau}")
 
+    def one_state(msg, count):
+        """Publish a joint state and wait until the controller has taken it (its count on
+        /diagnostics): it keeps only the latest (keep last 1), so a state sent before the
+        last was taken would replace it on a loaded machine."""
+        states.publish(msg)
+        ros.spin_until(lambda: diagnostics.get("received joint_states") == count, 20,
+                       f"joint state {count} on /diagnostics")
+
     try:
-        states.publish(JointState(name=NAMES, position=q1.tolist(), velocity=qd1.tolist()))
-        traj.publish(trajectory(NAMES, q3))
+        one_state(JointState(name=NAMES, position=q1.tolist(), velocity=qd1.tolist()), 1)
+        traj.publish(trajectory(NAMES, q3))     # after the first state: not refused
         expect(q1, qd1, q3)
         # before the fix each of these made the control law overflow and killed the node
         traj.publish(trajectory(NAMES, [HUGE] * 6))
         traj.publish(trajectory(NAMES, q2, [0.0] * 6, [HUGE] * 6))
-        # one state at a time: the controller keeps only the latest (keep last 1)
-        for _ in range(3):
-            states.publish(JointState(name=NAMES, position=[HUGE] * 6, velocity=[0.0] * 6))
-            ros.spin_for(0.1)
-        states.publish(JointState(name=MANY, position=[0.0] * len(MANY),
-                                  velocity=[0.0] * len(MANY)))
-        ros.spin_for(0.1)
+        for k in range(3):
+            one_state(JointState(name=NAMES, position=[HUGE] * 6, velocity=[0.0] * 6), 2 + k)
+        one_state(JointState(name=MANY, position=[0.0] * len(MANY),
+                             velocity=[0.0] * len(MANY)), 5)
         traj.publish(trajectory(MANY, [0.0] * len(MANY)))
         states.publish(JointState(name=NAMES, position=q2.tolist(), velocity=qd2.tolist()))
         efforts.clear()

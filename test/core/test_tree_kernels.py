@@ -52,6 +52,30 @@ def test_compiled_trees_match_the_reference(rel):
 
 
 @pytest.mark.parametrize("rel", ROBOTS)
+def test_tree_batches_in_lanes_are_the_single_calls_bits(rel):
+    """tree_lanes.py: 70 states (two blocks of 32 lanes and a short one), a block mixing
+    tiny and huge angles, a tip wrench per row, a base motion: each row of inverse dynamics,
+    mass matrix and forward dynamics is bitwise its single call."""
+    fast, _ = pair(rel)
+    rng = np.random.default_rng(8)
+    q, qd = fast.random_state(rng, batch=70)
+    q[3] *= 1e-9
+    q[40] += 2 * np.pi * 3e5
+    qdd, tau = rng.uniform(-2, 2, (2, 70, fast.dof))
+    w = rng.uniform(-5, 5, (70, 6))
+    bm = sd.BaseMotion((0.1, -0.2, 0.3), (0.5, 0.1, -0.4), (0.2, 0.3, -1.0))
+    for kw in ({}, {"wrench": w}, {"base_motion": bm}):
+        one = lambda k: {a: (v[k] if a == "wrench" else v) for a, v in kw.items()}   # noqa: E731
+        t, a = fast.inverse_dynamics(q, qd, qdd, **kw), fast.forward_dynamics(q, qd, tau, **kw)
+        for k in range(70):
+            assert t[k].tobytes() == fast.inverse_dynamics(q[k], qd[k], qdd[k], **one(k)).tobytes()
+            assert a[k].tobytes() == fast.forward_dynamics(q[k], qd[k], tau[k], **one(k)).tobytes()
+    M = fast.mass_matrix(q)
+    for k in range(70):
+        assert M[k].tobytes() == fast.mass_matrix(q[k]).tobytes()
+
+
+@pytest.mark.parametrize("rel", ROBOTS)
 def test_the_derivatives_of_a_tree_match_the_reference(rel):
     """core/tree_derivatives.py against algorithms/derivatives.py on the parent array, with
     the tip wrench (carried along the tip's path only) and a base motion; a batch row is

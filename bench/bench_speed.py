@@ -229,7 +229,8 @@ def yardstick_rows(rounds):
     """Each batch against the yardstick (bench/yardstick.py), on one core (this process
     pinned to the first it may use, the batch split off): ns a state of ours and of the
     plain scalar Newton-Euler loop, interleaved; the counted operations; the core's peak.
-    Returns (peak flop/s, rows of (robot, call, ours s, scalar s, flops or None))."""
+    Returns (peak flop/s, rows of (robot, call, ours s, scalar s, flops or None), the
+    packed-instruction counts of the lane kernels)."""
     import yardstick
     from serial_dynamics.robot import batches
     mask, workers = os.sched_getaffinity(0), batches.WORKERS
@@ -262,10 +263,10 @@ def yardstick_rows(rounds):
     finally:
         batches.WORKERS = workers
         os.sched_setaffinity(0, mask)
-    return peak, rows
+    return peak, rows, yardstick.packed_instructions()
 
 
-def yardstick_lines(peak, rows):
+def yardstick_lines(peak, rows, packed):
     lines = [f"**Batches against the yardstick** (issue 29; {N_BATCH:,} states a call, one "
              "thread pinned to one core; `bench/yardstick.py`). *Scalar*: a plain recursive "
              "Newton-Euler written for the yardstick from the URDF's fields (general axes, any "
@@ -287,6 +288,17 @@ def yardstick_lines(peak, rows):
         times = "" if ops is None else f"{a / (ops / peak):.1f}"
         lines.append(f"| {name} | {what} | {a * 1e9:.0f} | {b * 1e9:.0f} | {a / b:.2f} | {met} | "
                      f"{'' if ops is None else ops} | {limit} | {times} |")
+    lines += ["", "**Packed instructions** in the machine code of each SIMD-lane block kernel "
+              "(`yardstick.packed_instructions`: compiled afresh, numba's `inspect_asm`; "
+              "add, sub, mul, div, sqrt and fused multiply-adds on doubles). Packed: on 4 or "
+              "8 lanes at once (ymm, zmm registers). The scalar ones are the loops' remainders "
+              "and the fallbacks LLVM keeps for arrays that might overlap, which the kernels' "
+              "own stack arrays never do: a count of instructions, not of time. No fused "
+              "multiply-add is used (none is on the single-state path either, so a batch row "
+              "keeps its single state's bits).", "",
+              "| kernel | packed (ymm/zmm) | packed (xmm) | scalar |", "|---|---:|---:|---:|"]
+    for name, c in packed.items():
+        lines.append(f"| `{name}` | {c['packed ymm/zmm']} | {c['packed xmm']} | {c['scalar']} |")
     return lines + [""]
 
 
@@ -579,7 +591,7 @@ def main():
     from serial_dynamics.robot import facade as robot_module
     core_rows = cores(robots["Panda"], rounds)
     print("cores done", flush=True)
-    peak, yard_rows = yardstick_rows(rounds)
+    peak, yard_rows, packed = yardstick_rows(rounds)
     first = first_call(cold=not args.quick, earlier_root=root if args.before == EARLIER_REV else None)
     both_cores = None if args.quick else precompile_wall()
     print("first call done", flush=True)
@@ -631,7 +643,7 @@ def main():
     lines += ["", "The rows of the main table are measured with the default, so their batch rows use "
               "both cores; Pinocchio's `*InParallel` rows use one thread, as its `1` argument says "
               "(compare them with the one-thread column here).", ""]
-    lines += yardstick_lines(peak, yard_rows)
+    lines += yardstick_lines(peak, yard_rows, packed)
     lines += ["**First call in a fresh process** (import + URDF load — with a cold cache this compiles "
               "the core's algorithms, which have explicit signatures; the first `inverse_dynamics`; "
               "`Robot.warmup()`, which compiles or loads the entry points of the Robot methods; the "

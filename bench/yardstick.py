@@ -362,3 +362,37 @@ def peak(cpu=None):
     out = subprocess.run([sys.executable, "-c", _PEAK.format(cpu=cpu)], env=env, check=True,
                          capture_output=True, text=True)
     return float(out.stdout.split()[-1])
+
+
+# ------------------------------------------------------------------ packed instructions
+_ASM = """
+import collections, json, re, sys
+from serial_dynamics.core import crba_lanes, derivatives_lanes, forward_lanes, rnea_lanes, tree_lanes
+from serial_dynamics.core.signatures import compile_internal
+out = {}
+for mod, name in [(rnea_lanes, "rnea_block"), (crba_lanes, "crba_block"), (forward_lanes, "fd_block"),
+                  (derivatives_lanes, "derivatives_block"), (tree_lanes, "tree_rnea_block"),
+                  (tree_lanes, "tree_crba_block"), (tree_lanes, "tree_fd_block")]:
+    compile_internal([name])
+    f = getattr(mod, name)
+    asm = f.inspect_asm(f.signatures[0])
+    ops = re.findall(r"\\b(v(?:mul|add|sub|div|sqrt|fn?m(?:add|sub)\\d+)(pd|sd))\\s+%?([xyz]mm)", asm)
+    c = collections.Counter((o[1], o[2]) for o in ops)
+    out[name] = {"packed ymm/zmm": c[("pd", "ymm")] + c[("pd", "zmm")], "packed xmm": c[("pd", "xmm")],
+                 "scalar": sum(v for (k, r), v in c.items() if k == "sd")}
+print(json.dumps(out))
+"""
+
+
+def packed_instructions():
+    """The arithmetic instructions in the machine code of each SIMD-lane block kernel,
+    compiled afresh in a subprocess (numba shows no assembly for cached code): packed on
+    4 or 8 doubles (ymm, zmm registers), packed on 2 (xmm), scalar. The scalar ones are
+    the loops' remainders and the fallbacks LLVM keeps for lanes whose arrays overlap,
+    which a batch never takes: a count of instructions, not of time."""
+    import json
+    import tempfile
+    with tempfile.TemporaryDirectory() as cache:
+        out = subprocess.run([sys.executable, "-c", _ASM], env={**os.environ, "NUMBA_CACHE_DIR": cache},
+                             check=True, capture_output=True, text=True)
+    return json.loads(out.stdout.splitlines()[-1])

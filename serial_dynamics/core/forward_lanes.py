@@ -15,8 +15,8 @@ from numba import njit
 from . import flags as F
 from .crba_lanes import composite_lanes
 from .data import stack_empty
-from .layout import LANES, W_ALL
-from .rnea_lanes import gather, newton_euler_lanes
+from .layout import LANES
+from .rnea_lanes import gather, lanes_scratch, newton_euler_lanes, scatter, tau_minus_bias
 from .signatures import In2, Out2, Pm, i8, internal
 from .status import NOT_FINITE, OK
 
@@ -71,23 +71,15 @@ def fd_block(P, q, qd, tau, w, flags, out, k0):
     n = P.shape[0] - 1
     L = int(P[n, LANES])                 # lanes (= B), read at run time on purpose
     nl = min(L, N - k0)
-    QV, WB, TB, ST = stack_empty((3 * n + 1, L)), stack_empty((W_ALL, L)), stack_empty((n, L)), stack_empty((15, L))
-    RB, PB, FB = stack_empty((9 * n, L)), stack_empty((3 * n, L)), stack_empty((6 * n, L))
+    QV, WB, TB, ST, RB, PB, FB = lanes_scratch(n, L)
     CB, MB, SB = stack_empty((10, L)), stack_empty((n * n, L)), stack_empty((1, L))
     # b - J^T w: Newton-Euler at qdd = 0
     small, fin = gather(P, q, qd, q, w, flags & (F.QD | F.WRENCH | F.BASE), QV, WB, k0, nl)
     newton_euler_lanes(P, flags & (F.QD | F.WRENCH | F.BASE), QV, WB, RB, PB, FB, ST, TB, nl, small)
-    nt = tau.shape[0] > 1
-    for i in range(n):                   # x = tau - b
-        for b in range(nl):
-            x = tau[k0 + b if nt else 0, i]
-            fin &= x * 0.0 == 0.0
-            TB[i, b] = x - TB[i, b]
+    fin = tau_minus_bias(tau, TB, k0, nl, fin)
     composite_lanes(P, RB, PB, CB, ST, MB, nl)   # M, on the transforms of q
     cholesky_lanes(n, MB, TB, SB, nl)
-    for b in range(nl):
-        for i in range(n):
-            out[k0 + b, i] = TB[i, b]
+    scatter(TB, out, k0, nl)
     return OK if fin else NOT_FINITE
 
 

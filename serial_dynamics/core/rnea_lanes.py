@@ -104,14 +104,40 @@ def rnea_block(P, q, qd, qdd, w, flags, out, k0):
     n = P.shape[0] - 1
     L = int(P[n, LANES])                 # lanes (= B), read at run time on purpose
     nl = min(L, N - k0)
-    QV, WB, TB, ST = stack_empty((3 * n + 1, L)), stack_empty((W_ALL, L)), stack_empty((n, L)), stack_empty((15, L))
-    RB, PB, FB = stack_empty((9 * n, L)), stack_empty((3 * n, L)), stack_empty((6 * n, L))
+    QV, WB, TB, ST, RB, PB, FB = lanes_scratch(n, L)
     small, fin = gather(P, q, qd, qdd, w, flags, QV, WB, k0, nl)
     newton_euler_lanes(P, flags, QV, WB, RB, PB, FB, ST, TB, nl, small)
-    for b in range(nl):
-        for i in range(n):
-            out[k0 + b, i] = TB[i, b]
+    scatter(TB, out, k0, nl)
     return OK if fin else NOT_FINITE
+
+
+@njit(cache=True, inline="always")
+def lanes_scratch(n, L):
+    """The lanes' scratch of ``rnea_block`` on the caller's stack: QV, WB, TB, ST, RB, PB, FB."""
+    return (stack_empty((3 * n + 1, L)), stack_empty((W_ALL, L)), stack_empty((n, L)),
+            stack_empty((15, L)), stack_empty((9 * n, L)), stack_empty((3 * n, L)),
+            stack_empty((6 * n, L)))
+
+
+@njit(cache=True, inline="always")
+def scatter(TB, out, k0, nl):
+    """Lane b's results (TB rows) into row k0 + b of ``out``."""
+    for b in range(nl):
+        for i in range(TB.shape[0]):
+            out[k0 + b, i] = TB[i, b]
+
+
+@njit(cache=True, inline="always")
+def tau_minus_bias(tau, TB, k0, nl, fin):
+    """x = tau - b in every lane (TB holds b, then x; a row of tau broadcasts); ``fin``
+    and-ed with tau's being finite."""
+    nt = tau.shape[0] > 1
+    for i in range(TB.shape[0]):
+        for b in range(nl):
+            x = tau[k0 + b if nt else 0, i]
+            fin &= x * 0.0 == 0.0
+            TB[i, b] = x - TB[i, b]
+    return fin
 
 
 @njit(cache=True, inline="always")

@@ -17,7 +17,7 @@ from .data import stack_empty
 from .crba import add_in_parent
 from .layout import ARM, G, H, IO, KIND, LANES, MASS, PARENT, TIPPATH, W_ACC, W_ALL, W_OMEGA
 from .rnea import body_wrench, into_body, joint_rate, tip_load
-from .rnea_lanes import gather, lane_transforms
+from .rnea_lanes import gather, lane_transforms, scatter, tau_minus_bias
 from .signatures import In2, Out2, Out3, Pm, i8, internal
 from .spatial import force_to_parent, rotate_t
 from .status import NOT_FINITE, OK
@@ -32,16 +32,20 @@ def tree_rnea_block(P, q, qd, qdd, w, flags, out, k0):
     n = P.shape[0] - 1
     L = int(P[n, LANES])
     nl = min(L, N - k0)
-    QV, WB = stack_empty((3 * n + 1, L)), stack_empty((W_ALL, L))
-    RB, PB = stack_empty((9 * n, L)), stack_empty((3 * n, L))
-    MO, FB, EB = stack_empty((9 * n, L)), stack_empty((6 * n, L)), stack_empty((6, L))
-    BS, TB = stack_empty((9, L)), stack_empty((n, L))
+    QV, WB, RB, PB, MO, FB, EB, BS, TB = tree_scratch(n, L)
     small, fin = gather(P, q, qd, qdd, w, flags, QV, WB, k0, nl)
     tree_newton_euler_lanes(P, flags, QV, WB, RB, PB, MO, FB, EB, BS, TB, nl, small)
-    for b in range(nl):
-        for i in range(n):
-            out[k0 + b, i] = TB[i, b]
+    scatter(TB, out, k0, nl)
     return OK if fin else NOT_FINITE
+
+
+@njit(cache=True, inline="always")
+def tree_scratch(n, L):
+    """The lanes' scratch of ``tree_rnea_block`` on the caller's stack: QV, WB, RB, PB, MO,
+    FB, EB, BS, TB."""
+    return (stack_empty((3 * n + 1, L)), stack_empty((W_ALL, L)), stack_empty((9 * n, L)),
+            stack_empty((3 * n, L)), stack_empty((9 * n, L)), stack_empty((6 * n, L)),
+            stack_empty((6, L)), stack_empty((9, L)), stack_empty((n, L)))
 
 
 @njit(cache=True, inline="always")
@@ -252,24 +256,14 @@ def tree_fd_block(P, q, qd, tau, w, flags, out, k0):
     n = P.shape[0] - 1
     L = int(P[n, LANES])
     nl = min(L, N - k0)
-    QV, WB = stack_empty((3 * n + 1, L)), stack_empty((W_ALL, L))
-    RB, PB = stack_empty((9 * n, L)), stack_empty((3 * n, L))
-    MO, FB, EB = stack_empty((9 * n, L)), stack_empty((6 * n, L)), stack_empty((6, L))
-    BS, TB = stack_empty((9, L)), stack_empty((n, L))
+    QV, WB, RB, PB, MO, FB, EB, BS, TB = tree_scratch(n, L)
     off, dep, rows = ancestor_rows(P)
     IC, MB = stack_empty((10 * n, L)), stack_empty((rows, L))
     flags = flags & (F.QD | F.WRENCH | F.BASE)
     small, fin = gather(P, q, qd, q, w, flags, QV, WB, k0, nl)
     tree_newton_euler_lanes(P, flags, QV, WB, RB, PB, MO, FB, EB, BS, TB, nl, small)
-    nt = tau.shape[0] > 1
-    for i in range(n):                   # x = tau - b
-        for b in range(nl):
-            x = tau[k0 + b if nt else 0, i]
-            fin &= x * 0.0 == 0.0
-            TB[i, b] = x - TB[i, b]
+    fin = tau_minus_bias(tau, TB, k0, nl, fin)
     tree_composite_lanes(P, off, RB, PB, IC, FB, MB, nl)
     ltdl_lanes(P, off, dep, MB, TB, BS, nl)
-    for b in range(nl):
-        for i in range(n):
-            out[k0 + b, i] = TB[i, b]
+    scatter(TB, out, k0, nl)
     return OK if fin else NOT_FINITE

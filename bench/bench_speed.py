@@ -6,6 +6,7 @@ its ratio on 2026-11-21 (the kernels before the dynamics-core rewrite), from EAR
                                            # and bench/scaling.png
     python bench/bench_speed.py --quick    # fewer rounds, no cold-cache compile
     python bench/bench_speed.py --before REV   # the *before* columns from commit REV
+    python bench/bench_speed.py --yardstick-only   # the batches against the yardstick only
 
 Each peer's answer is checked against ours before it is timed. Times are the minimum over
 interleaved rounds (ours, peer, ours, peer, ...) of the mean over a round, wall clock, one
@@ -264,6 +265,18 @@ def yardstick_rows(rounds):
         batches.WORKERS = workers
         os.sched_setaffinity(0, mask)
     return peak, rows, yardstick.packed_instructions()
+
+
+def write_yardstick(rounds, write=True):
+    """Measure the yardstick rows and write them as the section "yardstick"."""
+    peak, rows, packed = yardstick_rows(rounds)
+    body = ("## Batches against the yardstick: a plain scalar loop and the core's peak\n\n"
+            + stamp() + "\n\nRegenerate with `python bench/bench_speed.py --yardstick-only` "
+            "(about 3 minutes; also part of the whole run).\n\n"
+            + "\n".join(yardstick_lines(peak, rows, packed)) + "\n")
+    print(body)
+    if write:
+        write_section("yardstick", body)
 
 
 def yardstick_lines(peak, rows, packed):
@@ -552,10 +565,14 @@ def main():
     ap.add_argument("--rows-only", action="store_true",
                     help="print the single and batch rows as JSON (used on the 2026-11-21 code)")
     ap.add_argument("--rounds", type=int, default=None)
+    ap.add_argument("--yardstick-only", action="store_true",
+                    help="only the batches against the yardstick (the \"yardstick\" section)")
     ap.add_argument("--before", default=EARLIER_REV, metavar="REV",
                     help=f"the commit of the *before* columns (default {EARLIER_REV}, the 2026-11-21 code)")
     args = ap.parse_args()
     rounds = args.rounds or (8 if args.quick else 30)
+    if args.yardstick_only:
+        return write_yardstick(rounds, not args.no_write)
     if args.rows_only:
         rows, robots = [], {}
         for name, (rel, tip) in ROBOTS.items():
@@ -591,7 +608,7 @@ def main():
     from serial_dynamics.robot import facade as robot_module
     core_rows = cores(robots["Panda"], rounds)
     print("cores done", flush=True)
-    peak, yard_rows, packed = yardstick_rows(rounds)
+    write_yardstick(rounds, not args.no_write)
     first = first_call(cold=not args.quick, earlier_root=root if args.before == EARLIER_REV else None)
     both_cores = None if args.quick else precompile_wall()
     print("first call done", flush=True)
@@ -643,7 +660,6 @@ def main():
     lines += ["", "The rows of the main table are measured with the default, so their batch rows use "
               "both cores; Pinocchio's `*InParallel` rows use one thread, as its `1` argument says "
               "(compare them with the one-thread column here).", ""]
-    lines += yardstick_lines(peak, yard_rows, packed)
     lines += ["**First call in a fresh process** (import + URDF load — with a cold cache this compiles "
               "the core's algorithms, which have explicit signatures; the first `inverse_dynamics`; "
               "`Robot.warmup()`, which compiles or loads the entry points of the Robot methods; the "

@@ -91,8 +91,9 @@ def inverse_dynamics_derivatives(robot, Q, QD, QDD):
             "robot.inverse_dynamics_derivatives(...) on the CPU")
     if not dm.chain:
         raise NotImplementedError(
-            f"{op}: a kinematic tree is not supported yet (the core's derivative recursion, "
-            "core/derivatives.py, is written for a chain); call "
+            f"{op}: a kinematic tree is not supported on the card yet (the card runs the "
+            "chain's derivative recursion, core/derivatives.py; the tree's, "
+            "core/tree_derivatives.py, is compiled for the CPU only); call "
             "robot.inverse_dynamics_derivatives(...) on the CPU")
     batch = Batch(op, [("Q", Q, dm.k), ("QD", QD, dm.k), ("QDD", QDD, dm.k)])
     q, qd, qdd = batch.to_card(2 * dm.k * dm.k, op)

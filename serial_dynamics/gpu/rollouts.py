@@ -212,8 +212,9 @@ def kernel(n, chain, law, check_every):
 
 
 def refuse(study):
-    """A NotImplementedError naming what of ``study`` the card does not run yet."""
-    robot = study.nominal
+    """A NotImplementedError naming what of ``study`` the card does not run yet; else the
+    nominal robot's ``Equations``."""
+    robot, eq = study.nominal, None
     why = None
     if robot.is_floating:
         why = "a free-floating base"
@@ -221,12 +222,13 @@ def refuse(study):
         why = "mimic joints"
     elif study.law not in LAWS:
         why = f"the law {study.law!r} (its gains need an eigenvalue a step)"
-    elif Equations(robot, True).coulomb_on:
+    elif (eq := Equations(robot, True)).coulomb_on:
         why = "Coulomb friction (the stick-slip active set)"
     if why:
         raise NotImplementedError(
             f"sweep.monte_carlo(device='cuda'): {why} is not on the card yet; run the study "
             "with device='cpu' (Dask)")
+    return eq
 
 
 def plants(study, table):
@@ -267,13 +269,12 @@ def run_study(study, table, progress=True):
     """The outcomes of ``study`` (a ``sweep.robustness.Study``) for the cases of ``table``,
     a DataFrame in case order with the columns of ``Study.__call__``'s rows, computed on
     the card."""
-    refuse(study)
-    require_card()
     robot, dt = study.nominal, study.dt
+    eq = refuse(study)
+    require_card()
     n, N = robot.dof, len(table)
     nsteps = len(study.t) - 1
     check_every = max(1, min(200, nsteps // 50))            # as run_fixed
-    eq = Equations(robot, True)
     q_d, qd_d, qdd_d = (np.ascontiguousarray(x) for x in study.reference)
     limit = np.asarray(robot.effort_limit, float)
     shared = [cuda.to_device(x) for x in (
@@ -295,13 +296,14 @@ def run_study(study, table, progress=True):
         e2[a:z], emax[a:z], out[a:z] = E2.copy_to_host(), EMAX.copy_to_host(), OUT.copy_to_host()
         if progress and N > chunk:
             print(f"sweep (cuda): {z}/{N} cases", file=sys.stderr)
-    return outcomes(study, e2, emax, out)
+    return outcomes(study, eq.speed_bound, e2, emax, out)
 
 
-def outcomes(study, e2, emax, out):
+def outcomes(study, bound, e2, emax, out):
     """The DataFrame of ``Study.__call__``'s rows (in ``sweep.run``'s column order: as
-    they first appear) from the kernel's sums and scalars."""
-    names, bound = study.nominal.joint_names, Equations(study.nominal, True).speed_bound
+    they first appear) from the kernel's sums and scalars; ``bound`` the joints' speed
+    bound (``Equations.speed_bound``)."""
+    names = study.nominal.joint_names
     N, count, code = len(out), len(study.t), out[:, FAIL].astype(int)
     ran = code == 0
     e2, emax = np.where(ran[:, None], e2, 0.0), np.where(ran[:, None], emax, 0.0)  # unwritten

@@ -101,7 +101,7 @@ def test_a_tree_is_its_chains(monkeypatch):
     close(M[:, na:, na:], b.mass_matrix(qb))
     assert not M[:, :na, na:].any() and not M[:, na:, :na].any()    # no coupling
     close(gpu.forward_dynamics(tree, q, qd, tau), qdd, tol=1e-9)
-    with pytest.raises(NotImplementedError, match="a kinematic tree is not supported yet"):
+    with pytest.raises(NotImplementedError, match="a kinematic tree is not supported on the card yet"):
         gpu.inverse_dynamics_derivatives(tree, q, qd, qdd)
 
 

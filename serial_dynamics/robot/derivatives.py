@@ -9,11 +9,12 @@ d qdd/d tau = M^-1. Both take the tip wrench and the base motion of ``inverse_dy
 The algorithm is forward-mode differentiation of the Newton-Euler recursion
 (``algorithms/derivatives.py``, the reference; ``core/derivatives.py``, compiled).
 
-Paths, as ``Robot.inverse_dynamics``: one state as C-contiguous float64 (n,) arrays goes
-straight to the compiled single-state entry point; anything else is validated like the
-reference (same ValueError messages) and runs the batch kernel, split over the cores for
-large batches (a state gives the same bits alone or in a batch). ``backend="numpy"`` runs
-the reference. A chain with mimic joints (``MimicRobot``, q_all = G q + o) has
+Paths, as ``Robot.inverse_dynamics``, on the robot's kernel table (``robot._k``: the chain's
+kernels, or a fixed-base tree's, ``core/tree_derivatives.py``): one state as C-contiguous
+float64 (n,) arrays goes straight to the compiled single-state entry point; anything else
+is validated like the reference (same ValueError messages) and runs the batch kernel,
+split over the cores for large batches (a state gives the same bits alone or in a batch).
+``backend="numpy"`` runs the reference. A chain or tree with mimic joints (``MimicRobot``, q_all = G q + o) has
 d tau/d q = G^T (d tau_all/d q_all) G (G constant), the same for qd, and the forward
 derivatives solve with its reduced mass matrix G^T M G.
 """
@@ -74,8 +75,9 @@ def forward_dynamics_derivatives(robot, q, qd, tau, wrench=None, base_motion=Non
 
 
 def chain_derivatives(robot, q, qd, qdd, wrench, base_motion, single_first):
-    """The chain's own derivatives (every joint of the model): compiled (first the
-    single-state entry point, with ``single_first``) or reference."""
+    """The model's own derivatives (every joint of the chain or tree): compiled, by the
+    robot's kernel table (first the single-state entry point, with ``single_first``), or
+    the reference."""
     if robot._k is not None and single_first:
         o = _empty((2, robot.model.dof, robot.model.dof))
         w, flags = _single_w(wrench, base_motion)

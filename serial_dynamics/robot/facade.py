@@ -92,7 +92,8 @@ class Robot:
         self._fd_auto = self._fd_flags["aba" if model.dof >= aba.CROSSOVER and model.is_chain
                                        else "cholesky"]
         # the compiled kernels: K's for a chain, the tree table (core/tree.py) for a tree;
-        # _compiled says that the chain kernels apply (derivatives, regressor, dT/dq, sim/)
+        # _compiled says that the chain kernels apply (the regressor, dT/dq, sim/); the
+        # derivatives take the table (the chain's or the tree's)
         self._k = None if backend != "numba" else K if model.is_chain else TREE
         self._compiled = self._k is K
         self._P = _P if _P is not None else layout.pack(model) if self._k is not None else None

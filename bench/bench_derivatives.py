@@ -5,8 +5,8 @@ states.
     python bench/bench_derivatives.py           # writes the "derivatives" section of bench/BENCHMARKS.md
     python bench/bench_derivatives.py --quick   # fewer rounds
 
-Robots: the default UR5e (``sd.default_robot()``; Pinocchio reads the same URDF) and the
-Panda of example-robot-data. Each peer's answer is checked against ours before it is timed
+Robots: the default UR5e (``sd.default_robot()``; Pinocchio reads the same URDF), the
+Panda of example-robot-data, and two fixed-base trees of it (Solo12, Baxter). Each peer's answer is checked against ours before it is timed
 (relative difference <= 1e-9; the largest over 200 states is reported). Times: minimum over
 interleaved rounds (ours, peer, ours, ...) of the mean over a round, wall clock; one call
 from Python for a single state; for a batch, our one call (split over the cores) against
@@ -37,13 +37,20 @@ TOL = 1e-9
 
 
 def robots():
+    """Two chains and two fixed-base trees (core/tree_derivatives.py): Solo12's four legs
+    on a fixed trunk, Baxter's two arms and head (grippers held)."""
+    import warnings
     out = [("UR5e", sd.default_robot(), os.path.join(ROBOTS_DIR, "ur5e.urdf"))]
-    panda = erd_path("panda_description/urdf/panda.urdf")
-    if os.path.isfile(panda):
-        import warnings
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", sd.HeldJointsWarning)
-            out.append(("Panda", sd.load_urdf(panda, None, "panda_link8"), panda))
+    for name, rel, tip, tips in [
+            ("Panda", "panda_description/urdf/panda.urdf", "panda_link8", None),
+            ("Solo12 (tree, fixed trunk)", "solo_description/robots/solo12.urdf", None, None),
+            ("Baxter (tree, 15 joints)", "baxter_description/urdf/baxter.urdf", None,
+             ["left_wrist", "right_wrist", "head"])]:
+        path = erd_path(rel)
+        if os.path.isfile(path):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", sd.HeldJointsWarning)
+                out.append((name, sd.load_urdf(path, None, tip, tip_links=tips), path))
     return out
 
 
@@ -152,8 +159,9 @@ def main():
         f"output over {N_CHECK} states. Single calls: one state from Python (ours allocates "
         "its results; Pinocchio's live in its `data`). Batches: our one call, split over the "
         "cores, against Pinocchio called in a Python loop (and, for information, on one "
-        "thread); each core runs blocks of 32 states in SIMD lanes (core/derivatives_lanes.py, "
-        "bitwise the single-state results). docs/derivatives.md.",
+        "thread); on a chain each core runs blocks of 32 states in SIMD lanes "
+        "(core/derivatives_lanes.py, bitwise the single-state results), on a tree one state "
+        "after the other (core/tree_derivatives.py). docs/derivatives.md.",
         "",
         stamp(),
         table(rows),

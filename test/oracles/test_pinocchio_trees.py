@@ -242,13 +242,11 @@ def test_a_floating_tree_with_mimic_joints_agrees_with_pinocchio(rel):
         robot.regressor(q, v, a)
 
 
-@pytest.mark.parametrize("rel", ["solo_description/robots/solo12.urdf",
-                                 "talos_data/robots/talos_reduced.urdf",
-                                 "baxter_description/urdf/baxter.urdf"])
+@pytest.mark.parametrize("rel", TREES)
 def test_the_derivatives_on_a_tree_agree_with_pinocchio(rel):
-    """d tau/d q and d tau/d qd against pinocchio.computeRNEADerivatives (Baxter's mimic
-    fingers through G: d tau/d q = G^T (d tau_all/d q_all) G), and those of forward dynamics
-    (-M^-1 d tau/d x, M^-1)."""
+    """d tau/d q and d tau/d qd (core/tree_derivatives.py) against
+    pinocchio.computeRNEADerivatives on every tree (mimic fingers through G: d tau/d q =
+    G^T (d tau_all/d q_all) G), and those of forward dynamics (-M^-1 d tau/d x, M^-1)."""
     robot = load(rel)
     model = robot.model
     full = types.SimpleNamespace(joint_names=list(model.joint_names), gravity=model.gravity)

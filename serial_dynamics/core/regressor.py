@@ -1,11 +1,12 @@
-"""The torque regressor, compiled: Y(q, qd, qdd) with tau = Y phi, one state at a time.
+"""The torque regressor, compiled: Y(q, qd, qdd) with tau = Y phi, one state at a time, on
+a chain or a fixed-base tree (the parent array; a chain is lambda(i) = i - 1).
 
 The same quantities as ``algorithms/regressor.py`` (the reference), computed by projection
 instead of by carrying 6x10 blocks inward: with s_{j,i} = X_{i<-j} S_j, joint j's motion
 axis seen from body i (a motion vector, carried outward like a velocity:
 s_w' = R^T s_w, s_v' = R^T (s_v + s_w x p); Featherstone 2008, Sec. 2.8),
 
-    tau_j = sum_{i >= j} S_j^T X_{j<-i}^* (n_i; f_i) = sum_{i >= j} s_{j,i} . (n_i; f_i)
+    tau_j = sum_{i in j's subtree} S_j^T X_{j<-i}^* (n_i; f_i) = sum_i s_{j,i} . (n_i; f_i)
 
 and with the body wrench of Newton-Euler (``rnea.py``; Atkeson, An & Hollerbach 1986),
 s . (n; f) is linear in (m, h, I_O):
@@ -30,7 +31,7 @@ import numpy as np
 from numba import njit
 
 from .data import new_kin, stack_empty
-from .layout import G, KIND, WIDTH
+from .layout import G, KIND, PARENT, WIDTH
 from .rnea import outward_step
 from .status import BAD_LENGTH, status
 from .signatures import D2, D3, In1, In2, Mat, Out2, Out3, Pm, Vec, f8, i8, internal
@@ -61,42 +62,62 @@ def to_link(L, i, x, y, z):
             L[i, AR + 6] * x + L[i, AR + 7] * y + L[i, AR + 8] * z)
 
 
-def regressor_core(L, sc, R, p, V, q, qd, qdd, flags, Y):
-    """Y (n, p) of one state; V (n, 9) scratch: omega, alpha, acc of each body, link frame.
-    Returns 0.0, or NaN if an input has a NaN/Inf entry."""
+def regressor_core(L, sc, R, p, V, S, q, qd, qdd, flags, Y):
+    """Y (n, p) of one state of a chain or a fixed-base tree (the parent array lambda(i):
+    a chain is lambda(i) = i - 1). Scratch: V (n, 18), each body's omega, alpha, acc in its
+    joint frame (0..8), then in its link frame (9..17); S (n, 7), joint j's motion axis
+    s_{j,i} seen from each body i of j's subtree, then 1.0 for those bodies. Returns 0.0,
+    or NaN if an input has a NaN/Inf entry."""
     n = L.shape[0] - 1
     chk = joint_transforms(L, sc, R, p, q, n)
-    wx = wy = wz = ax = ay = az = 0.0
-    lx, ly, lz = -L[n, G], -L[n, G + 1], -L[n, G + 2]       # gravity as a base acceleration
-    for i in range(n):              # outward: omega, alpha, acc (as rnea_core)
+    for i in range(n):              # outward: omega, alpha, acc (as rnea_core, tree_rnea_core)
         dq, ddq = qd[i], qdd[i]
         chk += finite(dq) + finite(ddq)
+        l = int(L[i, PARENT])
+        if l < 0:                   # the base at rest, gravity as its acceleration
+            wx = wy = wz = ax = ay = az = 0.0
+            lx, ly, lz = -L[n, G], -L[n, G + 1], -L[n, G + 2]
+        else:
+            wx, wy, wz, ax, ay, az, lx, ly, lz = (V[l, 0], V[l, 1], V[l, 2], V[l, 3], V[l, 4],
+                                                  V[l, 5], V[l, 6], V[l, 7], V[l, 8])
         wx, wy, wz, ax, ay, az, lx, ly, lz = outward_step(L, R, p, i, wx, wy, wz, ax, ay, az,
                                                           lx, ly, lz, dq, ddq)
-        V[i, 0], V[i, 1], V[i, 2] = to_link(L, i, wx, wy, wz)
-        V[i, 3], V[i, 4], V[i, 5] = to_link(L, i, ax, ay, az)
-        V[i, 6], V[i, 7], V[i, 8] = to_link(L, i, lx, ly, lz)
+        V[i, 0], V[i, 1], V[i, 2], V[i, 3], V[i, 4], V[i, 5] = wx, wy, wz, ax, ay, az
+        V[i, 6], V[i, 7], V[i, 8] = lx, ly, lz
+        V[i, 9], V[i, 10], V[i, 11] = to_link(L, i, wx, wy, wz)
+        V[i, 12], V[i, 13], V[i, 14] = to_link(L, i, ax, ay, az)
+        V[i, 15], V[i, 16], V[i, 17] = to_link(L, i, lx, ly, lz)
     cols = Y.shape[1]
-    for j in range(n):              # row j: zeros left of body j, then s_{j,i} . A_i
+    for j in range(n):              # row j: s_{j,i} . A_i over j's subtree, zero elsewhere
         for c in range(10 * j):
             Y[j, c] = 0.0
         for c in range(10 * n, cols):
             Y[j, c] = 0.0
         rev = L[j, KIND] == 0.0     # S_j = e_z angular (revolute) or linear (prismatic)
-        swx, swy, swz = 0.0, 0.0, (1.0 if rev else 0.0)
-        svx, svy, svz = 0.0, 0.0, (0.0 if rev else 1.0)
         for i in range(j, n):
-            if i > j:               # into body i: s_w' = R^T s_w, s_v' = R^T (s_v + s_w x p)
+            c = 10 * i
+            l = int(L[i, PARENT])
+            if i == j:
+                swx, swy, swz = 0.0, 0.0, (1.0 if rev else 0.0)
+                svx, svy, svz = 0.0, 0.0, (0.0 if rev else 1.0)
+            elif l >= j and S[l, 6] == 1.0:   # into body i: s_w' = R^T s_w, s_v' = R^T (s_v + s_w x p)
                 px, py, pz = p[i, 0], p[i, 1], p[i, 2]
-                svx, svy, svz = to_child(R, i, svx + swy * pz - swz * py,
-                                         svy + swz * px - swx * pz, svz + swx * py - swy * px)
+                swx, swy, swz = S[l, 0], S[l, 1], S[l, 2]
+                svx, svy, svz = to_child(R, i, S[l, 3] + swy * pz - swz * py,
+                                         S[l, 4] + swz * px - swx * pz, S[l, 5] + swx * py - swy * px)
                 swx, swy, swz = to_child(R, i, swx, swy, swz)
+            else:                   # not below joint j: no column of body i moves tau_j
+                S[i, 6] = 0.0
+                for k in range(10):
+                    Y[j, c + k] = 0.0
+                continue
+            S[i, 0], S[i, 1], S[i, 2], S[i, 3], S[i, 4], S[i, 5] = swx, swy, swz, svx, svy, svz
+            S[i, 6] = 1.0
             ex, ey, ez = to_link(L, i, swx, swy, swz)
             vx, vy, vz = to_link(L, i, svx, svy, svz)
-            wx, wy, wz = V[i, 0], V[i, 1], V[i, 2]
-            ax, ay, az = V[i, 3], V[i, 4], V[i, 5]
-            lx, ly, lz = V[i, 6], V[i, 7], V[i, 8]
-            c = 10 * i
+            wx, wy, wz = V[i, 9], V[i, 10], V[i, 11]
+            ax, ay, az = V[i, 12], V[i, 13], V[i, 14]
+            lx, ly, lz = V[i, 15], V[i, 16], V[i, 17]
             Y[j, c] = vx * lx + vy * ly + vz * lz                                   # m
             sw = vx * wx + vy * wy + vz * wz
             ww = wx * wx + wy * wy + wz * wz
@@ -124,7 +145,7 @@ def regressor_core(L, sc, R, p, V, q, qd, qdd, flags, Y):
     return chk
 
 
-regressor_core = internal(f8(Pm, D2, D3, D2, D2, In1, In1, In1, i8, Out2))(regressor_core)
+regressor_core = internal(f8(Pm, D2, D3, D2, D2, D2, In1, In1, In1, i8, Out2))(regressor_core)
 
 
 @njit(cache=True, inline="always")
@@ -141,7 +162,8 @@ def regressor(L, q, qd, qdd, flags, out):
             or out.shape[1] != _columns(n, flags)):
         return BAD_LENGTH
     d = new_kin(n)
-    return status(regressor_core(L, d.sc, d.R, d.p, stack_empty((n, 9)), q, qd, qdd, flags, out))
+    return status(regressor_core(L, d.sc, d.R, d.p, stack_empty((n, 18)), stack_empty((n, 7)),
+                                 q, qd, qdd, flags, out))
 
 
 def regressor_batch(L, q, qd, qdd, flags, out):
@@ -155,10 +177,10 @@ def regressor_batch(L, q, qd, qdd, flags, out):
     if out.shape[1] != n or out.shape[2] != _columns(n, flags):
         return BAD_LENGTH
     d = new_kin(n)
-    V = stack_empty((n, 9))
+    V, S = stack_empty((n, 18)), stack_empty((n, 7))
     bad = 0.0
     for k in range(N):
-        bad += regressor_core(L, d.sc, d.R, d.p, V, q[k if q.shape[0] > 1 else 0],
+        bad += regressor_core(L, d.sc, d.R, d.p, V, S, q[k if q.shape[0] > 1 else 0],
                               qd[k if qd.shape[0] > 1 else 0], qdd[k if qdd.shape[0] > 1 else 0],
                               flags, out[k])
     return status(bad)

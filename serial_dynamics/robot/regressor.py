@@ -29,7 +29,7 @@ and no tip wrench (a wrench does not depend on the parameters: subtract J^T w fr
 measured torques).
 
 Paths: a single state of C-contiguous float64 vectors goes to the compiled single-state
-entry point (``core/regressor.py``), float64 (N, n) arrays straight to the batch kernel
+entry point (``core/regressor.py``, on a chain or a fixed-base tree), float64 (N, n) arrays straight to the batch kernel
 (split over the cores from ``PARALLEL_MIN`` states), anything else is validated as the
 reference does (its ValueError names the culprit) and then goes to the batch kernel. The
 states are independent of each other: a state gives the same bits alone, in any batch and
@@ -62,7 +62,9 @@ def _info(robot):
     info = _INFO.get(robot)
     if info is None:
         m = robot.model
-        L = regressor_layout(robot._P, m.A) if robot._compiled else None   # chains only
+        # chains and fixed-base trees (a floating base: robot/floating.py's reference)
+        L = (regressor_layout(robot._P, m.A) if robot._k is not None and not robot.is_floating
+             else None)
         info = _INFO.setdefault(robot, (L, bool(np.any(m.armature > 0))))
     return info
 
@@ -152,9 +154,9 @@ def friction_columns(qd):
 
 
 def rigid_columns(robot, q, qd, qdd, arm):
-    """The body (and armature) columns of every body of the chain, for validated states:
+    """The body (and armature) columns of every body of the chain or tree, for validated states:
     1-D (one state) or (N, n_all)."""
-    if not robot._compiled:
+    if _info(robot)[0] is None:
         return reference.regressor(robot.model, q, qd, qdd, armature=arm)
     single = q.ndim == 1
     rows = [np.atleast_2d(x) for x in (q, qd, qdd)]

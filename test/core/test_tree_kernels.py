@@ -166,6 +166,11 @@ def test_the_regressor_of_a_tree_gives_its_torques(rel):
     off = [j for j in range(fast.dof) if j not in fast.model.ancestors(leaf)]
     if not fast.model.has_mimic_joints:
         assert off and np.all(Y[:, off, 10 * leaf:10 * leaf + 10] == 0.0)
+        # core/regressor.py on the parent array against the reference, with friction and
+        # armature columns
+        ref = sd.Robot(fast.model, backend="numpy")
+        close(fast.regressor(q, qd, qdd, friction=True, armature=True),
+              ref.regressor(q, qd, qdd, friction=True, armature=True))
 
 
 @pytest.mark.parametrize("rel", ROBOTS)

@@ -221,7 +221,8 @@ def cores(robot, rounds):
 YARDSTICK_ROBOTS = {"Panda": ("panda_description/urdf/panda.urdf", "panda_link8", None),
                     "UR5": ("ur_description/urdf/ur5_robot.urdf", "tool0", None),
                     "Baxter (tree, 15 joints)": ("baxter_description/urdf/baxter.urdf", None,
-                                                 ["left_wrist", "right_wrist", "head"])}
+                                                 ["left_wrist", "right_wrist", "head"]),
+                    "Talos reduced (tree)": ("talos_data/robots/talos_reduced.urdf", None, None)}
 # issue 29's targets, as a multiple of the plain scalar inverse dynamics of the same run
 YARDSTICK_TARGETS = {"inverse dynamics": 0.33, "mass matrix": 0.45, "forward dynamics": 1.1}
 

@@ -99,7 +99,9 @@ def composite_lanes(P, RB, PB, CB, FB, MB, nl):
                 px, py = PB[3, b], PB[4, b]
                 gx = RB[9, b] * hx + RB[10, b] * hy + RB[11, b] * hz
                 gy = RB[12, b] * hx + RB[13, b] * hy + RB[14, b] * hz
-                t6, t7, t8 = r6 * Ixx + r7 * Ixy + r8 * Ixz, r6 * Ixy + r7 * Iyy + r8 * Iyz, r6 * Ixz + r7 * Iyz + r8 * Izz
+                t6 = r6 * Ixx + r7 * Ixy + r8 * Ixz
+                t7 = r6 * Ixy + r7 * Iyy + r8 * Iyz
+                t8 = r6 * Ixz + r7 * Iyz + r8 * Izz
                 d = 2.0 * (gx * px + gy * py) + m * (px * px + py * py)
                 MB[0, b] = ((P[0, IO + 2] + t6 * r6 + t7 * r7 + t8 * r8 + d + P[0, ARM]) if rev0
                             else P[0, MASS] + m + P[0, ARM])

@@ -21,8 +21,9 @@ from numba import njit, types
 from . import flags as F
 from .cholesky import ltdl_solve_factored
 from .data import new_chol, new_kin, scratch, stack_empty
-from .derivatives import HAVE_TRANSFORMS, _bad_shapes, _body_tangent, _inertia_times, _torques, own_turn, seeds, tangent_through, tip_tangents
-from .layout import H, IO, KIND, MASS, PARENT, TIPPATH, W_ALL, W_WRENCH
+from .derivatives import (HAVE_TRANSFORMS, _bad_shapes, _body_tangent, _inertia_times, _torques,
+                          own_turn, seeds, tangent_through, tip_tangents)
+from .layout import H, IO, KIND, MASS, PARENT, TIPPATH
 from .rnea import base_state, body_wrench, into_body, joint_rate, joint_rates, tip_load
 from .signatures import D1, D2, D3, In1, In2, Out2, Out3, Pm, Vec, f8, i8, internal
 from .spatial import force_to_parent, joint_transforms, rotate_t, rotation, to_parent

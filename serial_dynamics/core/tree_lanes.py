@@ -104,8 +104,9 @@ def tree_newton_euler_lanes(P, flags, QV, WB, RB, PB, MO, FB, EB, BS, TB, nl, sm
                 nx, ny, nz, fx, fy, fz = force_to_parent(
                     lane_rotation(RB, ri, b), PB[pi, b], PB[pi + 1, b], PB[pi + 2, b],
                     FB[fi, b], FB[fi + 1, b], FB[fi + 2, b], FB[fi + 3, b], FB[fi + 4, b], FB[fi + 5, b])
-                FB[li, b], FB[li + 1, b], FB[li + 2, b] = FB[li, b] + nx, FB[li + 1, b] + ny, FB[li + 2, b] + nz
-                FB[li + 3, b], FB[li + 4, b], FB[li + 5, b] = FB[li + 3, b] + fx, FB[li + 4, b] + fy, FB[li + 5, b] + fz
+                FB[li, b], FB[li + 1, b] = FB[li, b] + nx, FB[li + 1, b] + ny
+                FB[li + 2, b], FB[li + 3, b] = FB[li + 2, b] + nz, FB[li + 3, b] + fx
+                FB[li + 4, b], FB[li + 5, b] = FB[li + 4, b] + fy, FB[li + 5, b] + fz
 
 
 @njit(cache=True, inline="always")

@@ -12,7 +12,7 @@ from numba import njit
 
 from .layout import ARM, H, IO, KIND, LANES, MASS, W_ALL
 from .crba import add_in_parent
-from .data import stack_empty
+from .data import scratch, stack_empty
 from .rnea_lanes import gather, lane_transforms
 from .signatures import In2, Out3, Pm, i8, internal
 from .spatial import force_to_parent
@@ -37,9 +37,9 @@ def crba_block(P, q, out, k0):
     n = P.shape[0] - 1
     L = int(P[n, LANES])                 # lanes (= B), read at run time on purpose
     nl = min(L, N - k0)
-    QV, WB = stack_empty((3 * n + 1, L)), stack_empty((W_ALL, L))
-    RB, PB = stack_empty((9 * n, L)), stack_empty((3 * n, L))
-    CB, FB, MB = stack_empty((10, L)), stack_empty((6, L)), stack_empty((n * n, L))
+    QV, WB = scratch((3 * n + 1, L), (3 * n + 1) * L), stack_empty((W_ALL, L))
+    RB, PB = scratch((9 * n, L), 9 * n * L), scratch((3 * n, L), 3 * n * L)
+    CB, FB, MB = stack_empty((10, L)), stack_empty((6, L)), scratch((n * n, L), n * n * L)
     small, fin = gather(P, q, q, q, q, 0, QV, WB, k0, nl)
     for i in range(n):
         lane_transforms(P, i, QV, RB, PB, nl, small)

@@ -14,7 +14,7 @@ from numba import njit
 
 from . import flags as F
 from .crba_lanes import composite_lanes
-from .data import stack_empty
+from .data import scratch, stack_empty
 from .layout import LANES
 from .rnea_lanes import gather, lanes_scratch, newton_euler_lanes, scatter, tau_minus_bias
 from .signatures import In2, Out2, Pm, i8, internal
@@ -72,7 +72,7 @@ def fd_block(P, q, qd, tau, w, flags, out, k0):
     L = int(P[n, LANES])                 # lanes (= B), read at run time on purpose
     nl = min(L, N - k0)
     QV, WB, TB, ST, RB, PB, FB = lanes_scratch(n, L)
-    CB, MB, SB = stack_empty((10, L)), stack_empty((n * n, L)), stack_empty((1, L))
+    CB, MB, SB = stack_empty((10, L)), scratch((n * n, L), n * n * L), stack_empty((1, L))
     # b - J^T w: Newton-Euler at qdd = 0
     small, fin = gather(P, q, qd, q, w, flags & (F.QD | F.WRENCH | F.BASE), QV, WB, k0, nl)
     newton_euler_lanes(P, flags & (F.QD | F.WRENCH | F.BASE), QV, WB, RB, PB, FB, ST, TB, nl, small)

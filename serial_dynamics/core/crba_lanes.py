@@ -37,8 +37,8 @@ def crba_block(P, q, out, k0):
     n = P.shape[0] - 1
     L = int(P[n, LANES])                 # lanes (= B), read at run time on purpose
     nl = min(L, N - k0)
-    QV, WB = scratch((3 * n + 1, L), (3 * n + 1) * L), stack_empty((W_ALL, L))
-    RB, PB = scratch((9 * n, L), 9 * n * L), scratch((3 * n, L), 3 * n * L)
+    QV, WB = stack_empty((3 * n + 1, L)), stack_empty((W_ALL, L))
+    RB, PB = stack_empty((9 * n, L)), stack_empty((3 * n, L))
     CB, FB, MB = stack_empty((10, L)), stack_empty((6, L)), scratch((n * n, L), n * n * L)
     small, fin = gather(P, q, q, q, q, 0, QV, WB, k0, nl)
     for i in range(n):

@@ -41,12 +41,11 @@ def tree_rnea_block(P, q, qd, qdd, w, flags, out, k0):
 
 @njit(cache=True, inline="always")
 def tree_scratch(n, L):
-    """The lanes' scratch of ``tree_rnea_block``: QV, WB, RB, PB, MO, FB, EB, BS, TB, on the
-    caller's stack (those whose size grows with n on the heap past ``data.STACK_DOUBLES``)."""
-    return (scratch((3 * n + 1, L), (3 * n + 1) * L), stack_empty((W_ALL, L)),
-            scratch((9 * n, L), 9 * n * L), scratch((3 * n, L), 3 * n * L),
-            scratch((9 * n, L), 9 * n * L), scratch((6 * n, L), 6 * n * L),
-            stack_empty((6, L)), stack_empty((9, L)), scratch((n, L), n * L))
+    """The lanes' scratch of ``tree_rnea_block`` on the caller's stack: QV, WB, RB, PB, MO,
+    FB, EB, BS, TB."""
+    return (stack_empty((3 * n + 1, L)), stack_empty((W_ALL, L)), stack_empty((9 * n, L)),
+            stack_empty((3 * n, L)), stack_empty((9 * n, L)), stack_empty((6 * n, L)),
+            stack_empty((6, L)), stack_empty((9, L)), stack_empty((n, L)))
 
 
 @njit(cache=True, inline="always")
@@ -196,8 +195,8 @@ def tree_crba_block(P, q, out, k0):
     n = P.shape[0] - 1
     L = int(P[n, LANES])
     nl = min(L, N - k0)
-    QV, WB = scratch((3 * n + 1, L), (3 * n + 1) * L), stack_empty((W_ALL, L))
-    RB, PB = scratch((9 * n, L), 9 * n * L), scratch((3 * n, L), 3 * n * L)
+    QV, WB = stack_empty((3 * n + 1, L)), stack_empty((W_ALL, L))
+    RB, PB = stack_empty((9 * n, L)), stack_empty((3 * n, L))
     off, dep, rows = ancestor_rows(P)
     IC, FB, MB = scratch((10 * n, L), 10 * n * L), stack_empty((6, L)), scratch((rows, L), rows * L)
     small, fin = gather(P, q, q, q, q, 0, QV, WB, k0, nl)

@@ -1,6 +1,7 @@
 """The demo on a full ROS 2 install: ros2 launch serial_dynamics demo.launch.py
 
-Starts the simulator (publishing /clock, paused at the first waypoint) and the
+Starts the simulator (publishing /clock, paused at the first waypoint, in lockstep with
+its controller: docs/ros.md, "Lockstep") and the
 computed-torque controller (on simulated time) with the parameter files of
 config/, then runs the demo's trajectory and report against them
 (python3 -m serial_dynamics.ros.demo --attach); the launch ends when the demo does.
@@ -26,6 +27,7 @@ from launch_ros.actions import Node
 from launch_ros.parameter_descriptions import ParameterValue
 
 from serial_dynamics.robots import builtin_path
+from serial_dynamics.ros.demo.session import LOCKSTEP
 from serial_dynamics.trajectory import UR5E_PICK_AND_PLACE
 
 
@@ -48,7 +50,7 @@ def generate_launch_description():
         Node(package="serial_dynamics", executable="simulator", name="simulator",
              output="screen",
              parameters=[os.path.join(config, "simulator.yaml"), {
-                 "publish_clock": True, "start_paused": True,
+                 "publish_clock": True, "start_paused": True, "lockstep": LOCKSTEP,
                  "initial_positions": UR5E_PICK_AND_PLACE[0][1],
                  "real_time_factor": ParameterValue(LaunchConfiguration("real_time_factor"),
                                                     value_type=float)}]),

@@ -4,13 +4,16 @@ and messages and makes one call here per callback).
 ``SimulatorLoop`` holds the ``sim.session.Session`` (made by ``simulator_parameters``) and
 what the node does around it: the commands (an effort clamped is a note; servo targets
 the simulation cannot take are refused), the simulation thread paced against the
-wall clock (``pacing.Pacer``), which steps are due on ``joint_states`` and ``/clock``, the
+wall clock (``pacing.Pacer``) and, with ``lockstep``, held back to its controller (it runs
+at most ``lockstep`` steps past the last command, waiting at most ``lockstep_timeout`` s of
+wall time for the next), which steps are due on ``joint_states`` and ``/clock``, the
 steps of one ``~/step`` call, the answers of ``~/reset`` and ``~/step``, the /diagnostics
 entries and the closing line. The node's callbacks are passed in (``step``, ``publish``),
 so the loop is tested with plain functions; no rclpy here.
 """
 from __future__ import annotations
 
+import threading
 import time
 from typing import NamedTuple
 
@@ -50,6 +53,10 @@ class SimulatorLoop:
         self.clock_every = max(1, round(1.0 / (p["clock_rate"] * dt)))
         self.publish_clock = p["publish_clock"]
         self.pacer = Pacer(dt, self.rtf, MAX_LAG, clock)
+        # lockstep: session.k at the last command (None: no command since the start or
+        # since a wait timed out: free-running), the event a command sets, waits so far
+        self.lockstep, self.lockstep_timeout = p["lockstep"], p["lockstep_timeout"]
+        self.commanded_k, self.commanded, self.lockstep_waits = None, threading.Event(), 0
         self.started = (clock(), session.k)    # (wall, k) at the start of the thread
         base_link = session.robot.base_link
         # odom's (frame_id, child_frame_id); external_wrench's (frame, axes)
@@ -71,6 +78,8 @@ class SimulatorLoop:
         idx = np.arange(session.robot.dof) if idx is None else idx
         effort = np.zeros(len(idx)) if effort is None else effort
         clamped = session.command(idx, effort, position, velocity)
+        self.commanded_k = session.k
+        self.commanded.set()
         if clamped is None:
             return None
         j, asked = clamped
@@ -102,17 +111,39 @@ class SimulatorLoop:
     # ------------------------------------------------------------ the simulation thread
     def run(self, stop, step, publish, warn):
         """Until the event ``stop`` is set: ``step()`` when a step is due on the wall-clock
-        schedule; while paused, ``publish()`` every publish period; ``warn(text)`` once when
-        the schedule is given up (more than MAX_LAG late)."""
-        session, pacer, lag_warned = self.session, self.pacer, False
+        schedule and, with lockstep, the controller is no more than ``lockstep`` steps
+        behind; while paused, ``publish()`` every publish period; ``warn(text)`` once when
+        the schedule is given up (more than MAX_LAG late) and once when a lockstep wait
+        times out."""
+        session, pacer, lag_warned, lockstep_warned = self.session, self.pacer, False, False
         self.started = (self.clock(), session.k)
         pacer.anchor(session.k)
+        waiting_since = None     # wall s when the current lockstep wait began
         while not stop.is_set():
             if session.paused:
                 publish()
                 stop.wait(self.publish_every * session.dt)
                 pacer.anchor(session.k)
                 continue
+            if self.behind_controller():
+                now = self.clock()
+                if waiting_since is None:
+                    waiting_since, self.lockstep_waits = now, self.lockstep_waits + 1
+                if now - waiting_since < self.lockstep_timeout:
+                    self.commanded.clear()
+                    if self.behind_controller():     # a command between the look and clear
+                        self.commanded.wait(min(self.lockstep_timeout - (now - waiting_since),
+                                                WAIT_AT_MOST))
+                    continue
+                if not lockstep_warned:
+                    lockstep_warned = True
+                    warn(f"no command for {self.lockstep_timeout:g} s of wall time: lockstep "
+                         "released until the next command (logged once; command_timeout "
+                         "applies)")
+                self.commanded_k = None
+            if waiting_since is not None:     # the wait is over: the schedule starts anew,
+                waiting_since = None          # as after a pause (no burst to catch up)
+                pacer.anchor(session.k)
             wait = pacer.wait(session.k)
             if wait > 0:
                 stop.wait(min(wait, WAIT_AT_MOST))
@@ -122,6 +153,12 @@ class SimulatorLoop:
                 warn(f"cannot keep up with real_time_factor {self.rtf}: the simulation runs "
                      "slower (logged once)")
             step()
+
+    def behind_controller(self) -> bool:
+        """Lockstep: the next step would be more than ``lockstep`` steps past the last
+        command (never before the first command, nor without lockstep)."""
+        k = self.commanded_k
+        return self.lockstep > 0 and k is not None and self.session.k - k >= self.lockstep
 
     def step(self, force=False) -> Tick:
         """One step of the session (``force``: also while paused) and what is due."""
@@ -139,14 +176,16 @@ class SimulatorLoop:
     def report(self):
         """/diagnostics entries: the real-time factor achieved since the last report
         (simulated s per wall s; WARN below 90 % of real_time_factor while running), late
-        steps (started more than one step period behind the schedule), the session's."""
+        steps (started more than one step period behind the schedule), with lockstep the
+        waits for a command so far, the session's."""
         session, pacer = self.session, self.pacer
         k, k0 = session.k, pacer.mark[1]     # mark: (wall, k) of the last report
         rtf = pacer.achieved(k, session.dt)
         running = not session.paused and k > k0
         slow = running and self.rtf > 0 and rtf < 0.9 * self.rtf
+        lockstep = [("lockstep waits", self.lockstep_waits)] if self.lockstep else []
         return [("real-time factor", f"{rtf:.3f}" if running else "paused", slow),
-                ("late steps", pacer.late_steps), *session.report()]
+                ("late steps", pacer.late_steps), *lockstep, *session.report()]
 
     def summary(self):
         """The closing line (simulated and wall time since ``run`` started), or None."""

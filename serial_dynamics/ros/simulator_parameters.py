@@ -33,6 +33,13 @@ PARAMETERS = {
                                "(the joint servo holds the positions at the timeout, within "
                                "the effort limits, until a command comes; as a real arm) or "
                                f"limp (effort back to zero): {', '.join(TIMEOUT_ACTIONS)}"),
+    "lockstep": ("int", 0, "steps of sim_dt the simulation runs past the last command before "
+                 "it waits for the next, so that a slow controller never falls further "
+                 "behind (for a controller on /clock at control_rate: at least "
+                 "1/(control_rate sim_dt)); 0 = never waits (free-running). From the first "
+                 "command on"),
+    "lockstep_timeout": ("double", 2.0, "s of wall time a lockstep wait lasts at most; then "
+                         "the simulation runs free until the next command (one warning)"),
     "clamp_effort": ("bool", True, "clamp commanded effort to the effort limits"),
     "effort_limits": ("double[]", None, "effort limits (N m; N), one or one per joint "
                       "([] = the URDF's <limit effort>; .inf = none)"),
@@ -55,7 +62,8 @@ PARAMETERS = {
 }
 # parameter ranges (ParameterDescriptor; inclusive, so only those that include their ends)
 RANGES = {"real_time_factor": (0.0, 1e6), "command_timeout": (0.0, 1e9),
-          "external_wrench_timeout": (0.0, 1e9), "step_count": (1, 10 ** 9)}
+          "external_wrench_timeout": (0.0, 1e9), "step_count": (1, 10 ** 9),
+          "lockstep": (0, 10 ** 9), "lockstep_timeout": (0.0, 1e9)}
 
 
 COARSE_DT = 0.01   # s; a larger sim_dt is warned about (an arm needs steps of about 1 ms)

@@ -134,3 +134,60 @@ def test_the_thread_steps_on_schedule_publishes_while_paused_and_warns_once():
     paused.run(stop, lambda: pytest.fail("stepped while paused"),
                lambda: (published.append(paused.session.k), stop.set()), warned.append)
     assert published == [0] and paused.summary() is None
+
+
+def test_lockstep_waits_for_the_controller_then_lets_go_after_its_timeout():
+    # a clock 0.5 s later at every look, no pacing: the waits end only by their timeout
+    clock, stop, warned, before = Clock(step=0.5), threading.Event(), [], []
+    sim = loop(clock=clock, real_time_factor=0.0, lockstep=4, lockstep_timeout=2.0)
+    assert sim.report()[2] == ("lockstep waits", 0)
+
+    def step():
+        before.append((sim.session.k, sim.lockstep_waits))
+        sim.step()
+        if sim.session.k in (3, 12):         # a command after steps 3 and 12, then silence
+            sim.command(None, np.zeros(6))
+        if sim.session.k == 20:
+            stop.set()
+    sim.run(stop, step, lambda: None, warned.append)
+    # free before the first command; 4 steps past it (k = 7) it waits, times out after 2 s
+    # (4 looks), runs free to the next command (k = 12) and waits again 4 steps later
+    assert [k for k, waits in before] == list(range(20))
+    assert [waits for k, waits in before] == [0] * 7 + [1] * 9 + [2] * 4
+    assert warned == ["no command for 2 s of wall time: lockstep released until the next "
+                      "command (logged once; command_timeout applies)"]
+    assert sim.report()[2] == ("lockstep waits", 2)
+    assert loop(lockstep=0).report()[2] == ("divergence events", 0)     # not listed
+
+
+def test_lockstep_resumes_on_the_command_it_waited_for():
+    # the clock stands still: only a command ends the wait (another thread, as rclpy's)
+    stop, warned, ahead = threading.Event(), [], []
+    sim = loop(real_time_factor=0.0, lockstep=2, lockstep_timeout=1.0)
+
+    def step():
+        sim.step()
+        if sim.commanded_k is not None:
+            ahead.append(sim.session.k - sim.commanded_k)
+        if sim.session.k == 1:
+            sim.command(None, np.zeros(6))
+        if sim.session.k == 5:
+            stop.set()
+
+    def controller():          # answers the wait at k = 3, as a controller would
+        while sim.lockstep_waits == 0 and not stop.is_set():
+            stop.wait(0.001)
+        held.append(sim.session.k)
+        sim.command(None, np.ones(6))
+    held = []
+    thread = threading.Thread(target=controller)
+    thread.start()
+    watchdog = threading.Timer(20.0, stop.set)
+    watchdog.start()
+    sim.run(stop, step, lambda: None, warned.append)
+    watchdog.cancel()
+    thread.join()
+    assert held == [3] and sim.session.k == 5 and warned == []
+    # never more than lockstep steps past the last command: k = 2, 3, (the wait), 4, 5
+    assert ahead == [1, 2, 1, 2]
+    np.testing.assert_array_equal(sim.session.hold.tau, np.ones(6))

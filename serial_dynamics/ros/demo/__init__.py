@@ -58,10 +58,11 @@ def run_demo(urdf=None, base_link=None, tip_link=None, real_time_factor=1.0, att
     followed = bool(worst.max() <= NOT_FOLLOWED)
     if not followed:
         j = int(np.argmax(worst))
-        tail = procs[1].output().strip().splitlines()[-5:] if procs else []
+        tails = [(p.module, p.output().strip().splitlines()[-5:]) for p in procs[:2]]
         log(f"warning: the arm did not follow the trajectory ({worst[j]:.3f} rad off on "
-            f"{robot.joint_names[j]}); the controller's log ends:"
-            + "".join("\n  " + x for x in tail))
+            f"{robot.joint_names[j]})" + "".join(
+                f"; the {module}'s log ends:" + "".join("\n  " + x for x in tail)
+                for module, tail in tails))
     return dict(robot=robot.model.name, joints=robot.joint_names, t0=t0,
                 stamp=stamp.tolist(), q=q.tolist(), q_ref=q_ref.tolist(),
                 rms=np.sqrt(np.mean(err[on] ** 2, axis=0)).tolist(),

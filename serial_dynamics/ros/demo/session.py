@@ -28,6 +28,9 @@ LEAD, SETTLE = 1.5, 0.5        # s of simulated time before the trajectory (disc
 RESEND = 0.05                  # s of wall time between sends of the trajectory before it starts
 NOT_FOLLOWED = 0.1             # rad: a larger tracking error means the controller did not follow
 STARTUP_TIMEOUT = 150.0        # s of wall time for the nodes to come up (a first run compiles)
+LOCKSTEP = 5                   # steps the simulator may run past the controller's last command:
+                               # 2.5 periods at 500 Hz with 1 ms steps; a starved controller
+                               # holds the simulation back instead of falling behind it
 
 
 class DemoError(RuntimeError):
@@ -89,6 +92,7 @@ class Session:
                                                         "start_paused": True,
                                                         "initial_positions": traj.q[0].tolist(),
                                                         "real_time_factor": float(real_time_factor),
+                                                        "lockstep": LOCKSTEP,
                                                         **(simulator_params or {})}))
             self.procs.append(NodeProcess("computed_torque_controller",
                                           {**robot_params, "use_sim_time": True}))

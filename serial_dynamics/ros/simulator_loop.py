@@ -124,6 +124,7 @@ class SimulatorLoop:
                 publish()
                 stop.wait(self.publish_every * session.dt)
                 pacer.anchor(session.k)
+                waiting_since = None     # a pause is no wait for the controller
                 continue
             if self.behind_controller():
                 now = self.clock()

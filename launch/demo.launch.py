@@ -57,7 +57,7 @@ def generate_launch_description():
         Node(package="serial_dynamics", executable="computed_torque_controller",
              name="computed_torque_controller", output="screen",
              parameters=[os.path.join(config, "computed_torque_controller.yaml"),
-                         {"use_sim_time": True}]),
+                         {"use_sim_time": True, "lockstep": True}]),
         demo,
         RegisterEventHandler(OnProcessExit(target_action=demo,
                                            on_exit=[EmitEvent(event=Shutdown(reason="demo done"))])),

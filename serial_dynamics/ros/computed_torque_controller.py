@@ -8,7 +8,10 @@ Subscribes ``joint_states`` and a time-parameterized trajectory_msgs/JointTrajec
 ``desired_trajectory``; publishes ``effort_commands`` (std_msgs/Float64MultiArray, model
 joint order) at ``control_rate`` with the law of the parameter ``mode`` (settable while
 running; the laws keep no state, so the first command after a switch is the new law at
-the state used):
+the state used). With ``lockstep`` it publishes ``joint_commands`` instead
+(sensor_msgs/JointState, effort by name, stamped with the joint state the command was
+computed from), at ``control_rate`` and at once on each joint state: a simulator in
+lockstep waits for the answer to its latest state.
 
     computed_torque       tau = M(q) (qdd_d + Kp e + Kd edot) + b(q, qd)
     pd_gravity            tau = Kp' e + Kd' edot + g(q)
@@ -57,6 +60,9 @@ PARAMETERS = {
     "pd.kd": ("double[]", None, "pd_gravity velocity gains (N m s/rad), one or one per joint "
               "([] = kd times the effective inertia 1/(M(q)^-1)_ii at the state used, over "
               "the joints' coupling: docs/ros.md)"),
+    "lockstep": ("bool", False, "publish joint_commands (effort by name, stamped with the "
+                 "joint state used) instead of effort_commands, also at once on each joint "
+                 "state, for a simulator with lockstep (docs/ros.md, Lockstep)"),
     "compensate_dissipation": ("bool", False, "add the torque that overcomes the joint "
                                "dissipation (friction) at the measured velocity"),
     **parameters.PAYLOAD_PARAMETERS,
@@ -91,7 +97,11 @@ class ComputedTorqueController(Node):
         self.log_notes(self.ctl.startup_notes())
         self.add_on_set_parameters_callback(self.validate_mode)
         self.add_post_set_parameters_callback(self.apply_mode)
-        self.pub = self.create_publisher(Float64MultiArray, "effort_commands", common.QOS_DEPTH)
+        # lockstep: JointState commands stamped with the state they answer (that stamp)
+        self.lockstep, self.answers = p["lockstep"], None
+        self.topic = "joint_commands" if self.lockstep else "effort_commands"
+        self.pub = self.create_publisher(JointState if self.lockstep else Float64MultiArray,
+                                         self.topic, common.QOS_DEPTH)
         # keep last 1: the law runs on the freshest state; a queue of states behind a stall
         # would feed it old ones, one per period, for as long as the backlog lasts
         common.subscribe(self, self.reject, JointState, "joint_states", self.on_state,
@@ -119,6 +129,9 @@ class ComputedTorqueController(Node):
             return self.reject("joint_states", exc, "; control continues on the last good state")
         self.log_notes(self.ctl.set_state(common.stamp_seconds(msg.header.stamp), self.now(),
                                           q, qd))
+        if self.lockstep:         # answer this state now: the simulator waits for it
+            self.answers = msg.header.stamp
+            self.on_timer()
 
     def on_trajectory(self, msg):
         try:
@@ -133,10 +146,16 @@ class ComputedTorqueController(Node):
         try:
             tau = self.ctl.torque(self.now())
         except Rejected as exc:
-            return self.reject("effort_commands", exc, "; no command sent")
-        if tau is not None:
+            return self.reject(self.topic, exc, "; no command sent")
+        if tau is None:
+            return
+        if self.lockstep:
+            msg = JointState(name=self.robot.joint_names, effort=tau.tolist())
+            msg.header.stamp = self.answers
+            self.pub.publish(msg)
+        else:
             self.pub.publish(Float64MultiArray(data=tau.tolist()))
-            self.reject.put("effort_commands")
+        self.reject.put(self.topic)
 
     def validate_mode(self, params):
         for x in params:

@@ -91,7 +91,9 @@ class Simulator(Node):
 
     def on_joint_command(self, msg):
         try:
-            clamped = self.loop.command(*simulator_inputs.joint_command(msg, self.robot))
+            stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+            clamped = self.loop.command(*simulator_inputs.joint_command(msg, self.robot),
+                                        stamp_ns=stamp)
         except Rejected as exc:
             return self.reject("joint_commands", exc, "; the last good command stays in force")
         if clamped:

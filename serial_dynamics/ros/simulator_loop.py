@@ -5,8 +5,9 @@ and messages and makes one call here per callback).
 what the node does around it: the commands (an effort clamped is a note; servo targets
 the simulation cannot take are refused), the simulation thread paced against the
 wall clock (``pacing.Pacer``) and, with ``lockstep``, held back to its controller (it runs
-at most ``lockstep`` steps past the last command, waiting at most ``lockstep_timeout`` s of
-wall time for the next), which steps are due on ``joint_states`` and ``/clock``, the
+at most ``lockstep`` steps past its latest joint state before the command that answers it
+arrives -- a command stamped with that state's stamp -- or, for unstamped commands, past
+the last command; it waits at most ``lockstep_timeout`` s of wall time), which steps are due on ``joint_states`` and ``/clock``, the
 steps of one ``~/step`` call, the answers of ``~/reset`` and ``~/step``, the /diagnostics
 entries and the closing line. The node's callbacks are passed in (``step``, ``publish``),
 so the loop is tested with plain functions; no rclpy here.
@@ -54,9 +55,12 @@ class SimulatorLoop:
         self.publish_clock = p["publish_clock"]
         self.pacer = Pacer(dt, self.rtf, MAX_LAG, clock)
         # lockstep: session.k at the last command (None: no command since the start or
-        # since a wait timed out: free-running), the event a command sets, waits so far
+        # since a wait timed out: free-running), the step of the state the last stamped
+        # command answers (None: unstamped commands), the step of the latest joint_states,
+        # the event a command sets, the waits so far
         self.lockstep, self.lockstep_timeout = p["lockstep"], p["lockstep_timeout"]
-        self.commanded_k, self.commanded, self.lockstep_waits = None, threading.Event(), 0
+        self.commanded_k = self.answered_k = self.published_k = None
+        self.commanded, self.lockstep_waits = threading.Event(), 0
         self.started = (clock(), session.k)    # (wall, k) at the start of the thread
         base_link = session.robot.base_link
         # odom's (frame_id, child_frame_id); external_wrench's (frame, axes)
@@ -65,10 +69,12 @@ class SimulatorLoop:
                              else (base_link, "base"))
 
     # ------------------------------------------------------------ commands and services
-    def command(self, idx, effort, position=None, velocity=None):
+    def command(self, idx, effort, position=None, velocity=None, stamp_ns=0):
         """The command of the joints ``idx`` (None: every joint, model order); effort None:
-        zeros. Returns the note of the first effort clamped to its limit, or None. Rejected:
-        servo targets where the simulation has no servo."""
+        zeros; ``stamp_ns``: the stamp of the joint state it answers (0: none; read with
+        publish_clock only, where stamps are simulated time). Returns the note of the first
+        effort clamped to its limit, or None. Rejected: servo targets where the simulation
+        has no servo."""
         session = self.session
         if not session.servo_ok and (position is not None or velocity is not None):
             raise Rejected("joint_commands servo", "joint_commands position/velocity targets "
@@ -78,6 +84,8 @@ class SimulatorLoop:
         idx = np.arange(session.robot.dof) if idx is None else idx
         effort = np.zeros(len(idx)) if effort is None else effort
         clamped = session.command(idx, effort, position, velocity)
+        if stamp_ns and self.publish_clock:
+            self.answered_k = stamp_ns // self.dt_ns
         self.commanded_k = session.k
         self.commanded.set()
         if clamped is None:
@@ -141,7 +149,7 @@ class SimulatorLoop:
                     warn(f"no command for {self.lockstep_timeout:g} s of wall time: lockstep "
                          "released until the next command (logged once; command_timeout "
                          "applies)")
-                self.commanded_k = None
+                self.commanded_k = self.answered_k = None
             if waiting_since is not None:     # the wait is over: the schedule starts anew,
                 waiting_since = None          # as after a pause (no burst to catch up)
                 pacer.anchor(session.k)
@@ -156,18 +164,25 @@ class SimulatorLoop:
             step()
 
     def behind_controller(self) -> bool:
-        """Lockstep: the next step would be more than ``lockstep`` steps past the last
-        command (never before the first command, nor without lockstep)."""
-        k = self.commanded_k
-        return self.lockstep > 0 and k is not None and self.session.k - k >= self.lockstep
+        """Lockstep: the next step would be more than ``lockstep`` steps past the latest
+        joint state, whose answer has not come (stamped commands), or past the last command
+        (unstamped). Never before the first command, nor without lockstep."""
+        if self.lockstep == 0 or self.commanded_k is None:
+            return False
+        k, shown = self.session.k, self.published_k
+        if self.answered_k is not None:
+            return shown is not None and k - shown >= self.lockstep and self.answered_k < shown
+        return k - self.commanded_k >= self.lockstep
 
     def step(self, force=False) -> Tick:
         """One step of the session (``force``: also while paused) and what is due."""
         ok, notes = self.session.step(force)
         k = self.session.k
         clock = ok and self.publish_clock and k % self.clock_every == 0
-        return Tick(ok, notes, self.clock_ns(k) if clock else None,
-                    ok and k % self.publish_every == 0)
+        publish = ok and k % self.publish_every == 0
+        if publish:
+            self.published_k = k
+        return Tick(ok, notes, self.clock_ns(k) if clock else None, publish)
 
     def clock_ns(self, k):
         """Simulated time of step k in ns with publish_clock (the stamps), else None."""

@@ -33,11 +33,11 @@ PARAMETERS = {
                                "(the joint servo holds the positions at the timeout, within "
                                "the effort limits, until a command comes; as a real arm) or "
                                f"limp (effort back to zero): {', '.join(TIMEOUT_ACTIONS)}"),
-    "lockstep": ("int", 0, "steps of sim_dt the simulation runs past the last command before "
-                 "it waits for the next, so that a slow controller never falls further "
-                 "behind (for a controller on /clock at control_rate: at least "
-                 "1/(control_rate sim_dt)); 0 = never waits (free-running). From the first "
-                 "command on"),
+    "lockstep": ("int", 0, "with publish_clock and commands stamped with the joint state "
+                 "they answer (joint_commands; the controller's lockstep): steps of sim_dt "
+                 "the simulation runs past its latest joint_states before the answer "
+                 "arrives; unstamped commands: past the last command. 0 = never waits "
+                 "(free-running). From the first command on"),
     "lockstep_timeout": ("double", 2.0, "s of wall time a lockstep wait lasts at most; then "
                          "the simulation runs free until the next command (one warning)"),
     "clamp_effort": ("bool", True, "clamp commanded effort to the effort limits"),

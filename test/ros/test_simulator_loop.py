@@ -191,3 +191,32 @@ def test_lockstep_resumes_on_the_command_it_waited_for():
     # never more than lockstep steps past the last command: k = 2, 3, (the wait), 4, 5
     assert ahead == [1, 2, 1, 2]
     np.testing.assert_array_equal(sim.session.hold.tau, np.ones(6))
+
+
+def test_stamped_lockstep_waits_for_the_answer_to_the_latest_state():
+    # joint_states every 5 steps, /clock stamps: commands stamped with the state they answer
+    clock, stop, warned, before = Clock(step=0.5), threading.Event(), [], []
+    sim = loop(clock=clock, real_time_factor=0.0, lockstep=3, lockstep_timeout=2.0,
+               publish_rate=200.0, publish_clock=True)
+    assert sim.publish_every == 5
+
+    def step():
+        before.append((sim.session.k, sim.lockstep_waits))
+        sim.step()
+        if sim.session.k == 1:               # a stamped command (a stamp 0 is none)
+            sim.command(None, np.zeros(6), stamp_ns=sim.clock_ns(1))
+        if sim.session.k == 7:               # answers the state of step 5, two steps late
+            sim.command(None, np.zeros(6), stamp_ns=sim.clock_ns(5))
+        if sim.session.k == 18:
+            stop.set()
+    sim.run(stop, step, lambda: None, warned.append)
+    # free to the first state shown (5); at 8, 3 past it, the answer to 5 is in: no wait
+    # (an unstamped lockstep would wait there, 3 past the command); at 13, 3 past the state
+    # of 10, whose answer never comes: the wait, its timeout, then free
+    assert sim.published_k == 15 and sim.answered_k is None
+    assert [waits for k, waits in before] == [0] * 13 + [1] * 5
+    assert len(warned) == 1 and warned[0].startswith("no command for 2 s of wall time")
+    # without publish_clock the stamps are wall time: not read, the unstamped rule holds
+    wall = loop(lockstep=3, publish_clock=False)
+    wall.command(None, np.zeros(6), stamp_ns=123_000_000)
+    assert wall.answered_k is None and wall.commanded_k == 0

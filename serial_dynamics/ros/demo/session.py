@@ -13,7 +13,6 @@ import rclpy
 from builtin_interfaces.msg import Duration
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
@@ -28,9 +27,9 @@ LEAD, SETTLE = 1.5, 0.5        # s of simulated time before the trajectory (disc
 RESEND = 0.05                  # s of wall time between sends of the trajectory before it starts
 NOT_FOLLOWED = 0.1             # rad: a larger tracking error means the controller did not follow
 STARTUP_TIMEOUT = 150.0        # s of wall time for the nodes to come up (a first run compiles)
-LOCKSTEP = 5                   # steps the simulator may run past the controller's last command:
-                               # 2.5 periods at 500 Hz with 1 ms steps; a starved controller
-                               # holds the simulation back instead of falling behind it
+LOCKSTEP = 5                   # steps the simulator may run past its latest joint state before
+                               # the controller's answer to it (docs/ros.md, Lockstep): a starved
+                               # controller holds the simulation back instead of falling behind
 
 
 class DemoError(RuntimeError):
@@ -71,7 +70,7 @@ def _duration(t):
 
 class Session:
     """The nodes (started here unless ``attach``), the demo's own node recording
-    ``joint_states`` (wall s, stamp s, q, effort, qd) and seeing ``effort_commands``, the
+    ``joint_states`` (wall s, stamp s, q, effort, qd) and seeing ``joint_commands``, the
     trajectory publisher, the simulator's pause client and ``spin_until``. ``nodes``:
     [(module, extra parameters)] started after the simulator and the controller."""
 
@@ -95,7 +94,8 @@ class Session:
                                                         "lockstep": LOCKSTEP,
                                                         **(simulator_params or {})}))
             self.procs.append(NodeProcess("computed_torque_controller",
-                                          {**robot_params, "use_sim_time": True}))
+                                          {**robot_params, "use_sim_time": True,
+                                           "lockstep": True}))
             self.procs += [NodeProcess(m, {**robot_params, "use_sim_time": True, **extra})
                            for m, extra in nodes]
         rclpy.init(args=[])
@@ -108,8 +108,8 @@ class Session:
             lambda m: states.append((time.monotonic(), common.stamp_seconds(m.header.stamp),
                                      np.array(m.position), np.array(m.effort),
                                      np.array(m.velocity))), common.QOS_DEPTH)
-        self.efforts = []   # wall s of each effort command seen: the controller runs and has a state
-        node.create_subscription(Float64MultiArray, "effort_commands",
+        self.efforts = []   # wall s of each command seen: the controller runs and has a state
+        node.create_subscription(JointState, "joint_commands",
                                  lambda m: self.efforts.append(time.monotonic()), common.QOS_DEPTH)
         self.pub = node.create_publisher(JointTrajectory, "desired_trajectory", common.QOS_DEPTH)
         self.pause = node.create_client(SetBool, "simulator/pause")

@@ -14,16 +14,15 @@ tip load, the torques) runs lane by lane on views of the same arrays.
 from numba import njit
 
 from . import flags as F
-from .cholesky import cholesky_solve
-from .crba import crba_core
-from .data import heap_empty, new_chol, new_kin, scratch, stack_empty
+from .data import heap_empty, scratch, stack_empty
 from .derivatives import (_body_tangent, _inertia_times, _torques, own_turn, seeds, solve_minus,
                           tangent_through, tip_tangents)
 from .layout import H, IO, KIND, LANES, MASS, W_ALL
 from .rnea import base_state, body_wrench, into_body, joint_rate, tip_load
-from .rnea_lanes import gather, lane_transforms, rnea_block
+from .forward_lanes import fd_lanes_core, fd_scratch
+from .rnea_lanes import gather, lane_transforms, scatter
 from .signatures import In2, Out3, Pm, i8, internal
-from .spatial import finite, force_to_parent, joint_transforms, rotate_t
+from .spatial import force_to_parent, rotate_t
 from .status import NOT_FINITE, OK
 
 DLANES = 32     # lanes of this kernel at most (its tangents are O(n^2) per lane)
@@ -176,45 +175,40 @@ def rnea_derivatives_batch(P, q, qd, qdd, w, flags, dq, dqd):
 def fd_derivatives_batch(P, q, qd, tau, w, flags, dq, dqd, Minv):
     """``derivatives.fd_derivatives`` of N states into (N, n, n) arrays, the operations of
     ``fd_derivatives_core`` (``forward.cholesky_core``, then d tau at (q, qd, qdd), then the
-    solves) regrouped per block: the bias b(q, qd) - J^T w in lanes (``rnea_lanes.rnea_block``,
-    bitwise ``rnea_core``'s), each state's M, Cholesky factor and qdd, d tau/d (q, qd) in
-    lanes, each state's solves (``derivatives.solve_minus``). Returns OK, or NOT_FINITE on a
-    NaN/Inf."""
+    solves) regrouped per block: qdd and M's Cholesky factor in lanes
+    (``forward_lanes.fd_lanes_core``, bitwise ``cholesky_core``'s), d tau/d (q, qd) in lanes,
+    each state's solves (``derivatives.solve_minus``) on its factor. Returns OK, or
+    NOT_FINITE on a NaN/Inf."""
     n, N = P.shape[0] - 1, dq.shape[0]
     L = min(int(P[n, LANES]), DLANES)
-    d, c = new_kin(n), new_chol(n)
-    qdd = heap_empty((N, n))             # the bias of each state, then its qdd
-    MF = scratch((L, n, n), L * n * n)
+    qdd = heap_empty((N, n))
+    MF = scratch((n, n), n * n)          # a state's factor L, out of the lanes
     X = scratch((n, 3 * n), 3 * n * n)
-    nq, nt = q.shape[0] > 1, tau.shape[0] > 1
+    QV, WB, TB, ST, RB, PB, FB, CB, MB, SB = fd_scratch(n, L)
     flags = (flags & (F.WRENCH | F.BASE)) | F.QD
-    bad, chk = OK, 0.0
+    bad = OK
     for k0 in range(0, N, L):
         nl = min(L, N - k0)
-        bad |= rnea_block(P, q, qd, q, w, flags, qdd, k0)
-        for b in range(nl):              # cholesky_core: M qdd = tau - b
-            k = k0 + b
-            tk = tau[k if nt else 0]
-            joint_transforms(P, d.sc, d.R, d.p, q[k if nq else 0], n)
-            for i in range(n):
-                chk += finite(tk[i])
-                c.b[i] = tk[i] - qdd[k, i]
-            crba_core(P, d.R, d.p, MF[b])
-            cholesky_solve(MF[b], c.b, qdd[k])        # MF[b] <- its factor L
+        if not fd_lanes_core(P, q, qd, tau, w, flags, k0, nl,
+                             QV, WB, TB, ST, RB, PB, FB, CB, MB, SB):
+            bad = NOT_FINITE
+        scatter(TB, qdd, k0, nl)
         bad |= derivatives_block(P, q, qd, qdd, w, flags | F.QDD, dq, dqd, k0)
         for b in range(nl):
             k = k0 + b
+            for j in range(n):           # L_ij (i >= j) sits in MB's row j n + i
+                for i in range(j, n):
+                    MF[i, j] = MB[j * n + i, b]
             for i in range(n):
                 for j in range(n):
                     X[i, j], X[i, n + j] = dq[k, i, j], dqd[k, i, j]
-            solve_minus(MF[b], X, dq[k], dqd[k], Minv[k])
-    return bad if chk == 0.0 else NOT_FINITE
+            solve_minus(MF, X, dq[k], dqd[k], Minv[k])
+    return bad
 
 
 ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core functions it calls)
     "rnea_derivatives_batch": (rnea_derivatives_batch, i8(Pm, In2, In2, In2, In2, i8, Out3, Out3),
                                True, ("derivatives_block",)),
     "fd_derivatives_batch": (fd_derivatives_batch, i8(Pm, In2, In2, In2, In2, i8, Out3, Out3, Out3),
-                             True, ("derivatives_block", "rnea_block", "crba_core", "cholesky_solve",
-                                    "cholesky_solve_matrix")),
+                             True, ("derivatives_block", "cholesky_solve_matrix")),
 }

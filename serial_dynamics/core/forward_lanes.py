@@ -62,23 +62,38 @@ def cholesky_lanes(n, MB, XB, SB, nl):
             XB[i, b] = XB[i, b] / MB[i * n + i, b]
 
 
-@internal(i8(Pm, In2, In2, In2, In2, i8, Out2, i8))
-def fd_block(P, q, qd, tau, w, flags, out, k0):
-    """qdd of the samples k0 .. k0 + B - 1 (fewer at the batch's end) into the same rows of
-    ``out`` (flags as ``forward.fd``'s, without ABA). Returns 1 if one of them has a NaN/Inf
-    input, else 0."""
-    N = out.shape[0]
+@njit(cache=True, inline="always")
+def fd_scratch(n, L):
+    """The scratch of ``fd_lanes_core`` for B = L lanes: ``rnea_lanes.lanes_scratch``'s,
+    then CB, MB (M's slots, on the heap past data.STACK_DOUBLES), SB."""
+    return lanes_scratch(n, L) + (stack_empty((10, L)), scratch((n * n, L), n * n * L),
+                                  stack_empty((1, L)))
+
+
+@njit(cache=True, inline="always")
+def fd_lanes_core(P, q, qd, tau, w, flags, k0, nl, QV, WB, TB, ST, RB, PB, FB, CB, MB, SB):
+    """qdd of the samples k0 .. k0 + nl - 1 into TB (n, B), M's Cholesky factors left in MB
+    (``cholesky_lanes``' layout). Returns whether every input was finite."""
     n = P.shape[0] - 1
-    L = int(P[n, LANES])                 # lanes (= B), read at run time on purpose
-    nl = min(L, N - k0)
-    QV, WB, TB, ST, RB, PB, FB = lanes_scratch(n, L)
-    CB, MB, SB = stack_empty((10, L)), scratch((n * n, L), n * n * L), stack_empty((1, L))
     # b - J^T w: Newton-Euler at qdd = 0
     small, fin = gather(P, q, qd, q, w, flags & (F.QD | F.WRENCH | F.BASE), QV, WB, k0, nl)
     newton_euler_lanes(P, flags & (F.QD | F.WRENCH | F.BASE), QV, WB, RB, PB, FB, ST, TB, nl, small)
     fin = tau_minus_bias(tau, TB, k0, nl, fin)
     composite_lanes(P, RB, PB, CB, ST, MB, nl)   # M, on the transforms of q
-    cholesky_lanes(n, MB, TB, SB, nl)
+    cholesky_lanes(n, MB, TB, SB, nl)            # x <- M^-1 (tau - b)
+    return fin
+
+
+@internal(i8(Pm, In2, In2, In2, In2, i8, Out2, i8))
+def fd_block(P, q, qd, tau, w, flags, out, k0):
+    """qdd of the samples k0 .. k0 + B - 1 (fewer at the batch's end) into the same rows of
+    ``out`` (flags as ``forward.fd``'s, without ABA). Returns 1 if one of them has a NaN/Inf
+    input, else 0."""
+    n = P.shape[0] - 1
+    L = int(P[n, LANES])                 # lanes (= B), read at run time on purpose
+    nl = min(L, out.shape[0] - k0)
+    QV, WB, TB, ST, RB, PB, FB, CB, MB, SB = fd_scratch(n, L)
+    fin = fd_lanes_core(P, q, qd, tau, w, flags, k0, nl, QV, WB, TB, ST, RB, PB, FB, CB, MB, SB)
     scatter(TB, out, k0, nl)
     return OK if fin else NOT_FINITE
 

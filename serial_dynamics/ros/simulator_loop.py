@@ -7,9 +7,9 @@ the simulation cannot take are refused), the simulation thread paced against the
 wall clock (``pacing.Pacer``) and, with ``lockstep``, held back to its controller (it runs
 at most ``lockstep`` steps past its latest joint state before the command that answers it
 arrives -- a command stamped with that state's stamp -- or, for unstamped commands, past
-the last command; it waits at most ``lockstep_timeout`` s of wall time), which steps are due on ``joint_states`` and ``/clock``, the
-steps of one ``~/step`` call, the answers of ``~/reset`` and ``~/step``, the /diagnostics
-entries and the closing line. The node's callbacks are passed in (``step``, ``publish``),
+the last command; it waits at most ``lockstep_timeout`` s of wall time), which steps are
+due on ``joint_states`` and ``/clock``, the steps of one ``~/step`` call, the answers of
+``~/reset`` and ``~/step``, the /diagnostics entries and the closing line. The node's callbacks are passed in (``step``, ``publish``),
 so the loop is tested with plain functions; no rclpy here.
 """
 from __future__ import annotations

@@ -151,11 +151,15 @@ class Session:
                         else "the nodes to start")
         self.log(f"nodes up in {time.monotonic() - t_wall:.1f} s; running the pick-and-place "
                  f"trajectory ({traj.duration:.1f} s)")
+        # The controller (in lockstep) answers the paused simulator's state: its first
+        # command holds the arm, and says that it has a state (it refuses a trajectory
+        # before one). Resumed before that command, the arm would fall under zero effort
+        # for as long as the controller took to start (under load, far enough that the
+        # recovery saturated and went wild: two of the load check's failures).
+        self.spin_until(lambda: self.efforts, 10.0, "the controller's first command on "
+                        "joint_commands (a controller started with lockstep:=true)")
         self.call(self.pause, SetBool.Request(data=False), "the simulator to resume")
         self.spin_until(lambda: states[-1][1] > 0.0, 10.0, "simulated time to advance")
-        # the controller refuses a trajectory before its first joint state; its effort
-        # commands say it has one
-        self.spin_until(lambda: self.efforts, 10.0, "the controller's first effort command")
         t0 = states[-1][1] + LEAD
         msg = JointTrajectory(joint_names=robot.joint_names)
         msg.header.stamp.sec, msg.header.stamp.nanosec = int(t0), int(round((t0 % 1) * 1e9))

@@ -10,7 +10,10 @@ real-time factor achieved.
 
 The simulator publishes /clock and the controller runs on it (use_sim_time), so the
 control loop stays at its rate in simulated time even when the simulation runs slower
-than real time. The trajectory starts 0.5 s (simulated) after the simulation starts.
+than real time; and both run in lockstep (docs/ros.md, "Lockstep"), so that a controller
+starved of CPU holds the simulation back instead of falling behind it. The simulation
+resumes once the controller has answered its paused state, and the trajectory starts
+``session.LEAD`` = 1.5 s (simulated) later.
 """
 from __future__ import annotations
 

@@ -91,9 +91,8 @@ class Simulator(Node):
 
     def on_joint_command(self, msg):
         try:
-            stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
             clamped = self.loop.command(*simulator_inputs.joint_command(msg, self.robot),
-                                        stamp_ns=stamp)
+                                        stamp_ns=Time.from_msg(msg.header.stamp).nanoseconds)
         except Rejected as exc:
             return self.reject("joint_commands", exc, "; the last good command stays in force")
         if clamped:

@@ -18,8 +18,9 @@ What remains with the controller as built comes from the state being up to 10 ms
 M(q) and b(q, qd) and from the 2 ms zero-order hold: measured RMS <= 0.5 mrad and max
 <= 1.3 mrad here, 4-6 times below the bound, which leaves room for a loaded machine (the
 controller runs on simulated time, so a slow simulation does not hurt the tracking, and the
-simulator runs in lockstep with it, so a starved controller does not either: its commands
-are at most demo.LOCKSTEP = 5 steps old).
+simulator runs in lockstep with it, so a starved controller does not either: the command in
+force was computed from a joint state at most session.LOCKSTEP = 5 steps plus one publish
+period old; docs/ros.md, "Lockstep").
 """
 import json
 import os

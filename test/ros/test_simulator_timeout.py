@@ -16,10 +16,15 @@ from conftest import HOME, Latest, wait_for_log
 STEPS = 500                 # per ~/step call: 0.5 s
 
 
+def stamp_ns(msg):
+    return msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+
+
 @pytest.mark.parametrize("action", ["limp", None])        # None: the default, brake
 def test_a_lost_command_stream(ros, action):
     ns = f"/timeout_{action or 'default'}"
-    params = {"initial_positions": HOME, "start_paused": True, "step_count": STEPS}
+    params = {"initial_positions": HOME, "start_paused": True, "step_count": STEPS,
+              "publish_clock": True}       # joint_states stamped with the simulated time
     if action:
         params["command_timeout_action"] = action
     proc = ros.start("simulator", params, ros_args=["-r", f"__ns:={ns}"])
@@ -31,12 +36,15 @@ def test_a_lost_command_stream(ros, action):
         ros.wait_matched(effort, also=lambda: states.msgs, what="the simulator")
         g = sd.default_robot().gravity_torques(np.array(HOME))
         effort.publish(Float64MultiArray(data=g.tolist()))
-        states.wait(lambda m: np.allclose(m.effort, g, rtol=0, atol=1e-12), what="the command")
+        held = states.wait(lambda m: np.allclose(m.effort, g, rtol=0, atol=1e-12),
+                           what="the command")
         # the source stops: 0.5 s held, then the timeout, then 1 s of the timeout's action
         for _ in range(3):
             assert ros.call(step, Trigger.Request()).success
-        states.clear()
-        last = states.wait(what="joint_states after the steps")
+        # the state at the end of the steps, by its stamp (a state published during them may
+        # still be on its way: under load it arrived last, in the braking transient)
+        end = stamp_ns(held) + 3 * STEPS * 1_000_000
+        last = states.wait(lambda m: stamp_ns(m) == end, what="joint_states after the steps")
         drift = np.max(np.abs(np.array(last.position) - HOME))
         if action == "limp":
             assert drift > 0.1 and not any(last.effort)            # it fell, no torque

@@ -38,7 +38,7 @@ class Node:
 
     def call(self, service, **fields):
         return self.ros.call(self.clients[service], SERVICES[service].Request(**fields),
-                             timeout=150.0)
+                             timeout=150.0, resend=10.0)     # the services are pure
 
 
 def wrench(w):

@@ -53,6 +53,19 @@ def test_identification_spec_needs_its_recordings():
         spec.check({"study": "identification", "robot": "ur5e"})
 
 
+def _scheduler_address(path, proc, timeout):
+    """The address in the scheduler's file, once the file is written whole: it exists, empty,
+    before the scheduler writes it (a loaded machine read it in between)."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline and proc.poll() is None:
+        try:
+            return json.loads(path.read_text())["address"]
+        except (FileNotFoundError, json.JSONDecodeError, KeyError):
+            time.sleep(0.2)
+    raise AssertionError(f"no scheduler address in {path} after {timeout} s "
+                         f"(scheduler exit code {proc.poll()})")
+
+
 def test_cli_on_a_dask_scheduler_and_workers(tmp_path):
     dask = os.path.join(os.path.dirname(sys.executable), "dask")
     address_file = tmp_path / "scheduler.json"
@@ -60,10 +73,7 @@ def test_cli_on_a_dask_scheduler_and_workers(tmp_path):
                                "--no-dashboard", "--scheduler-file", str(address_file)],
                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
     try:
-        deadline = time.monotonic() + 60
-        while not address_file.exists() and time.monotonic() < deadline:
-            time.sleep(0.2)
-        address = json.loads(address_file.read_text())["address"]
+        address = _scheduler_address(address_file, procs[0], timeout=120)
         procs.append(subprocess.Popen([dask, "worker", address, "--nworkers", "2",
                                        "--nthreads", "1", "--host", "127.0.0.1",
                                        "--no-dashboard"],

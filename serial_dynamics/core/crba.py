@@ -10,7 +10,7 @@ rotor inertia) adds to the diagonal: M_ii += I_a,i.
 from numba import njit, types
 
 from .data import new_kin
-from .status import BAD_LENGTH, NOT_FINITE, OK, status
+from .status import BAD_LENGTH, status
 from .signatures import D2, D3, Out2, Pm, internal
 from .layout import ARM, H, IO, KIND, MASS
 from .spatial import joint_transforms, rotation, to_parent
@@ -107,14 +107,3 @@ def crba(P, q, out):
     crba_inline(P, d.R, d.p, out)
     return status(chk)
 
-
-def crba_batch(P, q, out):
-    """Mass matrices (N, n, n) of N configurations (N, n). Returns OK, or NOT_FINITE on a NaN/Inf."""
-    n = P.shape[0] - 1
-    d = new_kin(n)
-    bad = OK
-    for k in range(q.shape[0]):
-        if joint_transforms(P, d.sc, d.R, d.p, q[k], n) != 0.0:
-            bad = NOT_FINITE
-        crba_core(P, d.R, d.p, out[k])
-    return bad

@@ -11,11 +11,11 @@ a sample's M is bitwise the same alone or in any batch.
 from numba import njit
 
 from .layout import ARM, H, IO, KIND, LANES, MASS, W_ALL
-from .crba import add_in_parent
-from .data import scratch, stack_empty
+from .crba import add_in_parent, crba_core
+from .data import new_kin, square_lanes_fit, stack_empty
 from .rnea_lanes import gather, lane_transforms
 from .signatures import In2, Out3, Pm, i8, internal
-from .spatial import force_to_parent
+from .spatial import force_to_parent, joint_transforms
 from .status import NOT_FINITE, OK
 
 
@@ -30,16 +30,16 @@ def lane_rotation(RB, ri, b):
 def crba_block(P, q, out, k0):
     """Mass matrices of the samples k0 .. k0 + B - 1 (fewer at the batch's end) into the
     same rows of ``out``; 1 if one of them has a NaN/Inf angle, else 0. Lanes' scratch
-    (rows, B) on the stack: QV angles (and the small-angle mask), RB, PB the joint
-    transforms, CB the composite's ten parameters (m, h, I_O: xx yy zz xy xz yz), FB the
-    carried force (n; f), MB the matrix (n * n rows)."""
+    (rows, B) on the stack (``crba_batch`` calls it only where it fits): QV angles (and the
+    small-angle mask), RB, PB the joint transforms, CB the composite's ten parameters (m, h,
+    I_O: xx yy zz xy xz yz), FB the carried force (n; f), MB the matrix (n * n rows)."""
     N = out.shape[0]
     n = P.shape[0] - 1
     L = int(P[n, LANES])                 # lanes (= B), read at run time on purpose
     nl = min(L, N - k0)
     QV, WB = stack_empty((3 * n + 1, L)), stack_empty((W_ALL, L))
     RB, PB = stack_empty((9 * n, L)), stack_empty((3 * n, L))
-    CB, FB, MB = stack_empty((10, L)), stack_empty((6, L)), scratch((n * n, L), n * n * L)
+    CB, FB, MB = stack_empty((10, L)), stack_empty((6, L)), stack_empty((n * n, L))
     small, fin = gather(P, q, q, q, q, 0, QV, WB, k0, nl)
     for i in range(n):
         lane_transforms(P, i, QV, RB, PB, nl, small)
@@ -117,9 +117,19 @@ def composite_lanes(P, RB, PB, CB, FB, MB, nl):
 
 
 def crba_batch(P, q, out):
-    """Mass matrices (N, n, n) of N configurations (N, n), B at a time in lanes. Returns OK,
-    or NOT_FINITE on a NaN/Inf."""
+    """Mass matrices (N, n, n) of N configurations (N, n), B at a time in lanes (a chain too
+    long for the lanes' stack, ``data.square_lanes_fit``, one at a time by ``crba_core``).
+    Returns OK, or NOT_FINITE on a NaN/Inf."""
+    n = P.shape[0] - 1
+    L = int(P[n, LANES])
     bad = OK
-    for k0 in range(0, out.shape[0], int(P[P.shape[0] - 1, LANES])):
+    if not square_lanes_fit(n, L):
+        d = new_kin(n)
+        for k in range(q.shape[0]):
+            if joint_transforms(P, d.sc, d.R, d.p, q[k], n) != 0.0:
+                bad = NOT_FINITE
+            crba_core(P, d.R, d.p, out[k])
+        return bad
+    for k0 in range(0, out.shape[0], L):
         bad |= crba_block(P, q, out, k0)
     return bad

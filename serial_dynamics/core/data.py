@@ -81,6 +81,20 @@ def scratch(shape, size):
     return stack_empty(shape) if size <= STACK_DOUBLES else heap_empty(shape)
 
 
+# A lane block's scratch that grows as n^2 (the mass matrix's n^2 rows of B samples) is on
+# the block's stack, where LLVM sees it cannot overlap the model or the inputs (on the heap,
+# or chosen between the two at run time, it cannot, and the Cholesky batch ran 26 % slower:
+# bench_speed.py, 2026-11-27); up to 512 KiB, n <= 45 at B = 32. A longer chain's batch
+# runs one state at a time (the same bits).
+LANE_STACK_DOUBLES = 65536
+
+
+@njit(cache=True, inline="always")
+def square_lanes_fit(n, L):
+    """Whether a block of L lanes may hold an n x n matrix per lane on its stack."""
+    return n * n * L <= LANE_STACK_DOUBLES
+
+
 @njit(cache=True, inline="always")
 def new_kin(n):
     return Kin(stack_empty((2, n)), stack_empty((n, 3, 3)), stack_empty((n, 3)), stack_empty((n, 6)))

@@ -184,7 +184,8 @@ def fd_derivatives_batch(P, q, qd, tau, w, flags, dq, dqd, Minv):
     qdd = heap_empty((N, n))
     MF = scratch((n, n), n * n)          # a state's factor L, out of the lanes
     X = scratch((n, 3 * n), 3 * n * n)
-    QV, WB, TB, ST, RB, PB, FB, CB, MB, SB = fd_scratch(n, L)
+    QV, WB, TB, ST, RB, PB, FB, CB, SB = fd_scratch(n, L)
+    MB = scratch((n * n, L), n * n * L)  # M's slots (on the heap past data.STACK_DOUBLES)
     flags = (flags & (F.WRENCH | F.BASE)) | F.QD
     bad = OK
     for k0 in range(0, N, L):

@@ -15,7 +15,7 @@ from . import flags as F
 from .aba import aba_core
 from .cholesky import cholesky_solve
 from .crba import crba_core
-from .data import new_art, new_chol, new_kin
+from .data import new_art, new_chol, new_kin, square_lanes_fit
 from .forward_lanes import fd_block
 from .layout import LANES, W_ALL, W_WRENCH
 from .signatures import D1, D2, D3, In1, Out1, Pm, f8, i8, internal
@@ -74,23 +74,28 @@ def fd(P, q, qd, tau, w, flags, out):
 
 def fd_batch(P, q, qd, tau, w, flags, out):
     """Forward dynamics of N states (rows broadcast as in ``rnea_batch``): the Cholesky route
-    B at a time in SIMD lanes (``forward_lanes.py``), ABA one state after the other. Returns
-    OK, or NOT_FINITE if some input had a NaN/Inf."""
-    N = out.shape[0]
-    if (flags & F.ABA) == 0:
+    B at a time in SIMD lanes (``forward_lanes.py``; a chain too long for the lanes' stack,
+    ``data.square_lanes_fit``, one state at a time by ``cholesky_core``, the same bits),
+    ABA one state after the other. Returns OK, or NOT_FINITE if some input had a NaN/Inf."""
+    N, n = out.shape[0], P.shape[0] - 1
+    L = int(P[n, LANES])
+    flags &= ~F.DAMPING                  # tau stands in for the unread damping argument
+    aba = (flags & F.ABA) != 0
+    if not aba and square_lanes_fit(n, L):
         bad = OK
-        for k0 in range(0, N, int(P[P.shape[0] - 1, LANES])):
-            bad |= fd_block(P, q, qd, tau, w, flags & ~F.DAMPING, out, k0)
+        for k0 in range(0, N, L):
+            bad |= fd_block(P, q, qd, tau, w, flags, out, k0)
         return bad
-    n = P.shape[0] - 1
-    d, a = new_kin(n), new_art(n)
+    d, a, c = new_kin(n), new_art(n), new_chol(n)
     nq, nv, nt, nw = q.shape[0] > 1, qd.shape[0] > 1, tau.shape[0] > 1, w.shape[0] > 1
-    flags &= ~F.DAMPING
     bad = OK
     for k in range(N):
         qk, qdk, tk, wk = q[k if nq else 0], qd[k if nv else 0], tau[k if nt else 0], w[k if nw else 0]
-        chk = aba_core(P, d.sc, d.R, d.p, a.IA, a.pA, a.U, a.c, a.Du, a.Y,
-                       qk, qdk, tk, wk, tk, flags, out[k])
+        if aba:
+            chk = aba_core(P, d.sc, d.R, d.p, a.IA, a.pA, a.U, a.c, a.Du, a.Y,
+                           qk, qdk, tk, wk, tk, flags, out[k])
+        else:
+            chk = cholesky_core(P, d.sc, d.R, d.p, d.f, c.M, c.b, qk, qdk, tk, wk, tk, flags, out[k])
         if chk != 0.0:
             bad = NOT_FINITE
     return bad

@@ -14,7 +14,7 @@ from numba import njit
 
 from . import flags as F
 from .crba_lanes import composite_lanes
-from .data import scratch, stack_empty
+from .data import stack_empty
 from .layout import LANES
 from .rnea_lanes import gather, lanes_scratch, newton_euler_lanes, scatter, tau_minus_bias
 from .signatures import In2, Out2, Pm, i8, internal
@@ -64,10 +64,9 @@ def cholesky_lanes(n, MB, XB, SB, nl):
 
 @njit(cache=True, inline="always")
 def fd_scratch(n, L):
-    """The scratch of ``fd_lanes_core`` for B = L lanes: ``rnea_lanes.lanes_scratch``'s,
-    then CB, MB (M's slots, on the heap past data.STACK_DOUBLES), SB."""
-    return lanes_scratch(n, L) + (stack_empty((10, L)), scratch((n * n, L), n * n * L),
-                                  stack_empty((1, L)))
+    """The scratch of ``fd_lanes_core`` for B = L lanes but M's slots (MB, n * n rows, which
+    the caller makes): ``rnea_lanes.lanes_scratch``'s, then CB, SB."""
+    return lanes_scratch(n, L) + (stack_empty((10, L)), stack_empty((1, L)))
 
 
 @njit(cache=True, inline="always")
@@ -92,15 +91,9 @@ def fd_block(P, q, qd, tau, w, flags, out, k0):
     n = P.shape[0] - 1
     L = int(P[n, LANES])                 # lanes (= B), read at run time on purpose
     nl = min(L, out.shape[0] - k0)
-    QV, WB, TB, ST, RB, PB, FB, CB, MB, SB = fd_scratch(n, L)
+    QV, WB, TB, ST, RB, PB, FB, CB, SB = fd_scratch(n, L)
+    MB = stack_empty((n * n, L))         # fd_batch calls this only where it fits
     fin = fd_lanes_core(P, q, qd, tau, w, flags, k0, nl, QV, WB, TB, ST, RB, PB, FB, CB, MB, SB)
     scatter(TB, out, k0, nl)
     return OK if fin else NOT_FINITE
 
-
-def fd_lanes(P, q, qd, tau, w, flags, out):
-    """Forward dynamics of N states by the Cholesky route, B at a time in lanes."""
-    bad = OK
-    for k0 in range(0, out.shape[0], int(P[P.shape[0] - 1, LANES])):
-        bad |= fd_block(P, q, qd, tau, w, flags, out, k0)
-    return bad

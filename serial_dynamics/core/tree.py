@@ -17,7 +17,7 @@ from . import flags as F
 from .cholesky import ltdl_factor, ltdl_solve_factored
 from .crba import add_in_parent
 from .floating import GW, _chain_inputs, _products, fd_inputs, rnea_inputs
-from .data import new_chol, new_kin, stack_empty
+from .data import new_chol, new_kin, square_lanes_fit, stack_empty
 from .energy import axis_gradient, body_momentum, body_velocity
 from .layout import ARM, H, IO, KIND, LANES, MASS, PARENT, ROOT, TIPPATH, W_ALL, W_WRENCH
 from .rnea import base_state, body_wrench, joint_rates, outward_step, tip_load
@@ -260,10 +260,14 @@ def tree_rnea_batch(P, q, qd, qdd, w, flags, out):
 
 
 def tree_crba_batch(P, q, out):
+    """Mass matrices of N configurations: on a fixed base B at a time in SIMD lanes; on a
+    floating one, or a tree too big for the lanes' stack (``data.square_lanes_fit``), one
+    state after the other (the same bits). Returns OK or NOT_FINITE."""
     N, n = out.shape[0], P.shape[0] - 1
-    if P[n, ROOT] == 0.0:                # a fixed base: B at a time in SIMD lanes
+    L = int(P[n, LANES])
+    if P[n, ROOT] == 0.0 and square_lanes_fit(n, L):   # a fixed base: B at a time in lanes
         bad = OK
-        for k0 in range(0, N, int(P[n, LANES])):
+        for k0 in range(0, N, L):
             bad |= tree_crba_block(P, q, out, k0)
         return bad
     d, IC = new_kin(n), stack_empty((n, 10))
@@ -276,10 +280,13 @@ def tree_crba_batch(P, q, out):
 
 
 def tree_fd_batch(P, q, qd, tau, w, flags, out):
+    """Forward dynamics of N states, as ``tree_crba_batch`` splits them (a row of 1
+    broadcasts). Returns OK or NOT_FINITE."""
     N, n = out.shape[0], P.shape[0] - 1
-    if P[n, ROOT] == 0.0:                # a fixed base: B at a time in SIMD lanes
+    L = int(P[n, LANES])
+    if P[n, ROOT] == 0.0 and square_lanes_fit(n, L):   # a fixed base: B at a time in lanes
         bad = OK
-        for k0 in range(0, N, int(P[n, LANES])):
+        for k0 in range(0, N, L):
             bad |= tree_fd_block(P, q, qd, tau, w, flags, out, k0)
         return bad
     d, c, mo, IC = new_kin(n), new_chol(n), stack_empty((n, 9)), stack_empty((n, 10))

@@ -13,7 +13,7 @@ from numba import njit
 
 from . import flags as F
 from .crba_lanes import lane_rotation
-from .data import scratch, stack_empty
+from .data import stack_empty
 from .crba import add_in_parent
 from .layout import ARM, G, H, IO, KIND, LANES, MASS, PARENT, TIPPATH, W_ACC, W_ALL, W_OMEGA
 from .rnea import body_wrench, into_body, joint_rate, tip_load
@@ -198,7 +198,7 @@ def tree_crba_block(P, q, out, k0):
     QV, WB = stack_empty((3 * n + 1, L)), stack_empty((W_ALL, L))
     RB, PB = stack_empty((9 * n, L)), stack_empty((3 * n, L))
     off, dep, rows = ancestor_rows(P)
-    IC, FB, MB = scratch((10 * n, L), 10 * n * L), stack_empty((6, L)), scratch((rows, L), rows * L)
+    IC, FB, MB = stack_empty((10 * n, L)), stack_empty((6, L)), stack_empty((rows, L))
     small, fin = gather(P, q, q, q, q, 0, QV, WB, k0, nl)
     for i in range(n):
         lane_transforms(P, i, QV, RB, PB, nl, small)
@@ -259,7 +259,7 @@ def tree_fd_block(P, q, qd, tau, w, flags, out, k0):
     nl = min(L, N - k0)
     QV, WB, RB, PB, MO, FB, EB, BS, TB = tree_scratch(n, L)
     off, dep, rows = ancestor_rows(P)
-    IC, MB = scratch((10 * n, L), 10 * n * L), scratch((rows, L), rows * L)
+    IC, MB = stack_empty((10 * n, L)), stack_empty((rows, L))   # rows <= n (n + 1) / 2: it fits
     flags = flags & (F.QD | F.WRENCH | F.BASE)
     small, fin = gather(P, q, qd, q, w, flags, QV, WB, k0, nl)
     tree_newton_euler_lanes(P, flags, QV, WB, RB, PB, MO, FB, EB, BS, TB, nl, small)

@@ -119,6 +119,23 @@ def test_batch_equals_single_states(pair):
     assert rel(robot.gravity_torques(q[:1]), robot.gravity_torques(q[0])[None]) <= TOL
 
 
+@pytest.mark.parametrize("n", [45, 46])
+def test_a_chain_past_the_lanes_stack_gives_each_state_its_bits(n):
+    """data.square_lanes_fit: a 45-joint chain's mass matrices and Cholesky forward dynamics
+    run in lanes (45^2 x 32 doubles of M fit 512 KiB of stack), a 46-joint one's one state at
+    a time; either way a batch row is bitwise its single call and agrees with the reference."""
+    robot = sd.load_urdf(chain_urdf(n))
+    ref = Robot(robot.model, backend="numpy")
+    q, qd, _, tau, _ = states(robot, seed=11, batch=35)
+    M, a = robot.mass_matrix(q), robot.forward_dynamics(q, qd, tau, method="cholesky")
+    for k in range(35):
+        assert M[k].tobytes() == robot.mass_matrix(q[k]).tobytes()
+        assert a[k].tobytes() == robot.forward_dynamics(q[k], qd[k], tau[k], method="cholesky").tobytes()
+    for k in (0, 34):
+        assert rel(M[k], ref.mass_matrix(q[k])) <= TOL
+        assert rel(a[k], ref.forward_dynamics(q[k], qd[k], tau[k], method="cholesky")) <= 1e-9
+
+
 def test_inputs_of_any_kind(pair):
     _, robot, ref = pair
     q, qd, qdd, tau, _ = states(robot, seed=5)

@@ -7,6 +7,7 @@ import pytest
 
 import serial_dynamics as sd
 from pin_reference import erd
+from serial_dynamics.robots.synthetic import chain_urdf
 
 ROBOTS = ["solo_description/robots/solo12.urdf", "talos_data/robots/talos_reduced.urdf",
           "baxter_description/urdf/baxter.urdf"]
@@ -73,6 +74,34 @@ def test_tree_batches_in_lanes_are_the_single_calls_bits(rel):
     M = fast.mass_matrix(q)
     for k in range(70):
         assert M[k].tobytes() == fast.mass_matrix(q[k]).tobytes()
+
+
+def two_arm_tree(n_each):
+    """Two chain_urdf arms of n_each joints on one base link."""
+    a, b = chain_urdf(n_each), chain_urdf(n_each)
+    b = b.replace('"link', '"b_link').replace('"joint', '"b_joint').replace('"tip', '"b_tip')
+    return a.split("</robot>")[0] + b.split('<link name="base_link"/>')[1]
+
+
+@pytest.mark.parametrize("n_each", [22, 23])
+def test_a_tree_past_the_lanes_stack_gives_each_state_its_bits(n_each):
+    """data.square_lanes_fit: a fixed-base tree of 44 joints runs its batches of M and
+    forward dynamics in lanes, one of 46 one state at a time; either way a row is bitwise
+    its single call and agrees with the reference."""
+    fast = sd.load_urdf(two_arm_tree(n_each))
+    ref = sd.Robot(fast.model, backend="numpy")
+    assert fast.dof == 2 * n_each and fast.kernels()[0].startswith("tree_")
+    rng = np.random.default_rng(9)
+    q, qd = fast.random_state(rng, batch=35)
+    tau = rng.uniform(-20, 20, (35, fast.dof))
+    M, a = fast.mass_matrix(q), fast.forward_dynamics(q, qd, tau)
+    for k in range(35):
+        assert M[k].tobytes() == fast.mass_matrix(q[k]).tobytes()
+        assert a[k].tobytes() == fast.forward_dynamics(q[k], qd[k], tau[k]).tobytes()
+    for k in (0, 34):
+        close(M[k], ref.mass_matrix(q[k]))
+        np.testing.assert_allclose(a[k], ref.forward_dynamics(q[k], qd[k], tau[k]), rtol=1e-9,
+                                   atol=1e-9 * np.max(np.abs(a[k])))
 
 
 @pytest.mark.parametrize("rel", ROBOTS)

@@ -40,7 +40,7 @@ setup(
         # drivers >= 525; for a CUDA 13 driver, numba-cuda[cu13]). The release the tests ran on.
         "gpu": ["numba-cuda[cu12]==0.30.*"],
         # numba-cuda without a toolkit: the gpu tests run in numba's CUDA simulator
-        "test": ["pytest", "pytest-xdist", "hypothesis", "pin", "example-robot-data", "matplotlib", "mpmath",
+        "test": ["pytest", "hypothesis", "pin", "example-robot-data", "matplotlib", "mpmath",
                  "numba-cuda==0.30.*"],
         "bench": ["pin", "example-robot-data", "mujoco", "matplotlib"],
     },

@@ -2,8 +2,6 @@ import glob
 import os
 import sys
 
-import pytest
-
 # serial_dynamics.gpu's tests (test/gpu/) run in numba's CUDA simulator on a machine without
 # a card. numba-cuda reads NUMBA_ENABLE_CUDASIM through numba's own config, which numba reads
 # when it is first imported (and again only when it compiles): pytest_sessionstart below
@@ -32,19 +30,3 @@ def pytest_sessionstart(session):
     from serial_dynamics.precompile import precompile
     print(f"\nnumba kernels compiled or loaded in {precompile(jobs=2):.1f} s (two processes)")
 
-
-# The suite runs in two pytest-xdist workers (setup.cfg: -n 2 --dist loadgroup), one a core.
-# Each test file goes to one worker whole (its module fixtures run once); the files that
-# start ROS nodes (test/ros/, and test_docs.py with its ROS blocks) all go to the same
-# worker, one after another as in a one-process run, so that no two ROS tests share the
-# machine: what the other worker does is the load those tests are checked to stand
-# (issue 26: test/ros passes 10 times in a row while another process keeps a core busy).
-ROS_FILES = (os.path.join(HERE, "ros") + os.sep, os.path.join(HERE, "test_docs.py"))
-
-
-@pytest.hookimpl(tryfirst=True)      # before xdist's, which reads the marks
-def pytest_collection_modifyitems(config, items):
-    for item in items:
-        path = str(item.path)
-        group = "ros" if path.startswith(ROS_FILES) else os.path.relpath(path, HERE)
-        item.add_marker(pytest.mark.xdist_group(group))

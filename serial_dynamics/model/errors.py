@@ -7,7 +7,8 @@ never leave a node.
 """
 import re
 
-# A quoted name longer than this is cut in a message (its start and its length are kept).
+# A quoted name longer than this is cut in a message (its start, its end and its length are
+# kept: the end of a long path is the file's name).
 MAX_NAME = 80
 # (a name: quoted, without white space, which tells it from the prose between two names)
 _LONG_NAME = re.compile(r"'([^'\s]{%d,})'|\"([^\"\s]{%d,})\"" % (MAX_NAME + 1, MAX_NAME + 1))
@@ -15,10 +16,10 @@ _LONG_NAME = re.compile(r"'([^'\s]{%d,})'|\"([^\"\s]{%d,})\"" % (MAX_NAME + 1, M
 
 def cut_long_names(message: str) -> str:
     """``message`` with every quoted name of more than MAX_NAME characters cut to its first
-    60, followed by its length: 'LLLL...' (1000000 characters)."""
+    30 and its last 30, followed by its length: 'LLLL...LLLL' (1000000 characters)."""
     def cut(match):
         name = match.group(1) if match.group(1) is not None else match.group(2)
-        return f"'{name[:60]}...' ({len(name)} characters)"
+        return f"'{name[:30]}...{name[-30:]}' ({len(name)} characters)"
     return _LONG_NAME.sub(cut, message)
 
 

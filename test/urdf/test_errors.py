@@ -476,6 +476,15 @@ def test_a_bad_value_in_a_file_names_the_file(tmp_path):
     raises(sd.URDFError, str(path), "arm.urdf", "joint 'j2'", "<axis")
 
 
+def test_a_bad_file_deep_in_folders_is_still_named(tmp_path):
+    """A path longer than errors.MAX_NAME is cut in the message, keeping its end: the file's
+    name (cut from the start alone, it was lost under a deep tmp folder)."""
+    path = tmp_path / ("folder_" * 15) / "arm.urdf"
+    path.parent.mkdir()
+    path.write_text(urdf(j2=joint("j2", "link1", "link2", axis="1 2")))
+    raises(sd.URDFError, str(path), "folder_/arm.urdf'", f"({len(str(path))} characters)")
+
+
 def test_the_root_must_be_a_robot():
     xml = urdf().replace('<robot name="t">', '<rob name="t">').replace("</robot>", "</rob>")
     raises(sd.URDFError, xml, "<rob>", "<robot")      # used to load, from a <rob>

@@ -29,4 +29,3 @@ def pytest_sessionstart(session):
     compiling the kernels again."""
     from serial_dynamics.precompile import precompile
     print(f"\nnumba kernels compiled or loaded in {precompile(jobs=2):.1f} s (two processes)")
-

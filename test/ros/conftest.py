@@ -17,6 +17,7 @@ os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 os.environ.setdefault("RCUTILS_LOGGING_BUFFERED_STREAM", "0")
 
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from rclpy.time import Time  # noqa: E402
 
 from serial_dynamics.ros.processes import NodeProcess  # noqa: E402
 
@@ -113,6 +114,12 @@ def stop_the_module_nodes(ros):
     yield
     for p in ros.procs[started:]:
         p.stop()
+
+
+def stamp_ns(msg):
+    """A message's header stamp in nanoseconds (the simulated time where the simulator
+    publishes its clock), as the simulator reads a command's."""
+    return Time.from_msg(msg.header.stamp).nanoseconds
 
 
 def wait_for_log(ros, proc, text, timeout=20.0):

@@ -17,7 +17,7 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 import serial_dynamics as sd
 from serial_dynamics.sim.fixed_step import FixedStepIntegrator
 
-from conftest import HOME, Latest, wait_for_log
+from conftest import HOME, Latest, wait_for_log, stamp_ns as ns
 
 ROBOT = sd.default_robot()
 NAMES = ROBOT.joint_names
@@ -28,10 +28,6 @@ BAD_START = [   # (node, parameters, text of the start-up error)
     ("inverse_dynamics", {"payload.mass": -1.0}, "mass -1.0 is negative"),
     ("simulator", {"payload.inertia": [1.0, 2.0]}, "'payload.inertia' must have 6 values"),
 ]
-
-
-def ns(msg):
-    return msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
 
 
 class Params:

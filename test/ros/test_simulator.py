@@ -18,13 +18,9 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 import serial_dynamics as sd
 from serial_dynamics.sim.fixed_step import FixedStepIntegrator
 
-from conftest import HOME, Latest, wait_for_log
+from conftest import HOME, Latest, wait_for_log, stamp_ns as ns
 
 DT_NS = 1_000_000
-
-
-def ns(msg):
-    return msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
 
 
 def assert_library_states(robot, msgs, rest, effort, method="semi_implicit_euler"):

@@ -23,7 +23,7 @@ from serial_dynamics.ros import floating_state
 from serial_dynamics.sim.fixed_step import FixedStepIntegrator
 from serial_dynamics.sim.servo import servo
 
-from conftest import HOME, Latest
+from conftest import HOME, Latest, stamp_ns as ns
 
 NS = "/flt"
 STEPS = 100                # step_count: 0.1 s a ~/step
@@ -35,10 +35,6 @@ POSE1 = np.array([-1.0, 2.0, 0.5, 0.0, 0.0, np.sin(0.4), np.cos(0.4)])   # ~/set
 TWIST1 = np.array([0.1, -0.2, 0.05, 0.3, -0.1, 0.2])
 WRENCH = np.array([0.5, 0.0, -0.3, 0.0, 0.05, 0.0])        # on the tip, world coordinates
 ROBOT = sd.load_urdf(sd.builtin_path(), gravity=(0.0, 0.0, 0.0), floating_base=True)
-
-
-def ns(msg):
-    return msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
 
 
 def library(q, v, effort, steps, wrench=None):

@@ -19,7 +19,7 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 import serial_dynamics as sd
 from serial_dynamics.sim.fixed_step import FixedStepIntegrator
 
-from conftest import HOME, Latest, wait_for_log
+from conftest import HOME, Latest, wait_for_log, stamp_ns as ns
 
 ROBOT = sd.default_robot()
 NAMES = ROBOT.joint_names
@@ -28,10 +28,6 @@ STEPS = 5                  # step_count
 WRENCH_TIMEOUT = 4         # steps: external_wrench_timeout = 0.004 s
 Q1 = np.array([0.3, -1.2, 1.4, -1.0, -1.3, 0.4])
 V1 = np.array([0.2, -0.1, 0.3, 0.5, -0.4, 1.0])
-
-
-def ns(msg):
-    return msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
 
 
 def library(q, qd, steps, wrenches):

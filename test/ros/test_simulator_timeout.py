@@ -11,13 +11,9 @@ from std_srvs.srv import Trigger
 
 import serial_dynamics as sd
 
-from conftest import HOME, Latest, wait_for_log
+from conftest import HOME, Latest, wait_for_log, stamp_ns
 
 STEPS = 500                 # per ~/step call: 0.5 s
-
-
-def stamp_ns(msg):
-    return msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
 
 
 @pytest.mark.parametrize("action", ["limp", None])        # None: the default, brake

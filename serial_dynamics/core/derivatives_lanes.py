@@ -14,9 +14,10 @@ tip load, the torques) runs lane by lane on views of the same arrays.
 from numba import njit
 
 from . import flags as F
-from .data import heap_empty, scratch, stack_empty
-from .derivatives import (_body_tangent, _inertia_times, _torques, own_turn, seeds, solve_minus,
-                          tangent_through, tip_tangents)
+from .data import LANE_STACK_DOUBLES, heap_empty, new_chol, new_kin, scratch, stack_empty
+from .derivatives import (_body_tangent, _inertia_times, _torques, derivatives_core,
+                          fd_derivatives_core, own_turn, seeds, solve_minus, tangent_through,
+                          tip_tangents)
 from .layout import H, IO, KIND, LANES, MASS, W_ALL
 from .rnea import base_state, body_wrench, into_body, joint_rate, tip_load
 from .forward_lanes import fd_lanes_core, fd_scratch
@@ -26,6 +27,16 @@ from .spatial import force_to_parent, rotate_t
 from .status import NOT_FINITE, OK
 
 DLANES = 32     # lanes of this kernel at most (its tangents are O(n^2) per lane)
+
+
+@njit(cache=True, inline="always")
+def derivative_lanes(n, L):
+    """The lanes of a block for n joints: at most L and DLANES, and as many as keep the
+    tangents T, Tf, dB (12 n^2 + 42 n doubles a lane) on the block's stack within
+    data.LANE_STACK_DOUBLES, where LLVM sees they overlap nothing (chosen between heap and
+    stack at run time, the batch ran 1.3x slower: one core, Panda and UR5, 2026-11-27). 0 from
+    n = 73 on: the batch then runs one state at a time (the same bits)."""
+    return min(L, DLANES, LANE_STACK_DOUBLES // (12 * n * n + 42 * n))
 
 
 @njit(cache=True, inline="always")
@@ -47,14 +58,12 @@ def derivatives_block(P, q, qd, qdd, w, flags, dq, dqd, k0):
     JW the joint wrench, OT a joint's own turn (inward)."""
     N = dq.shape[0]
     n = P.shape[0] - 1
-    L = min(int(P[n, LANES]), DLANES)
+    L = derivative_lanes(n, int(P[n, LANES]))
     nl = min(L, N - k0)
     QV, WB, ST = stack_empty((3 * n + 1, L)), stack_empty((W_ALL, L)), stack_empty((15, L))
     RB, PB, FB = stack_empty((9 * n, L)), stack_empty((3 * n, L)), stack_empty((6 * n, L))
     AUX, JW, OT = stack_empty((13, L)), stack_empty((6, L)), stack_empty((6, L))
-    T = scratch((15, 2 * n, L), 30 * n * L)
-    Tf = scratch((6, 2 * n, L), 12 * n * L)
-    dB = scratch((n, 6, 2 * n, L), 12 * n * n * L)
+    T, Tf, dB = stack_empty((15, 2 * n, L)), stack_empty((6, 2 * n, L)), stack_empty((n, 6, 2 * n, L))
     use_w = (flags & F.WRENCH) != 0
     small, fin = gather(P, q, qd, qdd, w, flags, QV, WB, k0, nl)
     for b in range(nl):
@@ -164,10 +173,19 @@ def rnea_derivatives_batch(P, q, qd, qdd, w, flags, dq, dqd):
     """``derivatives.rnea_derivatives`` of N states (rows broadcast as in ``rnea_batch``)
     into (N, n, n) arrays, blocks of B states in lanes. Returns OK, or NOT_FINITE if some
     input had a NaN/Inf."""
-    n = P.shape[0] - 1
+    n, N = P.shape[0] - 1, dq.shape[0]
     flags = (flags & (F.WRENCH | F.BASE)) | F.QD | F.QDD
+    L = derivative_lanes(n, int(P[n, LANES]))
     bad = OK
-    for k0 in range(0, dq.shape[0], min(int(P[n, LANES]), DLANES)):
+    if L == 0:                           # too long for lanes: one state at a time
+        d, T, Tf, dB = new_kin(n), stack_empty((15, 2 * n)), stack_empty((6, 2 * n)), heap_empty((n, 6, 2 * n))
+        nq, nv, na, nw = q.shape[0] > 1, qd.shape[0] > 1, qdd.shape[0] > 1, w.shape[0] > 1
+        for k in range(N):
+            if derivatives_core(P, d.sc, d.R, d.p, d.f, T, Tf, dB, q[k if nq else 0], qd[k if nv else 0],
+                                qdd[k if na else 0], w[k if nw else 0], flags, dq[k], dqd[k]) != 0.0:
+                bad = NOT_FINITE
+        return bad
+    for k0 in range(0, N, L):
         bad |= derivatives_block(P, q, qd, qdd, w, flags, dq, dqd, k0)
     return bad
 
@@ -180,14 +198,24 @@ def fd_derivatives_batch(P, q, qd, tau, w, flags, dq, dqd, Minv):
     each state's solves (``derivatives.solve_minus``) on its factor. Returns OK, or
     NOT_FINITE on a NaN/Inf."""
     n, N = P.shape[0] - 1, dq.shape[0]
-    L = min(int(P[n, LANES]), DLANES)
+    L = derivative_lanes(n, int(P[n, LANES]))
+    X = scratch((n, 3 * n), 3 * n * n)
+    bad = OK
+    if L == 0:                           # too long for lanes: one state at a time
+        d, c, x = new_kin(n), new_chol(n), stack_empty((n,))
+        T, Tf, dB = stack_empty((15, 2 * n)), stack_empty((6, 2 * n)), heap_empty((n, 6, 2 * n))
+        nq, nv, nt, nw = q.shape[0] > 1, qd.shape[0] > 1, tau.shape[0] > 1, w.shape[0] > 1
+        for k in range(N):
+            if fd_derivatives_core(P, d.sc, d.R, d.p, d.f, c.M, c.b, x, T, Tf, dB, X,
+                                   q[k if nq else 0], qd[k if nv else 0], tau[k if nt else 0],
+                                   w[k if nw else 0], flags, dq[k], dqd[k], Minv[k]) != 0.0:
+                bad = NOT_FINITE
+        return bad
     qdd = heap_empty((N, n))
     MF = scratch((n, n), n * n)          # a state's factor L, out of the lanes
-    X = scratch((n, 3 * n), 3 * n * n)
     QV, WB, TB, ST, RB, PB, FB, CB, SB = fd_scratch(n, L)
-    MB = scratch((n * n, L), n * n * L)  # M's slots (on the heap past data.STACK_DOUBLES)
+    MB = stack_empty((n * n, L))         # M's slots (n^2 L < 12 n^2 L: on the stack too)
     flags = (flags & (F.WRENCH | F.BASE)) | F.QD
-    bad = OK
     for k0 in range(0, N, L):
         nl = min(L, N - k0)
         if not fd_lanes_core(P, q, qd, tau, w, flags, k0, nl,
@@ -209,7 +237,7 @@ def fd_derivatives_batch(P, q, qd, tau, w, flags, dq, dqd, Minv):
 
 ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core functions it calls)
     "rnea_derivatives_batch": (rnea_derivatives_batch, i8(Pm, In2, In2, In2, In2, i8, Out3, Out3),
-                               True, ("derivatives_block",)),
+                               True, ("derivatives_block", "derivatives_core")),
     "fd_derivatives_batch": (fd_derivatives_batch, i8(Pm, In2, In2, In2, In2, i8, Out3, Out3, Out3),
-                             True, ("derivatives_block", "cholesky_solve_matrix")),
+                             True, ("derivatives_block", "fd_derivatives_core", "cholesky_solve_matrix")),
 }

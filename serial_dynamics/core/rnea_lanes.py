@@ -70,12 +70,17 @@ def lane_transforms(P, i, QV, RB, PB, nl, small):
     kp = P[i, KIND]
     # joint transform R = Rp' Rz(q) | Rp',  p = p' | p' + q Rp' e_z
     if kp == 0.0:
+        # sin q, cos q of every lane into PB's rows of p_i (written last): the polynomial
+        # in one packed loop, then libm's for a lane with a huge angle. (In one loop with a
+        # select, LLVM called libm's sincos in every lane and threw the result away.)
         for b in range(nl):
-            if small:
-                s, c = sincos(QV[i, b])
-            else:
-                s, c = sincos(QV[i, b]) if QV[3 * n, b] == 1.0 else (math.sin(QV[i, b]),
-                                                                      math.cos(QV[i, b]))
+            PB[pi, b], PB[pi + 1, b] = sincos(QV[i, b])
+        if not small:
+            for b in range(nl):
+                if QV[3 * n, b] != 1.0:
+                    PB[pi, b], PB[pi + 1, b] = math.sin(QV[i, b]), math.cos(QV[i, b])
+        for b in range(nl):
+            s, c = PB[pi, b], PB[pi + 1, b]
             RB[ri, b], RB[ri + 1, b], RB[ri + 2, b] = c * rp0 + s * rp1, c * rp1 - s * rp0, rp2
             RB[ri + 3, b], RB[ri + 4, b], RB[ri + 5, b] = c * rp3 + s * rp4, c * rp4 - s * rp3, rp5
             RB[ri + 6, b], RB[ri + 7, b], RB[ri + 8, b] = c * rp6 + s * rp7, c * rp7 - s * rp6, rp8

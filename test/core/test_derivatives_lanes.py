@@ -64,3 +64,33 @@ def test_a_nan_anywhere_is_reported():
     assert K.fd_derivatives_batch(robot._P, Q, V, A, np.zeros((1, 6)), 0, dq, dqd, dq.copy()) == 1
     with pytest.raises(ValueError, match="qd"):
         robot.inverse_dynamics_derivatives(Q, V, A)
+
+
+@pytest.mark.parametrize("n", [20, 72, 73])
+def test_long_chains_fewer_lanes_or_one_state_at_a_time(n):
+    """derivative_lanes: a block holds as many lanes as keep its tangents on the stack (11 at
+    n = 20, 1 at n = 72) and from n = 73 on the batch runs one state at a time; either way
+    every row is bitwise the single-state derivatives."""
+    from serial_dynamics.core.derivatives_lanes import derivative_lanes
+    robot = sd.load_urdf(chain_urdf(n))
+    P = robot._P
+    assert derivative_lanes(n, 32) == {20: 11, 72: 1, 73: 0}[n]
+    rng = np.random.default_rng(n)
+    N = 13
+    Q, V, A = rng.uniform(-2, 2, (N, n)), rng.normal(size=(N, n)), rng.normal(size=(N, n))
+    W = np.zeros((1, W_WRENCH))
+    dq, dqd = np.empty((N, n, n)), np.empty((N, n, n))
+    fq, fqd, fm = (np.empty((N, n, n)) for _ in range(3))
+    assert K.rnea_derivatives_batch(P, Q, V, A, W, 0, dq, dqd) == 0
+    assert K.fd_derivatives_batch(P, Q, V, A, W, 0, fq, fqd, fm) == 0
+    out, out3 = np.empty((2, n, n)), np.empty((3, n, n))
+    for k in (0, 5, N - 1):
+        assert K.rnea_derivatives(P, Q[k], V[k], A[k], W[0], 0, out) == 0
+        assert dq[k].tobytes() == out[0].tobytes() and dqd[k].tobytes() == out[1].tobytes()
+        assert K.fd_derivatives(P, Q[k], V[k], A[k], W[0], 0, out3) == 0
+        assert all(a.tobytes() == b.tobytes() for a, b in zip((fq[k], fqd[k], fm[k]), out3))
+    # and the numbers are right: d tau/d qd by central differences of inverse dynamics
+    e = 1e-6
+    fdiff = (robot.inverse_dynamics(Q[5], V[5] + e * np.eye(n)[3], A[5])
+             - robot.inverse_dynamics(Q[5], V[5] - e * np.eye(n)[3], A[5])) / (2 * e)
+    assert np.max(np.abs(fdiff - dqd[5][:, 3])) <= 1e-6 * max(1.0, np.max(np.abs(dqd[5])))

@@ -2,6 +2,8 @@ import glob
 import os
 import sys
 
+import pytest
+
 # serial_dynamics.gpu's tests (test/gpu/) run in numba's CUDA simulator on a machine without
 # a card. numba-cuda reads NUMBA_ENABLE_CUDASIM through numba's own config, which numba reads
 # when it is first imported (and again only when it compiles): pytest_sessionstart below
@@ -29,3 +31,14 @@ def pytest_sessionstart(session):
     compiling the kernels again."""
     from serial_dynamics.precompile import precompile
     print(f"\nnumba kernels compiled or loaded in {precompile(jobs=2):.1f} s (two processes)")
+
+
+def pytest_collection_finish(session):
+    """Start test_reproducibility's two compiles from an empty cache (a minute each) now, if
+    that test is to run, so that they overlap the single-threaded tests before it."""
+    for item in session.items:
+        if item.name == "test_identical_across_processes":
+            try:
+                item.module.start_cold_runs()
+            except pytest.skip.Exception:  # example-robot-data missing: the test skips itself
+                pass

@@ -4,9 +4,11 @@ the code. Blocks that only show a signature are fenced as ```text.
 
 The blocks run two at a time (each its own process, the machine has two cores): those that
 start ROS nodes or processes one after another in one lane, so that no two of them share a
-ROS graph at once, the rest in the other; each test then reports its block's outcome."""
+ROS graph at once, then the rest in both lanes from one queue; each test then reports its
+block's outcome."""
 import glob
 import os
+import queue
 import re
 import subprocess
 import sys
@@ -29,17 +31,28 @@ def _run(code):
                               text=True, timeout=600, env=dict(os.environ, MPLBACKEND="Agg"))
 
 
-def _lane(blocks):
-    return {(where, line): _run(code) for where, line, code in blocks}
-
-
 @pytest.fixture(scope="module")
 def runs():
+    """Each block's outcome, two at a time: one lane runs the ROS blocks one after another,
+    then both lanes take the other blocks from one queue (balanced by how long they take)."""
     ros = [b for b in BLOCKS if any(w in b[2] for w in ROS_WORDS)]
-    rest = [b for b in BLOCKS if b not in ros]
+    rest = queue.SimpleQueue()
+    for b in BLOCKS:
+        if b not in ros:
+            rest.put(b)
+
+    def lane(first):
+        done = {(where, line): _run(code) for where, line, code in first}
+        while True:
+            try:
+                where, line, code = rest.get_nowait()
+            except queue.Empty:
+                return done
+            done[where, line] = _run(code)
+
     with ThreadPoolExecutor(max_workers=2) as pool:
-        lanes = [pool.submit(_lane, ros), pool.submit(_lane, rest)]
-        return {k: v for lane in lanes for k, v in lane.result().items()}
+        lanes = [pool.submit(lane, ros), pool.submit(lane, [])]
+        return {k: v for f in lanes for k, v in f.result().items()}
 
 
 def test_the_docs_have_code_blocks():

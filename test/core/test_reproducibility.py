@@ -10,7 +10,8 @@ cache holds, and whatever was called before.
   the simulations first, xarm7 first), (d) a process in the forward order on the cache
   (c) wrote. All four outputs must be equal byte for byte;
   a mismatch names each quantity that differs, where, and by how much (absolute and ulps).
-  (a) and (c) compile at the same time to keep the test under a minute.
+  (a) and (c) compile at the same time, started by test/conftest.py as soon as the test is
+  collected, beside the single-threaded tests before it.
 - ``test_same_answer_whatever_was_called_before``: in one process, a state evaluated
   alone, repeated after a history of other calls (batches, wrenches, errors, another
   robot, a simulation) and on a second Robot of the same URDF, is bitwise the same.
@@ -18,13 +19,16 @@ cache holds, and whatever was called before.
   alone (it holds today; see the comment there).
 - ``test_compare_catches_one_ulp``: the comparison itself, on planted 1-ulp differences.
 """
+import atexit
 import os
+import pathlib
+import shutil
 import subprocess
 import sys
 import sysconfig
+import tempfile
 import time
 import warnings
-from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pytest
@@ -150,23 +154,62 @@ print(f"{len(result)} arrays, order {order}")
 '''
 
 
-def _run_helper(tmp_path, tag, order, cache_dir, second):
-    script = tmp_path / "reproduce.py"
+def _start_helper(root, tag, order, cache_dir, second):
+    """Start the helper (in the background) in ``root``; its output goes to files there."""
+    script = root / "reproduce.py"
     if not script.exists():
         script.write_text(HELPER)
-    out = tmp_path / f"{tag}.npz"
+    cache_dir.mkdir(exist_ok=True)
     # the serial_dynamics this test imported, not whichever one the script's folder finds
-    root = os.path.dirname(os.path.dirname(os.path.abspath(sd.__file__)))
+    src = os.path.dirname(os.path.dirname(os.path.abspath(sd.__file__)))
     env = dict(os.environ, NUMBA_CACHE_DIR=str(cache_dir),
-               PYTHONPATH=os.pathsep.join([root] + [p for p in [os.environ.get("PYTHONPATH")] if p]))
-    t0 = time.perf_counter()
-    p = subprocess.run([sys.executable, str(script), order, str(out), *second], env=env,
-                       capture_output=True, text=True, timeout=600)
-    assert p.stdout.startswith(os.path.abspath(sd.__file__)), (p.stdout, sd.__file__)
+               PYTHONPATH=os.pathsep.join([src] + [p for p in [os.environ.get("PYTHONPATH")] if p]))
+    with open(root / f"{tag}.out", "w") as out, open(root / f"{tag}.err", "w") as err:
+        proc = subprocess.Popen([sys.executable, str(script), order, str(root / f"{tag}.npz"),
+                                 *second], env=env, stdout=out, stderr=err, text=True)
+    return proc, time.perf_counter()
+
+
+def _finish_helper(root, tag, started):
+    """Wait for a helper; (its arrays, seconds it ran)."""
+    proc, t0 = started
+    try:
+        code = proc.wait(timeout=600)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        raise
     elapsed = time.perf_counter() - t0
-    assert p.returncode == 0, f"process {tag} failed (exit {p.returncode}):\n{p.stderr[-4000:]}"
-    with np.load(out) as data:
+    stdout, stderr = (root / f"{tag}.out").read_text(), (root / f"{tag}.err").read_text()
+    assert stdout.startswith(os.path.abspath(sd.__file__)), (stdout, sd.__file__)
+    assert code == 0, f"process {tag} failed (exit {code}):\n{stderr[-4000:]}"
+    with np.load(root / f"{tag}.npz") as data:
         return {k: data[k] for k in data.files}, elapsed
+
+
+# (a) and (c) compile everything from an empty cache, about a minute each. test/conftest.py
+# starts them as soon as this test is collected (start_cold_runs), so that they compile
+# beside the single-threaded tests that run before it, and the test waits for them.
+_EARLY = {}
+
+
+def start_cold_runs():
+    if _EARLY:
+        return
+    path, base, tip = _second_robot()
+    root = pathlib.Path(tempfile.mkdtemp(prefix="reproducibility_"))
+    _EARLY.update(root=root, second=(path, base, tip),
+                  a=_start_helper(root, "a_cold", "forward", root / "numba_cache_a", (path, base, tip)),
+                  c=_start_helper(root, "c_cold_reversed", "reverse", root / "numba_cache_c",
+                                  (path, base, tip)))
+    atexit.register(_stop_cold_runs)
+
+
+def _stop_cold_runs():
+    for tag in "ac":
+        if _EARLY[tag][0].poll() is None:
+            _EARLY[tag][0].kill()
+            _EARLY[tag][0].wait()
+    shutil.rmtree(_EARLY["root"], ignore_errors=True)
 
 
 def _ulps(a, b):
@@ -234,28 +277,24 @@ def test_compare_catches_one_ulp():
     assert compare({"x": np.zeros(3)}, {"x": np.zeros((1, 3))}) == ["x: a float64(3,) vs b float64(1, 3)"]
 
 
-def test_identical_across_processes(tmp_path):
-    path, base, tip = _second_robot()
-    second = (path, base, tip)
-    cold_a, cold_c = tmp_path / "numba_cache_a", tmp_path / "numba_cache_c"
-    cold_a.mkdir()
-    cold_c.mkdir()
-    # (a) and (c) each compile everything from an empty cache: run them side by side
-    with ThreadPoolExecutor(max_workers=2) as pool:
-        fa = pool.submit(_run_helper, tmp_path, "a_cold", "forward", cold_a, second)
-        fc = pool.submit(_run_helper, tmp_path, "c_cold_reversed", "reverse", cold_c, second)
-        (a, ta), (c, tc) = fa.result(), fc.result()
+def test_identical_across_processes():
+    start_cold_runs()                    # a no-op when conftest.py started them
+    root, second = _EARLY["root"], _EARLY["second"]
+    cold_a, cold_c = root / "numba_cache_a", root / "numba_cache_c"
+    (a, ta), (c, tc) = (_finish_helper(root, "a_cold", _EARLY["a"]),
+                        _finish_helper(root, "c_cold_reversed", _EARLY["c"]))
     cached = sorted(f for _, _, fs in os.walk(cold_a) for f in fs)
     assert any(f.endswith(".nbi") for f in cached), \
         f"process (a) left no index in NUMBA_CACHE_DIR={cold_a}: (b) would not test a warm cache"
     snapshot = {os.path.join(dirpath, f): os.stat(os.path.join(dirpath, f)).st_mtime_ns
                 for dirpath, _, fs in os.walk(cold_a) for f in fs}
     # (b): the same order on the cache (a) filled; (d): the same order on the cache (c)
-    # filled in the reverse order (so each kernel was first compiled for another caller)
-    with ThreadPoolExecutor(max_workers=2) as pool:     # each on its own cache: side by side
-        fb = pool.submit(_run_helper, tmp_path, "b_warm", "forward", cold_a, second)
-        fd = pool.submit(_run_helper, tmp_path, "d_warm_from_reversed", "forward", cold_c, second)
-        (b, tb), (d, td) = fb.result(), fd.result()
+    # filled in the reverse order (so each kernel was first compiled for another caller);
+    # each on its own cache: side by side
+    started = (_start_helper(root, "b_warm", "forward", cold_a, second),
+               _start_helper(root, "d_warm_from_reversed", "forward", cold_c, second))
+    (b, tb), (d, td) = (_finish_helper(root, "b_warm", started[0]),
+                        _finish_helper(root, "d_warm_from_reversed", started[1]))
     recompiled = sorted(os.path.relpath(p, cold_a) for dirpath, _, fs in os.walk(cold_a)
                         for f in fs for p in [os.path.join(dirpath, f)]
                         if snapshot.get(p) != os.stat(p).st_mtime_ns)

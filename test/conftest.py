@@ -33,9 +33,16 @@ def pytest_sessionstart(session):
     print(f"\nnumba kernels compiled or loaded in {precompile(jobs=2):.1f} s (two processes)")
 
 
+def pytest_collection_modifyitems(session, config, items):
+    """test_reproducibility's test_identical_across_processes runs last: its two compiles
+    from an empty cache (a minute each on a core) start when the tests are collected
+    (below) and run beside the single-threaded tests at the start of the suite, long before
+    the ROS tests, which a loaded machine would disturb."""
+    last = [item for item in items if item.name == "test_identical_across_processes"]
+    items[:] = [item for item in items if item not in last] + last
+
+
 def pytest_collection_finish(session):
-    """Start test_reproducibility's two compiles from an empty cache (a minute each) now, if
-    that test is to run, so that they overlap the single-threaded tests before it."""
     for item in session.items:
         if item.name == "test_identical_across_processes":
             try:

@@ -5,11 +5,12 @@ import numpy as np
 from ..joints import PRISMATIC
 
 
-def as_batch(model, *states):
+def as_batch(model, *states, finite=True):
     """Return (single, arrays...) with every state as an (N, n) float array.
 
-    ``None`` becomes zeros. Raises ValueError naming the argument on a wrong length or a
-    NaN/Inf entry.
+    ``None`` becomes zeros. Raises ValueError naming the argument on a wrong length or (with
+    ``finite``) a NaN/Inf entry. A caller whose kernel reports a NaN/Inf itself passes
+    ``finite=False`` and calls again with it on that report, for the error.
     """
     n = model.dof
     single = None
@@ -28,7 +29,7 @@ def as_batch(model, *states):
         else:
             raise ValueError(f"{name} has shape {a.shape}; expected ({n},) or (N, {n}) "
                              f"for the {n} joints {list(model.joint_names)}")
-        if not np.all(np.isfinite(a)):
+        if finite and not np.all(np.isfinite(a)):
             j = np.argwhere(~np.isfinite(a))[0][-1]
             raise ValueError(f"{name} has a NaN or Inf entry (joint {model.joint_names[j]!r}); "
                              "states must be finite numbers")

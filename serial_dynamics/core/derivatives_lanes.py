@@ -34,8 +34,8 @@ def derivative_lanes(n, L):
     """The lanes of a block for n joints: at most L and DLANES, and as many as keep the
     tangents T, Tf, dB (12 n^2 + 42 n doubles a lane) on the block's stack within
     data.LANE_STACK_DOUBLES, where LLVM sees they overlap nothing (chosen between heap and
-    stack at run time, the batch ran 1.3x slower: one core, Panda and UR5, 2026-11-27). 0 from
-    n = 73 on: the batch then runs one state at a time (the same bits)."""
+    stack at run time, the batch ran 1.3x slower: one core, Panda and UR5, 2026-11-27).
+    0 from n = 73 on: the batch then runs one state at a time (the same bits)."""
     return min(L, DLANES, LANE_STACK_DOUBLES // (12 * n * n + 42 * n))
 
 
@@ -63,7 +63,8 @@ def derivatives_block(P, q, qd, qdd, w, flags, dq, dqd, k0):
     QV, WB, ST = stack_empty((3 * n + 1, L)), stack_empty((W_ALL, L)), stack_empty((15, L))
     RB, PB, FB = stack_empty((9 * n, L)), stack_empty((3 * n, L)), stack_empty((6 * n, L))
     AUX, JW, OT = stack_empty((13, L)), stack_empty((6, L)), stack_empty((6, L))
-    T, Tf, dB = stack_empty((15, 2 * n, L)), stack_empty((6, 2 * n, L)), stack_empty((n, 6, 2 * n, L))
+    T, Tf = stack_empty((15, 2 * n, L)), stack_empty((6, 2 * n, L))
+    dB = stack_empty((n, 6, 2 * n, L))
     use_w = (flags & F.WRENCH) != 0
     small, fin = gather(P, q, qd, qdd, w, flags, QV, WB, k0, nl)
     for b in range(nl):
@@ -178,11 +179,13 @@ def rnea_derivatives_batch(P, q, qd, qdd, w, flags, dq, dqd):
     L = derivative_lanes(n, int(P[n, LANES]))
     bad = OK
     if L == 0:                           # too long for lanes: one state at a time
-        d, T, Tf, dB = new_kin(n), stack_empty((15, 2 * n)), stack_empty((6, 2 * n)), heap_empty((n, 6, 2 * n))
+        d, T, Tf = new_kin(n), stack_empty((15, 2 * n)), stack_empty((6, 2 * n))
+        dB = heap_empty((n, 6, 2 * n))
         nq, nv, na, nw = q.shape[0] > 1, qd.shape[0] > 1, qdd.shape[0] > 1, w.shape[0] > 1
         for k in range(N):
-            if derivatives_core(P, d.sc, d.R, d.p, d.f, T, Tf, dB, q[k if nq else 0], qd[k if nv else 0],
-                                qdd[k if na else 0], w[k if nw else 0], flags, dq[k], dqd[k]) != 0.0:
+            if derivatives_core(P, d.sc, d.R, d.p, d.f, T, Tf, dB, q[k if nq else 0],
+                                qd[k if nv else 0], qdd[k if na else 0], w[k if nw else 0],
+                                flags, dq[k], dqd[k]) != 0.0:
                 bad = NOT_FINITE
         return bad
     for k0 in range(0, N, L):
@@ -239,5 +242,6 @@ ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core fu
     "rnea_derivatives_batch": (rnea_derivatives_batch, i8(Pm, In2, In2, In2, In2, i8, Out3, Out3),
                                True, ("derivatives_block", "derivatives_core")),
     "fd_derivatives_batch": (fd_derivatives_batch, i8(Pm, In2, In2, In2, In2, i8, Out3, Out3, Out3),
-                             True, ("derivatives_block", "fd_derivatives_core", "cholesky_solve_matrix")),
+                             True, ("derivatives_block", "fd_derivatives_core",
+                                    "cholesky_solve_matrix")),
 }

@@ -221,10 +221,13 @@ class Robot:
         o = _empty(self._nn) if out is None else out
         if k.crba(self._P, q, o) == OK:
             return o
-        single, (q,) = as_batch(self.model, ("q", q))
+        named = (("q", q),)
+        single, (q,) = as_batch(self.model, *named, finite=False)
         q = _rows(q)
         M = np.empty((q.shape[0], self._n, self._n))
-        _parallel(getattr(k, self._crba_batch[0]), self._crba_batch[1], q.shape[0], (q,), (), M)
+        kernel, model = self._crba_batch
+        if _parallel(getattr(k, kernel), model, q.shape[0], (q,), (), M) != OK:
+            self._not_finite(named)
         return _into(out, M[0] if single else M)
 
     def mass_matrix_factor(self, q):
@@ -299,13 +302,14 @@ class Robot:
                                  f"{FD_METHODS}")
             return _into(out, forward.forward_dynamics(self.model, q, qd, tau, wrench, method,
                                                        base_motion=base_motion))
-        single, (q, qd, tau) = as_batch(self.model, ("q", q), ("qd", qd), ("tau", tau))
+        named = (("q", q), ("qd", qd), ("tau", tau))
+        single, (q, qd, tau) = as_batch(self.model, *named, finite=False)
         w, flags = self._external_rows(wrench, base_motion, q.shape[0], flags)
         q, qd, tau = _rows(q), _rows(qd), _rows(tau)
         N = max(q.shape[0], qd.shape[0], tau.shape[0])
         qdd = np.empty((N, self._n))
         if _parallel(k.fd_batch, self._P, N, (q, qd, tau, w), (flags,), qdd) != OK:
-            raise ValueError("wrench has a NaN or Inf entry; give finite numbers")
+            self._not_finite(named)
         return _into(out, qdd[0] if single else qdd)
 
     # general path: validate like the reference, then one batch kernel call
@@ -314,7 +318,7 @@ class Robot:
         if self._k is None:
             return rnea.inverse_dynamics(self.model, *(x for _, x in named), wrench,
                                          base_motion=base_motion)
-        single, (q, qd, qdd) = as_batch(self.model, *named)   # raises the reference's ValueError
+        single, (q, qd, qdd) = as_batch(self.model, *named, finite=False)   # the reference's errors
         N = q.shape[0]
         flags = (F.QD if named[1][1] is not None else 0) | (F.QDD if named[2][1] is not None else 0)
         q = _rows(q)
@@ -324,8 +328,15 @@ class Robot:
         out = np.empty((N, self._n))
         kernel, model = self._rnea_batch if base_motion is None else ("rnea_batch", self._P)
         if _parallel(getattr(self._k, kernel), model, N, (q, qd, qdd, w), (flags,), out) != OK:
-            raise ValueError("wrench has a NaN or Inf entry; give finite numbers")
+            self._not_finite(named)
         return out[0] if single else out
+
+    def _not_finite(self, named):
+        """A batch kernel saw a NaN or Inf (the states are checked there, not before: it
+        saves a pass over them): raise the reference's ValueError naming the state and the
+        joint, or else the wrench's."""
+        as_batch(self.model, *named)
+        raise ValueError("wrench has a NaN or Inf entry; give finite numbers")
 
     @staticmethod
     def _external_rows(wrench, base_motion, N, flags):

@@ -10,8 +10,8 @@ cache holds, and whatever was called before.
   the simulations first, xarm7 first), (d) a process in the forward order on the cache
   (c) wrote. All four outputs must be equal byte for byte;
   a mismatch names each quantity that differs, where, and by how much (absolute and ulps).
-  (a) and (c) compile at the same time, started by test/conftest.py as soon as the test is
-  collected, beside the single-threaded tests before it.
+  (a) and (c) compile at the same time, started by test/conftest.py as soon as the suite
+  is collected, beside the single-threaded tests at its start; the test runs last.
 - ``test_same_answer_whatever_was_called_before``: in one process, a state evaluated
   alone, repeated after a history of other calls (batches, wrenches, errors, another
   robot, a simulation) and on a second Robot of the same URDF, is bitwise the same.
@@ -187,8 +187,8 @@ def _finish_helper(root, tag, started):
 
 
 # (a) and (c) compile everything from an empty cache, about a minute each. test/conftest.py
-# starts them as soon as this test is collected (start_cold_runs), so that they compile
-# beside the single-threaded tests that run before it, and the test waits for them.
+# starts them as soon as the suite is collected (start_cold_runs), so that they compile
+# beside the single-threaded tests at its start, and runs this test last.
 _EARLY = {}
 
 

@@ -3,13 +3,22 @@
 The same algorithm, frames and symbols as ``algorithms/aba.py`` (Featherstone 2008,
 Table 7.1); spatial vectors angular first, S = e_z (index 2 revolute, 5 prismatic):
 
-    pass 1 (outward)  v_i = Xup_i v_{i-1} + S_i qd_i     c_i = v_i x S_i qd_i
+    pass 1 (outward)  v_i = Xup_i v_l + S_i qd_i         c_i = v_i x S_i qd_i
                       IA_i = I_i                          pA_i = v_i x* I_i v_i - f_ext_i
     pass 2 (inward)   U_i = IA_i S_i   D_i = S_i^T U_i    u_i = tau_i - S_i^T pA_i
                       Ia = IA_i - U_i U_i^T / D_i         pa = pA_i + Ia c_i + U_i u_i / D_i
-                      IA_{i-1} += Xup_i^T Ia Xup_i        pA_{i-1} += Xup_i^T pa
-    pass 3 (outward)  a'_i = Xup_i a_{i-1} + c_i          qdd_i = (u_i - U_i^T a'_i) / D_i
-                      a_i = a'_i + S_i qdd_i              with a_{-1} = (0, -g)
+                      IA_l += Xup_i^T Ia Xup_i            pA_l += Xup_i^T pa
+    pass 3 (outward)  a'_i = Xup_i a_l + c_i              qdd_i = (u_i - U_i^T a'_i) / D_i
+                      a_i = a'_i + S_i qdd_i              with a_base = (0, -g)
+
+on the parent array l = lambda(i) (``P[i, PARENT]``; i - 1 in a chain), so one kernel serves
+chains and trees, as Featherstone writes it (Table 7.1 is for trees). On a tree each body's
+velocity (pass 1), then its acceleration (pass 3), is kept in ``va`` for its children; a
+chain carries its parent's in registers, and its parent's rows are known to be others than
+its own. One source, two kernels: ``aba_core`` (a chain) and ``tree_aba_core`` (a tree;
+run on a chain it gives the same bits, ~20 % slower: bench_speed.py, 2026-11-28). A floating
+base's virtual tree (``P[n, ROOT]`` = 6) is six ordinary joints here: its velocity products
+are the caller's (core/floating.py).
 
 The armature adds to D_i = S_i^T IA_i S_i + I_a,i (as it adds to M_ii); with the DAMPING flag,
 D_i += damping_i: (M + diag(damping)) qdd = tau - b. A base with known motion (flag BASE)
@@ -19,7 +28,9 @@ Ia and pa overwrite IA_i and pA_i once U_i, D_i, u_i are taken from them.
 """
 
 from . import flags as F
-from .layout import ARM, G, H, IO, KIND, MASS, TIPP, W_ACC, W_ALPHA, W_OMEGA
+from .layout import ARM, G, H, IO, KIND, MASS, PARENT, TIPP, TIPPATH, W_ACC, W_ALPHA, W_OMEGA
+from numba import njit
+
 from .signatures import D2, D3, In1, Out1, Pm, f8, i8, internal
 from .spatial import finite, joint_transforms, to_child, to_parent
 
@@ -36,21 +47,28 @@ def rot_block(R, i, X, a0, b0, Y):
                 s += R[i, a, k] * t
             Y[a, b] = s
 
-@internal(f8(Pm, D2, D3, D2, D3, D2, D2, D2, D2, D2, In1, In1, In1, In1, In1, i8, Out1))
-def aba_core(P, sc, R, p, IA, pA, U, c, Du, Y, q, qd, tau, w, damping, flags, out):
-    """qdd into ``out``. Returns 0.0, or NaN if an input has a NaN/Inf entry."""
+@njit(cache=True, inline="always")
+def articulated_bodies(P, sc, R, p, IA, pA, U, c, Du, Y, va, q, qd, tau, w, damping, flags,
+                       out, tree):
+    """qdd into ``out``. Returns 0.0, or NaN if an input has a NaN/Inf entry. ``tree``, a
+    constant of the caller (aba_core, tree_aba_core): read lambda(i) (else i - 1)."""
     n = out.shape[0]
     use_qd = (flags & F.QD) != 0
     chk = joint_transforms(P, sc, R, p, q, n)
     # --- pass 1, outward: velocities, velocity-product accelerations c, bias forces pA
-    vx = vy = vz = ux = uy = uz = 0.0    # (omega; v_O) of the previous body
+    vx = vy = vz = ux = uy = uz = 0.0    # (omega; v_O) of the parent: the base's at first
     use_base = (flags & F.BASE) != 0
-    if use_base:                         # a moving base: v_{-1} = (omega_0, 0)
+    if use_base:                         # a moving base: v_base = (omega_0, 0)
         vx, vy, vz = w[W_OMEGA], w[W_OMEGA + 1], w[W_OMEGA + 2]
         chk += finite(vx) + finite(vy) + finite(vz)
+    bx, by, bz = vx, vy, vz
     for i in range(n):
         dq = qd[i] if use_qd else 0.0
         chk += finite(dq) + finite(tau[i])
+        if tree:                         # the parent's (a chain's: the previous step's)
+            l = int(P[i, PARENT])
+            vx, vy, vz, ux, uy, uz = (bx, by, bz, 0.0, 0.0, 0.0) if l < 0 else (
+                va[l, 0], va[l, 1], va[l, 2], va[l, 3], va[l, 4], va[l, 5])
         px, py, pz = p[i, 0], p[i, 1], p[i, 2]
         # v_i = Xup_i v_{i-1}: omega = R^T omega, v_O = R^T (v_O + omega x p)
         sx, sy, sz = ux - (py * vz - pz * vy), uy - (pz * vx - px * vz), uz - (px * vy - py * vx)
@@ -63,6 +81,8 @@ def aba_core(P, sc, R, p, IA, pA, U, c, Du, Y, q, qd, tau, w, damping, flags, ou
             c[i, 0], c[i, 1], c[i, 2], c[i, 3], c[i, 4], c[i, 5] = 0.0, 0.0, 0.0, wy * dq, -wx * dq, 0.0
             uz += dq
         vx, vy, vz = wx, wy, wz
+        if tree:
+            va[i, 0], va[i, 1], va[i, 2], va[i, 3], va[i, 4], va[i, 5] = wx, wy, wz, ux, uy, uz
         # IA_i = I_i = [[I_O, [h]x], [[h]x^T, m 1]]  (Featherstone 2008, eq. 2.63)
         m = P[i, MASS]
         hx, hy, hz = P[i, H], P[i, H + 1], P[i, H + 2]
@@ -96,9 +116,10 @@ def aba_core(P, sc, R, p, IA, pA, U, c, Du, Y, q, qd, tau, w, damping, flags, ou
     if (flags & F.WRENCH) != 0:          # pA_{n-1} -= the tip wrench, about the last origin
         fx, fy, fz, mx, my, mz = w[0], w[1], w[2], w[3], w[4], w[5]
         chk += finite(fx) + finite(fy) + finite(fz) + finite(mx) + finite(my) + finite(mz)
-        for i in range(n):               # base -> last body
-            fx, fy, fz = to_child(R, i, fx, fy, fz)
-            mx, my, mz = to_child(R, i, mx, my, mz)
+        for i in range(n):               # base -> last body, along its path
+            if P[i, TIPPATH] != 0.0:
+                fx, fy, fz = to_child(R, i, fx, fy, fz)
+                mx, my, mz = to_child(R, i, mx, my, mz)
         tpx, tpy, tpz = P[n, TIPP], P[n, TIPP + 1], P[n, TIPP + 2]
         k = n - 1
         pA[k, 0] -= mx + tpy * fz - tpz * fy
@@ -118,8 +139,14 @@ def aba_core(P, sc, R, p, IA, pA, U, c, Du, Y, q, qd, tau, w, damping, flags, ou
         for a in range(6):
             U[i, a] = I6[a, s]                              # U = IA S
         Du[i, 0], Du[i, 1] = D, u
-        if i == 0:
-            break
+        if not tree:                     # a chain: i - 1, down to body 0
+            if i == 0:
+                break
+            l = i - 1
+        else:
+            l = int(P[i, PARENT])
+            if l < 0:
+                continue
         # Ia = IA - U U^T / D;  pa = pA + Ia c + U u / D  (both in place)
         for a in range(6):
             Ua = U[i, a] / D
@@ -128,10 +155,10 @@ def aba_core(P, sc, R, p, IA, pA, U, c, Du, Y, q, qd, tau, w, damping, flags, ou
                 I6[a, b] = I6[a, b] - Ua * U[i, b]
                 acc += I6[a, b] * c[i, b]
             pA[i, a] = acc
-        # IA_{i-1} += Xup_i^T Ia Xup_i: rotate the blocks by R, then shift by p:
+        # IA_l += Xup_i^T Ia Xup_i: rotate the blocks by R, then shift by p:
         # A' = A1 - B1 [p]x + [p]x B1^T - [p]x C1 [p]x,  B' = B1 + [p]x C1,  C' = C1
         px, py, pz = p[i, 0], p[i, 1], p[i, 2]
-        PA = IA[i - 1]
+        PA = IA[l]
         rot_block(R, i, I6, 3, 3, Y)                        # C1
         C00, C01, C02, C11, C12, C22 = Y[0, 0], Y[0, 1], Y[0, 2], Y[1, 1], Y[1, 2], Y[2, 2]
         # PC = [p]x C1
@@ -194,10 +221,10 @@ def aba_core(P, sc, R, p, IA, pA, U, c, Du, Y, q, qd, tau, w, damping, flags, ou
         PA[2, 0] += t02
         PA[1, 2] += t12
         PA[2, 1] += t12
-        # pA_{i-1} += Xup_i^T pa
+        # pA_l += Xup_i^T pa
         nx, ny, nz, fx, fy, fz = to_parent(R, p, i, pA[i, 0], pA[i, 1], pA[i, 2],
                                            pA[i, 3], pA[i, 4], pA[i, 5])
-        k = i - 1
+        k = l
         pA[k, 0] += nx
         pA[k, 1] += ny
         pA[k, 2] += nz
@@ -211,7 +238,12 @@ def aba_core(P, sc, R, p, IA, pA, U, c, Du, Y, q, qd, tau, w, damping, flags, ou
         ax, ay, az = w[W_ALPHA], w[W_ALPHA + 1], w[W_ALPHA + 2]
         lx, ly, lz = w[W_ACC] - P[n, G], w[W_ACC + 1] - P[n, G + 1], w[W_ACC + 2] - P[n, G + 2]
         chk += finite(ax) + finite(ay) + finite(az) + finite(lx) + finite(ly) + finite(lz)
+    b0, b1, b2, b3, b4, b5 = ax, ay, az, lx, ly, lz
     for i in range(n):
+        if tree:                         # the parent's acceleration (va: pass 3's now)
+            l = int(P[i, PARENT])
+            ax, ay, az, lx, ly, lz = (b0, b1, b2, b3, b4, b5) if l < 0 else (
+                va[l, 0], va[l, 1], va[l, 2], va[l, 3], va[l, 4], va[l, 5])
         px, py, pz = p[i, 0], p[i, 1], p[i, 2]
         # a'_i = Xup_i a_{i-1} + c_i
         sx, sy, sz = lx - (py * az - pz * ay), ly - (pz * ax - px * az), lz - (px * ay - py * ax)
@@ -227,4 +259,23 @@ def aba_core(P, sc, R, p, IA, pA, U, c, Du, Y, q, qd, tau, w, damping, flags, ou
             az += qdd
         else:
             lz += qdd
+        if tree:
+            va[i, 0], va[i, 1], va[i, 2], va[i, 3], va[i, 4], va[i, 5] = ax, ay, az, lx, ly, lz
     return chk
+
+
+_SIG = f8(Pm, D2, D3, D2, D3, D2, D2, D2, D2, D2, D2, In1, In1, In1, In1, In1, i8, Out1)
+
+
+@internal(_SIG)
+def aba_core(P, sc, R, p, IA, pA, U, c, Du, Y, va, q, qd, tau, w, damping, flags, out):
+    """A chain's articulated bodies (lambda(i) = i - 1; ``va`` not read)."""
+    return articulated_bodies(P, sc, R, p, IA, pA, U, c, Du, Y, va, q, qd, tau, w, damping,
+                              flags, out, False)
+
+
+@internal(_SIG)
+def tree_aba_core(P, sc, R, p, IA, pA, U, c, Du, Y, va, q, qd, tau, w, damping, flags, out):
+    """A tree's articulated bodies (on lambda(i), ``P[i, PARENT]``)."""
+    return articulated_bodies(P, sc, R, p, IA, pA, U, c, Du, Y, va, q, qd, tau, w, damping,
+                              flags, out, True)

@@ -1,5 +1,6 @@
 """Kinematic trees, compiled: Newton-Euler, the composite-rigid-body algorithm, forward
-dynamics (the sparse L^T D L factor of M) and dT/dq (symplectic Euler's gradient) on the parent array lambda(i) (``P[i, PARENT]``; Featherstone 2008,
+dynamics (the sparse L^T D L factor of M, or articulated bodies: ``aba.py`` serves
+chains and trees) and dT/dq (symplectic Euler's gradient) on the parent array lambda(i) (``P[i, PARENT]``; Featherstone 2008,
 Tables 5.1 and 6.2, whose loops are written for trees).
 
 The same steps as the chain kernels (``rnea.py``'s ``outward_step``, ``body_wrench``,
@@ -14,10 +15,11 @@ wrench acts on body n-1 (the last leaf) and is carried into its frame along its 
 from numba import njit, types
 
 from . import flags as F
+from .aba import tree_aba_core
 from .cholesky import ltdl_factor, ltdl_solve_factored
 from .crba import add_in_parent
 from .floating import GW, _chain_inputs, _products, fd_inputs, rnea_inputs
-from .data import new_chol, new_kin, square_lanes_fit, stack_empty
+from .data import new_art, new_chol, new_kin, square_lanes_fit, stack_empty
 from .energy import axis_gradient, body_momentum, body_velocity
 from .layout import ARM, H, IO, KIND, LANES, MASS, PARENT, ROOT, TIPPATH, W_ALL, W_WRENCH
 from .rnea import base_state, body_wrench, joint_rates, outward_step, tip_load
@@ -235,7 +237,13 @@ def tree_fd(P, q, qd, tau, w, flags, out):
     if (q.shape[0] != n or qd.shape[0] != n or tau.shape[0] != n or out.shape[0] != n
             or w.shape[0] != (W_ALL if (flags & F.BASE) != 0 else W_WRENCH)):
         return BAD_LENGTH
-    d, c = new_kin(n), new_chol(n)
+    d = new_kin(n)
+    flags &= ~F.DAMPING                  # tau stands in for the unread damping argument
+    if (flags & F.ABA) != 0:             # articulated bodies (aba.py, on lambda(i))
+        a = new_art(n)
+        return status(tree_aba_core(P, d.sc, d.R, d.p, a.IA, a.pA, a.U, a.c, a.Du, a.Y, a.va,
+                               q, qd, tau, w, tau, flags, out))
+    c = new_chol(n)
     return status(tree_fd_core(P, d.sc, d.R, d.p, d.f, stack_empty((n, 9)),
                                stack_empty((n, 10)), c.M, q, qd, tau, w, flags, out))
 
@@ -281,21 +289,28 @@ def tree_crba_batch(P, q, out):
 
 def tree_fd_batch(P, q, qd, tau, w, flags, out):
     """Forward dynamics of N states, as ``tree_crba_batch`` splits them (a row of 1
-    broadcasts). Returns OK or NOT_FINITE."""
+    broadcasts); with flag ABA by articulated bodies, one state after the other. Returns OK
+    or NOT_FINITE."""
     N, n = out.shape[0], P.shape[0] - 1
     L = int(P[n, LANES])
-    if P[n, ROOT] == 0.0 and square_lanes_fit(n, L):   # a fixed base: B at a time in lanes
+    flags &= ~F.DAMPING                  # tau stands in for the unread damping argument
+    aba = (flags & F.ABA) != 0
+    if not aba and P[n, ROOT] == 0.0 and square_lanes_fit(n, L):   # B at a time in lanes
         bad = OK
         for k0 in range(0, N, L):
             bad |= tree_fd_block(P, q, qd, tau, w, flags, out, k0)
         return bad
-    d, c, mo, IC = new_kin(n), new_chol(n), stack_empty((n, 9)), stack_empty((n, 10))
+    d, c, mo, IC, a = new_kin(n), new_chol(n), stack_empty((n, 9)), stack_empty((n, 10)), new_art(n)
     nq, nv, nt, nw = q.shape[0] > 1, qd.shape[0] > 1, tau.shape[0] > 1, w.shape[0] > 1
     bad = OK
     for k in range(N):
-        if tree_fd_core(P, d.sc, d.R, d.p, d.f, mo, IC, c.M, q[k if nq else 0],
-                        qd[k if nv else 0], tau[k if nt else 0], w[k if nw else 0],
-                        flags & ~F.DAMPING, out[k]) != 0.0:
+        qk, qdk, tk, wk = q[k if nq else 0], qd[k if nv else 0], tau[k if nt else 0], w[k if nw else 0]
+        if aba:
+            chk = tree_aba_core(P, d.sc, d.R, d.p, a.IA, a.pA, a.U, a.c, a.Du, a.Y, a.va,
+                           qk, qdk, tk, wk, tk, flags, out[k])
+        else:
+            chk = tree_fd_core(P, d.sc, d.R, d.p, d.f, mo, IC, c.M, qk, qdk, tk, wk, flags, out[k])
+        if chk != 0.0:
             bad = NOT_FINITE
     return bad
 
@@ -322,11 +337,18 @@ def floating_tree_fd(P, q, v, tau, gw, flags, out):
     if (q.shape[0] != nv + 1 or v.shape[0] != nv or (tau.shape[0] != nv and tau.shape[0] != nv - 6)
             or gw.shape[0] != GW or out.shape[0] != nv):
         return BAD_LENGTH
-    d, c = new_kin(nv), new_chol(nv)
+    d = new_kin(nv)
     qv, w, tv = stack_empty((nv,)), stack_empty((W_ALL,)), stack_empty((nv,))
     chk = fd_inputs(q, tau, gw, flags, qv, w, tv)
-    chk += tree_fd_core(P, d.sc, d.R, d.p, d.f, stack_empty((nv, 9)), stack_empty((nv, 10)),
-                        c.M, qv, v, tv, w, (flags | F.QD | F.BASE) & ~F.ABA, out)
+    flags = (flags | F.QD | F.BASE) & ~F.DAMPING
+    if (flags & F.ABA) != 0:             # articulated bodies through the six virtual joints
+        a = new_art(nv)
+        chk += tree_aba_core(P, d.sc, d.R, d.p, a.IA, a.pA, a.U, a.c, a.Du, a.Y, a.va,
+                        qv, v, tv, w, tv, flags, out)
+    else:
+        c = new_chol(nv)
+        chk += tree_fd_core(P, d.sc, d.R, d.p, d.f, stack_empty((nv, 9)),
+                            stack_empty((nv, 10)), c.M, qv, v, tv, w, flags, out)
     _products(v, -1.0, out)
     return status(chk)
 
@@ -358,7 +380,7 @@ def tree_kinetic_energy_gradient(P, q, qd, out):
     return status(chk)
 
 
-_FD = ("tree_fd_core",)
+_FD = ("tree_fd_core", "tree_aba_core")
 ENTRY_POINTS = {
     "tree_rnea": (tree_rnea, i8(Pm, Vec, Vec, Vec, i8, Vec), False, ("tree_rnea_core",)),
     "tree_rnea_wrench": (tree_rnea_wrench, i8(Pm, Vec, Vec, Vec, Vec, i8, Vec), False,

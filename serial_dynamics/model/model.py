@@ -148,6 +148,15 @@ class Model:
                 kids[l].append(i)
         return tuple(tuple(k) for k in kids)
 
+    @cached_property
+    def depths(self) -> np.ndarray:
+        """depths[i]: the joints from the base to body i, its own included (i + 1 on a
+        chain)."""
+        d = np.zeros(self.dof, dtype=int)
+        for i, l in enumerate(self.parent):          # parents come first
+            d[i] = 1 + (d[l] if l >= 0 else 0)
+        return d
+
     def ancestors(self, body) -> list:
         """The bodies from the root down to ``body`` (included; [] for -1, the base)."""
         path = []

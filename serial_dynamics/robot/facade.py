@@ -47,7 +47,7 @@ from ..model.dissipation import Dissipation
 from ..model.model import Model
 from ..model.payload import Payload, attach
 from .wrenches import generalized_forces
-from .common import FD_METHODS, PARALLEL_MIN, QD, QD_QDD, QD_QDD_W, QD_W
+from .common import FD_METHODS, PARALLEL_MIN, QD, QD_QDD, QD_QDD_W, QD_W, aba_by_default
 from .common import into as _into
 from .floating import Floating
 from .mimic import Mimic
@@ -86,11 +86,9 @@ class Robot:
             raise ValueError(f"backend {backend!r} unknown; use one of {BACKENDS}")
         self._backend = backend
         self._n, self._nn = model.dof, (model.dof, model.dof)
-        # forward_dynamics(method="auto"): articulated bodies from aba.CROSSOVER joints on
-        # on a tree only the Cholesky route is compiled: method="aba" runs the reference
-        self._fd_flags = _FD_FLAGS if model.is_chain else {"cholesky": F.QD}
-        self._fd_auto = self._fd_flags["aba" if model.dof >= aba.CROSSOVER and model.is_chain
-                                       else "cholesky"]
+        # forward_dynamics(method="auto"): common.aba_by_default
+        self._fd_flags = _FD_FLAGS
+        self._fd_auto = self._fd_flags["aba" if aba_by_default(model, False) else "cholesky"]
         # the compiled kernels: K's for a chain, the tree table (core/tree.py) for a tree;
         # _compiled says that the chain kernels apply (the regressor, dT/dq, sim/); the
         # derivatives take the table (the chain's or the tree's)
@@ -274,8 +272,9 @@ class Robot:
     def forward_dynamics(self, q, qd, tau, wrench=None, method="auto", base_motion=None,
                          out=None, wrenches=None):
         """qdd for applied torques tau (rigid body). ``method``: "auto" (Cholesky for short
-        chains, articulated bodies from ``algorithms.aba.CROSSOVER`` joints on),
-        "cholesky", "aba" (O(n)) or "qr" (for ill-conditioned chains)."""
+        chains, articulated bodies from ``algorithms.aba.CROSSOVER`` joints on; on a tree
+        by the depths of its joints: ``robot/common.aba_by_default``), "cholesky" (on a
+        tree the sparse factor), "aba" (O(n)) or "qr" (for ill-conditioned chains)."""
         if wrenches is not None:     # wrenches on links: tau + sum_k J_k^T w_k
             return _into(out, self.forward_dynamics(
                 q, qd, np.asarray(tau, dtype=float) + generalized_forces(self, q, wrenches),

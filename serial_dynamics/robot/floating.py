@@ -47,13 +47,10 @@ from . import regressor
 from .wrenches import generalized_forces
 from .common import PARALLEL_MIN
 from .derivatives import PARALLEL_MIN as DERIVATIVES_PARALLEL_MIN
+from .common import aba_by_default
 from .common import into as _into
 
 FD_METHODS = ("auto", "aba", "cholesky")
-# forward_dynamics(method="auto") on a floating base: articulated bodies from this many
-# joints on. Single compiled calls, bench/bench_floating.py (2026-11-24, load 1.1):
-# ABA / Cholesky 1.25 at 6 joints, 1.03 at 18, 0.89 at 24, 0.61 at 40.
-FD_CROSSOVER = 24
 _FD_FLAGS = {"aba": F.ABA, "cholesky": 0}
 _QD_QDD = F.QD | F.QDD
 _empty = np.empty
@@ -77,9 +74,8 @@ class Floating:
         # dynamics is Cholesky: method="aba" on a tree runs the reference), on the
         # instantaneous chain or tree
         self._compiled = self._k is not None
-        self._fd_flags = _FD_FLAGS if model.is_chain else {"cholesky": F.QD}
-        self._fd_auto = self._fd_flags["aba" if model.dof >= FD_CROSSOVER and model.is_chain
-                                       else "cholesky"]
+        self._fd_flags = _FD_FLAGS
+        self._fd_auto = self._fd_flags["aba" if aba_by_default(model, True) else "cholesky"]
         self._chain = layout_pack(virtual_chain(model), root=6) if self._compiled else None
         self._gw = np.concatenate((np.zeros(6), model.gravity))   # core/floating.py's gw
 

@@ -1,4 +1,5 @@
-"""Synthetic serial chains for tests and benchmarks (long, stiff, ill-conditioned).
+"""Synthetic serial chains for tests and benchmarks (long, stiff, ill-conditioned), and two
+of them on one base (``two_arm_urdf``: a tree).
 
 ``chain_urdf(n, ...)`` writes an n-joint chain of uniform rods: body i is a rod of
 length ``lengths[i]`` along its local X with mass ``masses[i]`` (solid cylinder of
@@ -47,6 +48,20 @@ def chain_urdf(n, *, masses=1.0, lengths=0.3, radius=0.02, axes=("z", "y", "x"),
                f'<origin xyz="{_v((float(lengths[-1]), 0, 0))}" rpy="0 0 0"/></joint>')
     out.append("</robot>")
     return "\n".join(out) + "\n"
+
+
+def two_arm_urdf(n_each, base_mass=None, **kw) -> str:
+    """Two ``chain_urdf(n_each, **kw)`` arms (joints ``joint1..`` and ``b_joint1..``) on one
+    base link: a tree of depth ``n_each``. ``base_mass`` (kg): give the base link a body
+    (a 0.2 m cube's inertia), as a floating base needs."""
+    a, b = chain_urdf(n_each, **kw), chain_urdf(n_each, **kw)
+    b = b.replace('"link', '"b_link').replace('"joint', '"b_joint').replace('"tip', '"b_tip')
+    xml = a.split("</robot>")[0] + b.split('<link name="base_link"/>')[1]
+    if base_mass is not None:
+        I = np.eye(3) * base_mass * 0.2 ** 2 / 6.0
+        xml = xml.replace('<link name="base_link"/>',
+                          f'<link name="base_link">{_inertial(base_mass, (0, 0, 0), I)}</link>')
+    return xml
 
 
 def mimic_chain_urdf(n, follower=None, multiplier=0.5, **kw) -> str:

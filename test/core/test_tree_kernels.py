@@ -7,7 +7,7 @@ import pytest
 
 import serial_dynamics as sd
 from pin_reference import erd
-from serial_dynamics.robots.synthetic import chain_urdf
+from serial_dynamics.robots.synthetic import two_arm_urdf
 
 ROBOTS = ["solo_description/robots/solo12.urdf", "talos_data/robots/talos_reduced.urdf",
           "baxter_description/urdf/baxter.urdf"]
@@ -41,15 +41,19 @@ def test_compiled_trees_match_the_reference(rel):
               ref.bias_torques(q[k], qd[k], base_motion=bm))
         close(fast.gravity_torques(q[k]), ref.gravity_torques(q[k]))
         close(fast.mass_matrix(q[k]), ref.mass_matrix(q[k]))
-        close(fast.forward_dynamics(q[k], qd[k], tau[k], wrench=w),
-              ref.forward_dynamics(q[k], qd[k], tau[k], wrench=w))
+        for method in ("cholesky", "aba"):   # the sparse factor; articulated bodies (aba.py)
+            close(fast.forward_dynamics(q[k], qd[k], tau[k], wrench=w, method=method),
+                  ref.forward_dynamics(q[k], qd[k], tau[k], wrench=w))
+            close(fast.forward_dynamics(q[k], qd[k], tau[k], base_motion=bm, method=method),
+                  ref.forward_dynamics(q[k], qd[k], tau[k], base_motion=bm))
         close(fast.kinetic_energy_gradient(q[k], qd[k]), ref.kinetic_energy_gradient(q[k], qd[k]))
-    for name, args in (("inverse_dynamics", (q, qd, qdd)), ("mass_matrix", (q,)),
-                       ("forward_dynamics", (q, qd, tau))):
-        batch = getattr(fast, name)(*args)
+    for name, args, kw in (("inverse_dynamics", (q, qd, qdd), {}), ("mass_matrix", (q,), {}),
+                           ("forward_dynamics", (q, qd, tau), {}),
+                           ("forward_dynamics", (q, qd, tau), {"method": "aba"})):
+        batch = getattr(fast, name)(*args, **kw)
         close(batch, getattr(ref, name)(*args))
         for k in range(5):                    # a batch row is the single call's bits
-            assert batch[k].tobytes() == getattr(fast, name)(*(a[k] for a in args)).tobytes()
+            assert batch[k].tobytes() == getattr(fast, name)(*(a[k] for a in args), **kw).tobytes()
 
 
 @pytest.mark.parametrize("rel", ROBOTS)
@@ -76,19 +80,12 @@ def test_tree_batches_in_lanes_are_the_single_calls_bits(rel):
         assert M[k].tobytes() == fast.mass_matrix(q[k]).tobytes()
 
 
-def two_arm_tree(n_each):
-    """Two chain_urdf arms of n_each joints on one base link."""
-    a, b = chain_urdf(n_each), chain_urdf(n_each)
-    b = b.replace('"link', '"b_link').replace('"joint', '"b_joint').replace('"tip', '"b_tip')
-    return a.split("</robot>")[0] + b.split('<link name="base_link"/>')[1]
-
-
 @pytest.mark.parametrize("n_each", [22, 23])
 def test_a_tree_past_the_lanes_stack_gives_each_state_its_bits(n_each):
     """data.square_lanes_fit: a fixed-base tree of 44 joints runs its batches of M and
     forward dynamics in lanes, one of 46 one state at a time; either way a row is bitwise
     its single call and agrees with the reference."""
-    fast = sd.load_urdf(two_arm_tree(n_each))
+    fast = sd.load_urdf(two_arm_urdf(n_each))
     ref = sd.Robot(fast.model, backend="numpy")
     assert fast.dof == 2 * n_each and fast.kernels()[0].startswith("tree_")
     rng = np.random.default_rng(9)
@@ -172,48 +169,36 @@ def test_a_floating_tree_compiled_matches_the_reference():
         tau = fast.inverse_dynamics(q[k], v[k], a[k])
         close(fast.forward_dynamics(q[k], v[k], tau), a[k])
         close(fast.forward_dynamics(q[k], v[k], tau, method="aba"), a[k])
-    for name, args in (("inverse_dynamics", (q, v, a)), ("mass_matrix", (q,)),
-                       ("forward_dynamics", (q, v, a[:, 6:]))):
-        batch = getattr(fast, name)(*args)
+        close(fast.forward_dynamics(q[k], v[k], tau, wrench=w, method="aba"),
+              ref.forward_dynamics(q[k], v[k], tau, wrench=w))
+    for name, args, kw in (("inverse_dynamics", (q, v, a), {}), ("mass_matrix", (q,), {}),
+                           ("forward_dynamics", (q, v, a[:, 6:]), {}),
+                           ("forward_dynamics", (q, v, a[:, 6:]), {"method": "aba"})):
+        batch = getattr(fast, name)(*args, **kw)
         close(batch, getattr(ref, name)(*args))
         for k in range(4):
-            assert batch[k].tobytes() == getattr(fast, name)(*(x[k] for x in args)).tobytes()
+            assert batch[k].tobytes() == getattr(fast, name)(*(x[k] for x in args), **kw).tobytes()
 
 
-@pytest.mark.parametrize("rel", [ROBOTS[0], ROBOTS[2]])
-def test_the_regressor_of_a_tree_gives_its_torques(rel):
-    """tau = Y(q, qd, qdd) phi on a tree (each body's columns reach the joints on its path
-    to the base), with mimic fingers (Baxter) reduced through G, single and batch."""
-    fast, _ = pair(rel)
-    rng = np.random.default_rng(4)
-    q, qd = fast.random_state(rng, batch=3)
-    qdd = rng.uniform(-2, 2, q.shape)
-    Y = fast.regressor(q, qd, qdd)
-    close(np.einsum("nij,j->ni", Y, fast.inertial_parameters()), fast.inverse_dynamics(q, qd, qdd))
-    assert Y[1].tobytes() == fast.regressor(q[1], qd[1], qdd[1]).tobytes()
-    leaf = fast.dof - 1                          # the last leaf's columns miss other branches
-    off = [j for j in range(fast.dof) if j not in fast.model.ancestors(leaf)]
-    if not fast.model.has_mimic_joints:
-        assert off and np.all(Y[:, off, 10 * leaf:10 * leaf + 10] == 0.0)
-        # core/regressor.py on the parent array against the reference, with friction and
-        # armature columns
-        ref = sd.Robot(fast.model, backend="numpy")
-        close(fast.regressor(q, qd, qdd, friction=True, armature=True),
-              ref.regressor(q, qd, qdd, friction=True, armature=True))
-
-
-@pytest.mark.parametrize("rel", ROBOTS)
-def test_the_coriolis_matrix_of_a_tree(rel):
-    """C qd + g = b and Mdot - 2C skew (Mdot by central differences along qd) on trees, from
-    the natural orthogonal complement whose column j moves the bodies below joint j; the QR
-    route of forward dynamics, built on the same T, inverts inverse dynamics."""
-    fast, _ = pair(rel)
-    q, qd = fast.random_state(8)
-    C = fast.coriolis_matrix(q, qd)
-    close(C @ qd + fast.gravity_torques(q), fast.bias_torques(q, qd))
-    h = 1e-6
-    Md = (fast.mass_matrix(q + h * qd) - fast.mass_matrix(q - h * qd)) / (2 * h)
-    S = Md - 2 * C
-    assert np.max(np.abs(S + S.T)) < 1e-6 * max(1.0, np.max(np.abs(Md)))
-    tau = fast.inverse_dynamics(q, qd, qd)
-    np.testing.assert_allclose(fast.forward_dynamics(q, qd, tau, method="qr"), qd, atol=1e-9)
+@pytest.mark.parametrize("n_each, floating, method", [(6, False, "cholesky"), (20, False, "aba"),
+                                                      (6, True, "cholesky"), (12, True, "aba")])
+def test_auto_forward_dynamics_on_a_tree_follows_its_depths(n_each, floating, method):
+    """method="auto" on a tree (robot/common.aba_by_default): the sparse factor while the
+    mean squared depth of its joints (six more on a floating base) is below TREE_CROSSOVER,
+    articulated bodies from there; both give the reference's answer."""
+    from serial_dynamics.robot.common import TREE_CROSSOVER
+    fast = sd.load_urdf(two_arm_urdf(n_each, base_mass=5.0), floating_base=floating)
+    d = np.r_[np.arange(1, n_each + 1), np.arange(1, n_each + 1)] + (6 if floating else 0)
+    assert np.array_equal(fast.model.depths + (6 if floating else 0), d)
+    assert (np.mean(d ** 2.0) >= TREE_CROSSOVER) == (method == "aba")
+    rng = np.random.default_rng(3)
+    q = rng.uniform(-1, 1, fast.nq)
+    if floating:
+        q[3:7] = (0.1, -0.2, 0.3, 0.9) / np.linalg.norm((0.1, -0.2, 0.3, 0.9))
+    qd, tau = rng.uniform(-1, 1, (2, fast.nv))
+    auto = fast.forward_dynamics(q, qd, tau)
+    np.testing.assert_array_equal(auto, fast.forward_dynamics(q, qd, tau, method=method))
+    other = "cholesky" if method == "aba" else "aba"
+    assert auto.tobytes() != fast.forward_dynamics(q, qd, tau, method=other).tobytes()
+    ref = sd.Robot(fast.model, backend="numpy").forward_dynamics(q, qd, tau)
+    np.testing.assert_allclose(auto, ref, rtol=1e-9, atol=1e-9 * np.max(np.abs(ref)))

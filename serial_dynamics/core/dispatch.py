@@ -26,7 +26,7 @@ import numba
 from numba import njit
 from numba.core.dispatcher import Dispatcher
 
-from . import crba, crba_lanes, derivatives, derivatives_lanes, energy, floating, forward, planar, planar_lanes
+from . import crba, crba_lanes, derivatives, derivatives_lanes, energy, floating, forward, mimic, planar, planar_lanes
 from . import regressor
 from . import rnea, rnea_lanes, tree, tree_derivatives
 from .signatures import In2, Mat, Out2, Out3, Pm, Vec, compile_internal, i8
@@ -54,10 +54,12 @@ ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core fu
     **floating.ENTRY_POINTS,       # a free-floating base on the instantaneous chain
     **tree.ENTRY_POINTS,           # kinematic trees on the parent array
     **tree_derivatives.ENTRY_POINTS,   # and their derivatives
+    **mimic.ENTRY_POINTS,          # the reduced system of mimic joints, on any of the above
 }
 SINGLE_STATE = ("rnea", "rnea_wrench", "crba", "fd", "planar_rnea", "planar_rnea_wrench",
                 "planar_crba", "regressor", "rnea_derivatives", "fd_derivatives",
-                *floating.SINGLE_STATE, *tree.SINGLE_STATE, *tree_derivatives.SINGLE_STATE)
+                *floating.SINGLE_STATE, *tree.SINGLE_STATE, *tree_derivatives.SINGLE_STATE,
+                *mimic.SINGLE_STATE)
 
 
 def check_hook(dispatcher_class=Dispatcher, version=numba.__version__):
@@ -154,6 +156,10 @@ class _Kernels:
     tree_fd_derivatives = _EntryPoint()
     tree_rnea_derivatives_batch = _EntryPoint()
     tree_fd_derivatives_batch = _EntryPoint()
+    # mimic joints (mimic.py): the reduced system, on a chain's or a tree's kernels
+    mimic_rnea = _EntryPoint()
+    mimic_crba = _EntryPoint()
+    mimic_fd = _EntryPoint()
 
     def load_all(self, names=None):
         """Compile or load ``names`` (default: every entry point)."""
@@ -183,7 +189,8 @@ class TreeTable:
              "kinetic_energy_gradient": "tree_kinetic_energy_gradient",
              "rnea_derivatives": "tree_rnea_derivatives", "fd_derivatives": "tree_fd_derivatives",
              "rnea_derivatives_batch": "tree_rnea_derivatives_batch",
-             "fd_derivatives_batch": "tree_fd_derivatives_batch"}
+             "fd_derivatives_batch": "tree_fd_derivatives_batch",
+             "mimic_rnea": "mimic_rnea", "mimic_crba": "mimic_crba", "mimic_fd": "mimic_fd"}
 
     def __getattr__(self, name):
         if name not in self.NAMES:

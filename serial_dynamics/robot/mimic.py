@@ -22,8 +22,13 @@ import numpy as np
 from numba import njit
 
 from ..algorithms import floating as fb
-from ..core.cholesky import cholesky_factor, cholesky_solve_factored
 from ..algorithms._batch import as_batch
+from ..core import OK
+from ..core import flags as F
+from ..core.floating import GW
+from ..core.layout import PARENT, WIDTH
+from ..core.mimic import (FM, FT, FW, IW, NF, NPAIRS, PAIR, PI, PJ, PM, PSI, PSJ, QMUL, QOFF, QSRC, SPARSE, VMUL,
+                          VSRC, reduce_mass, reduce_matrix, reduce_vector, reduced_fd)
 from ..model.dissipation import Dissipation
 from . import derivatives, regressor
 from .wrenches import generalized_forces
@@ -69,6 +74,17 @@ class Mimic:
         if dissipation is None:
             dissipation = _reduced_dissipation(model, self._G, self._view.joint_names)
         super().__init__(model, dissipation, backend, **kwargs)
+        # the compiled reduced system (core/mimic.py): the maps, the reduced tree; its
+        # entry points run the whole model's kernels on P (a floating base's instantaneous
+        # chain or tree)
+        self._Gm, self._parent_r = mimic_layout(model, self._src, self._m, self._o, bq, bv)
+        compiled = self._k is not None
+        self._mk = self._k if compiled else None
+        self._Pk = (self._chain if model.floating else self._P) if compiled else None
+        self._gwk = self._gw if model.floating else np.zeros(GW)
+        # b as each kind computes it: a floating base's at a = 0, a fixed base's with QD alone
+        self._bias_flags = F.QD | F.QDD if model.floating else F.QD
+        self._zero_v = np.zeros(self.nv)
 
     # ------------------------------------------------------------- description
     dof = property(lambda self: self._view.dof)
@@ -95,8 +111,9 @@ class Mimic:
 
     # G x and G^T y as gathers and ordered sums (not matrix products, whose summation order
     # BLAS may change with the shape): a state gives the same bits alone or in a batch. One
-    # state goes through two small compiled loops (_gather, _scatter_add: ~0.2 us each,
-    # against ~4 us of NumPy indexing), a batch through the same operations in NumPy.
+    # state goes through small compiled loops (_gather; core/mimic.py's reduce_vector and
+    # reduce_matrix), a batch through the same operations in NumPy; the dynamics' single
+    # states through one compiled call each (core/mimic.py's entry points).
     def _expand(self, x, offset):
         """G x + offset over the last axis (the joints): x[src] m + offset."""
         return x[..., self._src] * self._m + offset
@@ -106,7 +123,7 @@ class Mimic:
         in joint order."""
         if y.ndim == 1:
             out = np.empty(self.nv)
-            _scatter_add(self._ind, self._fi, self._fk, self._fm, y, out)
+            reduce_vector(self._Gm, y, out)
             return out
         out = y[..., self._ind].copy()
         for i, k, m in zip(self._fi, self._fk, self._fm):
@@ -118,7 +135,7 @@ class Mimic:
         if M.ndim == 2:
             k = self.nv
             A, out = np.empty((M.shape[0], k)), np.empty((k, k))
-            _congruence(self._ind, self._fi, self._fk, self._fm, M, A, out)
+            reduce_matrix(self._Gm, M, A, out)
             return out
         return np.swapaxes(self._reduce(np.swapaxes(self._reduce(M), -1, -2)), -1, -2)
 
@@ -168,6 +185,10 @@ class Mimic:
         if wrenches is not None:     # wrenches on links: - sum_k J_k^T w_k (robot/wrenches.py)
             return _into(out, self.inverse_dynamics(q, qd, qdd, wrench, base_motion)
                          - generalized_forces(self, q, wrenches))
+        if self._mk is not None and wrench is None and base_motion is None:   # one call
+            o = _empty(self.nv) if out is None else out
+            if self._mk.mimic_rnea(self._Pk, self._Gm, q, qd, qdd, self._gwk, _QD_QDD, o) == OK:
+                return o
         _, _, (q, qd, qdd) = self._all(("q", q), ("qd", qd), ("qdd", qdd))
         tau = super().inverse_dynamics(q, qd, qdd, wrench, base_motion)
         return _into(out, self._reduce(tau))             # tau = G^T tau_all
@@ -176,6 +197,11 @@ class Mimic:
         if wrenches is not None:
             return _into(out, self.bias_torques(q, qd, wrench, base_motion)
                          - generalized_forces(self, q, wrenches))
+        if self._mk is not None and wrench is None and base_motion is None:
+            o = _empty(self.nv) if out is None else out
+            if self._mk.mimic_rnea(self._Pk, self._Gm, q, qd, self._zero_v, self._gwk,
+                                   self._bias_flags, o) == OK:
+                return o
         _, _, (q, qd) = self._all(("q", q), ("qd", qd))
         return _into(out, self._reduce(super().bias_torques(q, qd, wrench, base_motion)))
 
@@ -184,12 +210,25 @@ class Mimic:
         return _into(out, self._reduce(super().gravity_torques(q)))
 
     @property
-    def _v_parent(self):            # G^T M G couples a leader with its followers' branches
-        return np.arange(self.nv) - 1
+    def _v_parent(self):            # G^T M G's zeros: the reduced tree (mimic_layout)
+        return self._parent_r
 
     def mass_matrix(self, q, out=None):
+        if self._mk is not None:
+            o = _empty((self.nv, self.nv)) if out is None else out
+            if self._mk.mimic_crba(self._Pk, self._Gm, q, o) == OK:
+                return o
         _, _, (q,) = self._all(("q", q))
-        return _into(out, self._reduce2(super().mass_matrix(q)))   # G^T M_all G
+        return _into(out, self._reduce_mass(super().mass_matrix(q)))   # G^T M_all G
+
+    def _reduce_mass(self, M):
+        """G^T M G of one mass matrix or a stack, state by state as the single call
+        (core/mimic.reduce_mass: on a tree from M's nonzeros)."""
+        k, nw = self.nv, M.shape[-1]
+        Mr = np.empty(M.shape[:-2] + (k, k))
+        for Mk, ok in ((M, Mr),) if M.ndim == 2 else zip(M, Mr):
+            reduce_mass(self._Gm, Mk, np.empty((nw, k)), ok)
+        return Mr
 
     def coriolis_matrix(self, q, qd):
         _, _, (q, qd) = self._all(("q", q), ("qd", qd))
@@ -206,21 +245,19 @@ class Mimic:
         if method not in FD_METHODS:
             raise ValueError(f"forward-dynamics method {method!r} unknown; use one of "
                              f"{FD_METHODS}")
+        if self._mk is not None and wrench is None and base_motion is None:   # one call
+            o = _empty(self.nv) if out is None else out
+            if self._mk.mimic_fd(self._Pk, self._Gm, q, qd, tau, self._gwk, 0, o) == OK:
+                return o
         single, (_, _, tau), (q, qd, _) = self._all(("q", q), ("qd", qd), ("tau", tau))
         M, b = super().mass_matrix(q), super().bias_torques(q, qd, wrench, base_motion)
         o = np.empty(np.shape(tau))
-        if single:                      # G^T M G and G^T b, factored and solved: one call
-            _reduced_fd(self._ind, self._fi, self._fk, self._fm, M, b, tau, *self._work(), o)
-        else:                           # the same call state by state: the same bits
-            for Mk, bk, tk, ok in zip(M, b, tau, o):
-                _reduced_fd(self._ind, self._fi, self._fk, self._fm, Mk, bk, tk,
-                            *self._work(), ok)
+        for Mk, bk, tk, ok in ((M, b, tau, o),) if single else zip(M, b, tau, o):
+            reduced_fd(self._Gm, Mk, bk, tk, ok)      # G^T M G and G^T b, factored, solved
         return _into(out, o)
 
-    def _work(self):
-        """Scratch (M G, G^T M G) for ``_reduced_fd``."""
-        k = self.nv
-        return np.empty((self._v_map[0].shape[0], k)), np.empty((k, k))
+    def kernels(self, batch=False):
+        return super().kernels(batch) + (_MIMIC_KERNELS if self._mk is not None else ())
 
     # ------------------------------------------------------------- kinematics, energy
     def forward_kinematics(self, q, link=None):
@@ -232,7 +269,7 @@ class Mimic:
     def kinetic_energy(self, q, qd):
         """T = 1/2 qd^T (G^T M G) qd (J)."""
         single, (_, qd), (q, _) = self._all(("q", q), ("qd", qd))
-        M = self._reduce2(super().mass_matrix(q))
+        M = self._reduce_mass(super().mass_matrix(q))
         return 0.5 * np.einsum("...i,...ij,...j->...", qd, M, qd)
 
     def potential_energy(self, q):
@@ -281,6 +318,66 @@ class Mimic:
 
 
 _F8 = np.dtype(np.float64)
+_QD_QDD = F.QD | F.QDD
+_empty = np.empty
+_MIMIC_KERNELS = ("mimic_rnea", "mimic_crba", "mimic_fd")
+
+
+def mimic_layout(model, src, m, o, bq, bv):
+    """(Gm, parent_r): core/mimic.py's maps of q_all = G q + o and x_all = G x over whole
+    states (``bq``, ``bv`` base coordinates first, each its own image), and the reduced
+    tree: parent_r[k], the parent of reduced coordinate k. G^T M G couples k and l when a
+    joint of k's and one of l's are on one path; where each coordinate's coupled lower ones
+    are its ancestors through parent_r, L^T D L on parent_r has no fill-in (SPARSE: a
+    tree's; a chain keeps dense Cholesky, and its bits). Else parent_r = k - 1 (dense)."""
+    n = model.dof
+    nq, nv = n + bq, n + bv
+    Gm = np.zeros((nq, WIDTH))
+    Gm[:bq, QSRC], Gm[:bq, QMUL] = np.arange(bq), 1.0
+    Gm[bq:nq, QSRC], Gm[bq:nq, QMUL], Gm[bq:nq, QOFF] = bq + src, m, o
+    # the reduced coordinate of each whole coordinate (v's), and whether it is independent
+    vsrc = np.r_[np.arange(bv), bv + np.asarray(src)].astype(np.int64)
+    Gm[:nv, VSRC], Gm[:nv, VMUL] = vsrc, np.r_[np.ones(bv), m]
+    k = bv + len(model.independent)
+    Gm[:k, IW] = np.r_[np.arange(bv), bv + model.independent]
+    fi = np.flatnonzero(model.mimic_leader >= 0)           # the followers, in joint order
+    Gm[:fi.size, FW], Gm[:fi.size, FT], Gm[:fi.size, FM] = bv + fi, vsrc[bv + fi], m[fi]
+    whole = (np.r_[np.arange(6) - 1, np.where(model.parent < 0, 5, model.parent + 6)]
+             if bv else np.asarray(model.parent))
+    coupled = np.zeros((k, k), dtype=bool)        # whole coordinates on one path, reduced
+    for i in range(nv):
+        j = i
+        while j >= 0:
+            coupled[vsrc[i], vsrc[j]] = coupled[vsrc[j], vsrc[i]] = True
+            j = whole[j]
+    parent_r = np.array([max((l for l in range(r) if coupled[r, l]), default=-1)
+                         for r in range(k)], dtype=np.int64)
+    ok = not model.is_chain
+    for r in range(k):
+        up, l = set(), parent_r[r]
+        while l >= 0:
+            up.add(l)
+            l = parent_r[l]
+        ok &= all(l in up for l in range(r) if coupled[r, l])
+    if not ok:
+        parent_r = np.arange(k) - 1
+    Gm[:k, PARENT] = parent_r
+    pairs, follows = [], np.r_[np.zeros(bv, bool), model.mimic_leader >= 0]
+    for i in range(nv if ok else 0):               # M's nonzeros with a follower: i and
+        j = i                                      # its ancestors j
+        while j >= 0:
+            if follows[i] or follows[j]:
+                pairs.append((i, j, Gm[i, VMUL] * Gm[j, VMUL], vsrc[i], vsrc[j]))
+            j = whole[j]
+    flat = np.zeros(-(-PAIR * len(pairs) // WIDTH) * WIDTH)    # packed, PAIR numbers each
+    rows = flat[:PAIR * len(pairs)].reshape(-1, PAIR)
+    index = rows.view(np.int64)                    # the indices as int64 bit patterns
+    for p, (i, j, mm, si, sj) in enumerate(pairs):
+        index[p, [PI, PJ, PSI, PSJ]] = i, j, si, sj
+        rows[p, PM] = mm
+    head = np.zeros((1, WIDTH))
+    head[0, [SPARSE, NF, NPAIRS]] = float(ok), fi.size, len(pairs)
+    return np.vstack([Gm, flat.reshape(-1, WIDTH), head]), parent_r
 
 
 @njit(cache=True)
@@ -301,47 +398,6 @@ def _gather(src, m, o, x, out):
         bad |= not (v * 0.0 == 0.0)
         out[i] = v * m[i] + o[i]
     return bad
-
-
-@njit(cache=True)
-def _scatter_add(ind, fi, fk, fm, y, out):
-    """out = G^T y: y at the independent joints, plus m y of each follower, in order."""
-    for k in range(out.shape[0]):
-        out[k] = y[ind[k]]
-    for j in range(fi.shape[0]):
-        out[fk[j]] += fm[j] * y[fi[j]]
-
-
-@njit(cache=True)
-def _congruence(ind, fi, fk, fm, M, A, out):
-    """out = G^T M G: A = M G row by row (``_scatter_add``'s sums), then G^T A, whole rows
-    at a time (each entry's sum in the same order as ``_reduce``'s on a stack)."""
-    k = out.shape[0]
-    for r in range(M.shape[0]):
-        Mr, Ar = M[r], A[r]
-        for c in range(k):
-            Ar[c] = Mr[ind[c]]
-        for j in range(fi.shape[0]):
-            Ar[fk[j]] += fm[j] * Mr[fi[j]]
-    for a in range(k):
-        src, dst = A[ind[a]], out[a]
-        for c in range(k):
-            dst[c] = src[c]
-    for j in range(fi.shape[0]):
-        src, dst, m = A[fi[j]], out[fk[j]], fm[j]
-        for c in range(k):
-            dst[c] += m * src[c]
-
-
-@njit(cache=True)
-def _reduced_fd(ind, fi, fk, fm, M, b, tau, A, Mr, out):
-    """out = (G^T M G)^-1 (tau - G^T b): the reduced forward dynamics by Cholesky."""
-    _congruence(ind, fi, fk, fm, M, A, Mr)
-    _scatter_add(ind, fi, fk, fm, b, out)
-    for i in range(out.shape[0]):
-        out[i] = tau[i] - out[i]
-    cholesky_factor(Mr)                        # G^T M G = L L^T
-    cholesky_solve_factored(Mr, out)
 
 
 def _reduced_dissipation(model, G, names):

@@ -139,3 +139,53 @@ def test_simulation_of_a_mimic_chain_keeps_its_energy_balance():
     semi = sd.simulate(robot, 0.2, [0.3, -0.4], [1.0, 0.5], method="semi_implicit_euler",
                        dt=1e-4, dissipation=True)
     assert np.all(np.isfinite(semi.q)) and semi.relative_energy_error() < 1e-2
+
+
+@pytest.mark.parametrize("rel, floating, branches", [
+    ("panda_description/urdf/panda.urdf", False, 0),      # one hand: a reduced chain
+    ("talos_data/robots/talos_full_v2.urdf", True, 4)])  # arms, legs, head off the torso
+def test_the_compiled_reduced_system_of_a_tree(rel, floating, branches):
+    """core/mimic.py on trees with mimic joints (the Panda's second finger on another
+    branch than its leader; Talos's grippers, floating): one compiled call a state, the
+    general path's bits for every row of a batch, the reference's numbers, and a sparse
+    factor of G^T M G on the reduced tree (robot/mimic.mimic_layout)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", sd.HeldJointsWarning)
+        robot = sd.load_urdf(erd(rel), floating_base=floating)
+    ref = sd.Robot(robot.model, backend="numpy")
+    assert set(robot.kernels()) >= {"mimic_rnea", "mimic_crba", "mimic_fd"}
+    rng = np.random.default_rng(4)
+    Q, V = robot.random_state(rng, batch=5)
+    A = rng.uniform(-1, 1, (5, robot.nv))
+    T = robot.inverse_dynamics(Q, V, A)
+    calls = {"inverse_dynamics": (Q, V, A), "bias_torques": (Q, V), "mass_matrix": (Q,),
+             "forward_dynamics": (Q, V, T)}
+    for name, args in calls.items():
+        batch = getattr(robot, name)(*args)
+        for k in range(5):
+            one = getattr(robot, name)(*(x[k] for x in args))
+            assert one.tobytes() == batch[k].tobytes(), name      # the general path's bits
+            want = getattr(ref, name)(*(x[k] for x in args))
+            assert rel_err(one, want) <= 1e-12 * (1e3 if name == "forward_dynamics" else 1)
+    np.testing.assert_allclose(robot.forward_dynamics(Q, V, T), A, atol=1e-9)
+    # the reduced tree: each coordinate's parent above it, and branches that stay apart
+    parent = robot._v_parent
+    assert np.all(parent < np.arange(robot.nv))
+    assert np.sum(parent != np.arange(robot.nv) - 1) == branches
+    L, d = robot.mass_matrix_factor(Q[0])
+    keep = np.eye(robot.nv, dtype=bool)
+    for k in range(robot.nv):
+        i = parent[k]
+        while i >= 0:
+            keep[k, i], i = True, parent[i]
+    M = robot.mass_matrix(Q[0])
+    assert not np.any(M[~(keep | keep.T)])                 # M's zeros: the reduced tree's
+    assert not np.any(L[~keep]) and rel_err(L.T @ (d[:, None] * L), M) <= 1e-12
+    assert robot._Gm[-1, 0] == 1.0                         # core/mimic.py: SPARSE
+
+
+def test_a_mimic_chain_keeps_the_dense_factor(chain):
+    """On a chain the reduced system keeps dense Cholesky (its bits: the hash test)."""
+    robot, _ = chain
+    assert robot._Gm[-1, 0] == 0.0
+    np.testing.assert_array_equal(robot._v_parent, np.arange(robot.nv) - 1)

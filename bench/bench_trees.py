@@ -151,9 +151,10 @@ def main():
         rows += floating_rows(name, robot, erd_path(rel), rounds)
     lines = ["## Trees against Pinocchio", "", stamp(),
              "`python bench/bench_trees.py`. Ours: the compiled tree kernels (`core/tree.py`: "
-             "forward dynamics by the sparse factor M = LᵀDL; a floating base through the "
-             "instantaneous tree of six virtual joints, whose block and columns of M the CRBA "
-             "computes as one free-flyer root). "
+             "forward dynamics by `method=\"auto\"`, here the sparse factor M = LᵀDL; a "
+             "floating base through the instantaneous tree of six virtual joints, whose block "
+             "and columns of M the CRBA computes as one free-flyer root; mimic joints: "
+             "`core/mimic.py`, the reduced system in one call). "
              "Ratio = ours / Pinocchio's; target: the issue's. "
              f"Load average (1 min) of the 2 cores: {load_at_start[0]:.1f} at the start, "
              f"{os.getloadavg()[0]:.1f} at the end (above ~1, other work shared the machine).",

@@ -15,8 +15,9 @@ on the parent array l = lambda(i) (``P[i, PARENT]``; i - 1 in a chain), so one k
 chains and trees, as Featherstone writes it (Table 7.1 is for trees). On a tree each body's
 velocity (pass 1), then its acceleration (pass 3), is kept in ``va`` for its children; a
 chain carries its parent's in registers, and its parent's rows are known to be others than
-its own. One source, two kernels: ``aba_core`` (a chain) and ``tree_aba_core`` (a tree;
-run on a chain it gives the same bits, ~20 % slower: bench_speed.py, 2026-11-28). A floating
+its own. One source, two kernels: ``aba_core`` (a chain) and ``tree_aba_core`` (a tree,
+with ``va`` from its caller; run on a chain it gives the same bits, ~20 % slower, measured
+2026-11-28). A floating
 base's virtual tree (``P[n, ROOT]`` = 6) is six ordinary joints here: its velocity products
 are the caller's (core/floating.py).
 
@@ -264,18 +265,15 @@ def articulated_bodies(P, sc, R, p, IA, pA, U, c, Du, Y, va, q, qd, tau, w, damp
     return chk
 
 
-_SIG = f8(Pm, D2, D3, D2, D3, D2, D2, D2, D2, D2, D2, In1, In1, In1, In1, In1, i8, Out1)
-
-
-@internal(_SIG)
-def aba_core(P, sc, R, p, IA, pA, U, c, Du, Y, va, q, qd, tau, w, damping, flags, out):
-    """A chain's articulated bodies (lambda(i) = i - 1; ``va`` not read)."""
-    return articulated_bodies(P, sc, R, p, IA, pA, U, c, Du, Y, va, q, qd, tau, w, damping,
+@internal(f8(Pm, D2, D3, D2, D3, D2, D2, D2, D2, D2, In1, In1, In1, In1, In1, i8, Out1))
+def aba_core(P, sc, R, p, IA, pA, U, c, Du, Y, q, qd, tau, w, damping, flags, out):
+    """A chain's articulated bodies (lambda(i) = i - 1; no ``va``: Y stands in, unread)."""
+    return articulated_bodies(P, sc, R, p, IA, pA, U, c, Du, Y, Y, q, qd, tau, w, damping,
                               flags, out, False)
 
 
-@internal(_SIG)
+@internal(f8(Pm, D2, D3, D2, D3, D2, D2, D2, D2, D2, D2, In1, In1, In1, In1, In1, i8, Out1))
 def tree_aba_core(P, sc, R, p, IA, pA, U, c, Du, Y, va, q, qd, tau, w, damping, flags, out):
-    """A tree's articulated bodies (on lambda(i), ``P[i, PARENT]``)."""
+    """A tree's articulated bodies (on lambda(i), ``P[i, PARENT]``); va (n, 6) scratch."""
     return articulated_bodies(P, sc, R, p, IA, pA, U, c, Du, Y, va, q, qd, tau, w, damping,
                               flags, out, True)

@@ -17,7 +17,6 @@ joints (spatial vectors angular first, as everywhere in the core):
           U   (n, 6)      IA S                                 c  (n, 6)  v x S qd
           Du  (n, 2)      D = S^T U (+ damping), u = tau - S^T pA
           Y   (3, 3)      one 3x3 block of IA rotated into the parent's axes
-          va  (n, 6)      each body's velocity (outward pass), then its acceleration
 
 The ``new_*`` functions must be inlined into the entry point that owns the call (they
 are ``inline="always"``) and must not be called inside a loop: stack memory lives until
@@ -34,7 +33,7 @@ from .signatures import internal
 
 Kin = namedtuple("Kin", "sc R p f")                  # kinematics + Newton-Euler (+ CRBA)
 Chol = namedtuple("Chol", "M b")                     # Cholesky route of forward dynamics
-Art = namedtuple("Art", "IA pA U c Du Y va")            # articulated-body algorithm
+Art = namedtuple("Art", "IA pA U c Du Y")            # articulated-body algorithm
 STACK_DOUBLES = 8192    # an array larger than this (64 KiB) goes on the heap: the mass matrix
 # from n = 91 joints on, the articulated inertias from n = 228; Kin, 20 n doubles, always
 # fits a thread's stack (8 MB).
@@ -109,5 +108,4 @@ def new_chol(n):
 @njit(cache=True, inline="always")
 def new_art(n):
     return Art(scratch((n, 6, 6), 36 * n), scratch((n, 6), 6 * n), scratch((n, 6), 6 * n),
-               scratch((n, 6), 6 * n), scratch((n, 2), 2 * n), stack_empty((3, 3)),
-               scratch((n, 6), 6 * n))
+               scratch((n, 6), 6 * n), scratch((n, 2), 2 * n), stack_empty((3, 3)))

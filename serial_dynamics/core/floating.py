@@ -122,7 +122,7 @@ def _rnea_one(P, d, qv, w, qddv, q, v, a, gw, flags, out):
 def _fd_one(P, d, c, art, qv, w, tv, q, v, tau, gw, flags, out):
     chk = fd_inputs(q, tau, gw, flags, qv, w, tv)
     if (flags & F.ABA) != 0:
-        chk += aba_core(P, d.sc, d.R, d.p, art.IA, art.pA, art.U, art.c, art.Du, art.Y, art.va,
+        chk += aba_core(P, d.sc, d.R, d.p, art.IA, art.pA, art.U, art.c, art.Du, art.Y,
                         qv, v, tv, w, tv, flags | F.BASE, out)
     else:
         chk += cholesky_core(P, d.sc, d.R, d.p, d.f, c.M, c.b, qv, v, tv, w, tv, flags | F.BASE,

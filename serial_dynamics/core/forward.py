@@ -66,7 +66,7 @@ def fd(P, q, qd, tau, w, flags, out):
     flags &= ~F.DAMPING                  # tau stands in for the unread damping argument
     if (flags & F.ABA) != 0:
         a = new_art(n)
-        return status(aba_core(P, d.sc, d.R, d.p, a.IA, a.pA, a.U, a.c, a.Du, a.Y, a.va,
+        return status(aba_core(P, d.sc, d.R, d.p, a.IA, a.pA, a.U, a.c, a.Du, a.Y,
                                q, qd, tau, w, tau, flags, out))
     c = new_chol(n)
     return status(cholesky_inline(P, d.sc, d.R, d.p, d.f, c.M, c.b, q, qd, tau, w, tau, flags, out))
@@ -92,7 +92,7 @@ def fd_batch(P, q, qd, tau, w, flags, out):
     for k in range(N):
         qk, qdk, tk, wk = q[k if nq else 0], qd[k if nv else 0], tau[k if nt else 0], w[k if nw else 0]
         if aba:
-            chk = aba_core(P, d.sc, d.R, d.p, a.IA, a.pA, a.U, a.c, a.Du, a.Y, a.va,
+            chk = aba_core(P, d.sc, d.R, d.p, a.IA, a.pA, a.U, a.c, a.Du, a.Y,
                            qk, qdk, tk, wk, tk, flags, out[k])
         else:
             chk = cholesky_core(P, d.sc, d.R, d.p, d.f, c.M, c.b, qk, qdk, tk, wk, tk, flags, out[k])

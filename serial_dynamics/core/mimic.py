@@ -28,14 +28,14 @@ between a gather (G x + o) and a sum (G^T y), with the maps in one array ``Gm`` 
     Gm[nq_all:-1], flat                    (SPARSE) the np pairs (i, j) of whole
                                            coordinates with j = i or an ancestor of i (M's
                                            nonzeros) of which one is a follower, PAIR
-                                           numbers each, packed (no row per
-                                           pair: they stay in the L1 cache): i, j, m_i m_j,
-                                           s_i, s_j; the indices are int64 bit patterns
-                                           (read through a view: no conversion a pair)
+                                           numbers each, packed: i, j, m_i m_j, s_i, s_j;
+                                           the indices are int64 bit patterns (read
+                                           through a view: no conversion a pair)
 
 Each gather and sum does the operations of robot/mimic.py's batch path in the same order
 (x[src] m + o; G^T y as the independent coordinates' entries, then each follower's m y in
-joint order), so a batch row is the single call's bits.
+joint order), and the batch path calls ``reduce_mass`` and ``reduced_fd`` state by state,
+so a batch row is the single call's bits.
 """
 import numpy as np
 from numba import njit
@@ -45,7 +45,7 @@ from .cholesky import cholesky_factor, cholesky_solve_factored, ltdl_factor, ltd
 from .crba import crba_core
 from .data import new_kin, scratch, stack_empty
 from .floating import GW, _chain_inputs, rnea_inputs
-from .layout import PARENT, ROOT, TREE, W_ALL
+from .layout import ROOT, TREE, W_ALL
 from .rnea import rnea_core
 from .signatures import Mat, Pm, Vec, i8
 from .spatial import joint_transforms

@@ -12,18 +12,18 @@ kernels (``Robot`` picks the table from the model; their bits are the chain's). 
 wrench acts on body n-1 (the last leaf) and is carried into its frame along its path
 (``P[i, TIPPATH]``).
 """
-from numba import njit, types
+from numba import types
 
 from . import flags as F
 from .aba import tree_aba_core
 from .cholesky import ltdl_factor, ltdl_solve_factored
 from .crba import add_in_parent
 from .floating import GW, _chain_inputs, _products, fd_inputs, rnea_inputs
-from .data import new_art, new_chol, new_kin, square_lanes_fit, stack_empty
+from .data import new_art, new_chol, new_kin, scratch, square_lanes_fit, stack_empty
 from .energy import axis_gradient, body_momentum, body_velocity
 from .layout import ARM, H, IO, KIND, LANES, MASS, PARENT, ROOT, TIPPATH, W_ALL, W_WRENCH
 from .rnea import base_state, body_wrench, joint_rates, outward_step, tip_load
-from .signatures import D1, D2, D3, In1, In2, Mat, Out1, Out2, Out3, Pm, Vec, f8, i8, internal
+from .signatures import D2, D3, In1, In2, Mat, Out1, Out2, Out3, Pm, Vec, f8, i8, internal
 from .spatial import finite, joint_transforms, rotation, to_child, to_parent
 from .status import BAD_LENGTH, NOT_FINITE, OK, status
 from .tree_lanes import tree_crba_block, tree_fd_block, tree_rnea_block
@@ -240,8 +240,8 @@ def tree_fd(P, q, qd, tau, w, flags, out):
     d = new_kin(n)
     flags &= ~F.DAMPING                  # tau stands in for the unread damping argument
     if (flags & F.ABA) != 0:             # articulated bodies (aba.py, on lambda(i))
-        a = new_art(n)
-        return status(tree_aba_core(P, d.sc, d.R, d.p, a.IA, a.pA, a.U, a.c, a.Du, a.Y, a.va,
+        a, va = new_art(n), scratch((n, 6), 6 * n)
+        return status(tree_aba_core(P, d.sc, d.R, d.p, a.IA, a.pA, a.U, a.c, a.Du, a.Y, va,
                                q, qd, tau, w, tau, flags, out))
     c = new_chol(n)
     return status(tree_fd_core(P, d.sc, d.R, d.p, d.f, stack_empty((n, 9)),
@@ -300,13 +300,14 @@ def tree_fd_batch(P, q, qd, tau, w, flags, out):
         for k0 in range(0, N, L):
             bad |= tree_fd_block(P, q, qd, tau, w, flags, out, k0)
         return bad
-    d, c, mo, IC, a = new_kin(n), new_chol(n), stack_empty((n, 9)), stack_empty((n, 10)), new_art(n)
+    d, c, mo, IC = new_kin(n), new_chol(n), stack_empty((n, 9)), stack_empty((n, 10))
+    a, va = new_art(n), scratch((n, 6), 6 * n)
     nq, nv, nt, nw = q.shape[0] > 1, qd.shape[0] > 1, tau.shape[0] > 1, w.shape[0] > 1
     bad = OK
     for k in range(N):
         qk, qdk, tk, wk = q[k if nq else 0], qd[k if nv else 0], tau[k if nt else 0], w[k if nw else 0]
         if aba:
-            chk = tree_aba_core(P, d.sc, d.R, d.p, a.IA, a.pA, a.U, a.c, a.Du, a.Y, a.va,
+            chk = tree_aba_core(P, d.sc, d.R, d.p, a.IA, a.pA, a.U, a.c, a.Du, a.Y, va,
                            qk, qdk, tk, wk, tk, flags, out[k])
         else:
             chk = tree_fd_core(P, d.sc, d.R, d.p, d.f, mo, IC, c.M, qk, qdk, tk, wk, flags, out[k])
@@ -342,8 +343,8 @@ def floating_tree_fd(P, q, v, tau, gw, flags, out):
     chk = fd_inputs(q, tau, gw, flags, qv, w, tv)
     flags = (flags | F.QD | F.BASE) & ~F.DAMPING
     if (flags & F.ABA) != 0:             # articulated bodies through the six virtual joints
-        a = new_art(nv)
-        chk += tree_aba_core(P, d.sc, d.R, d.p, a.IA, a.pA, a.U, a.c, a.Du, a.Y, a.va,
+        a, va = new_art(nv), scratch((nv, 6), 6 * nv)
+        chk += tree_aba_core(P, d.sc, d.R, d.p, a.IA, a.pA, a.U, a.c, a.Du, a.Y, va,
                         qv, v, tv, w, tv, flags, out)
     else:
         c = new_chol(nv)

@@ -556,12 +556,20 @@ class FloatingMimicRobot(Mimic, Floating, Robot):
 
     _q_independent = property(lambda self: np.r_[np.arange(7), 7 + self.model.independent])
 
-    def regressor(self, *args, **kwargs):
-        raise NotImplementedError("the regressor of a floating base with mimic joints is not "
-                                  "available; load the model with floating_base=False, or "
-                                  "make the mimic joints independent")
-
-    inertial_parameters = regressor
+    def regressor(self, q, qd, qdd, friction=False, armature=None):
+        """G_v^T Y_all: the floating regressor of every body (the base's ten columns first)
+        at the whole state, its rows reduced (the base's six their own), then the friction
+        columns of the independent joints (zero in the base's rows)."""
+        friction = _regressor.check_friction(friction)
+        arm = _regressor.armature_on(self, armature)
+        _, (q, qd, qdd), (qa, va, aa) = self._all(("q", q), ("qd", qd), ("qdd", qdd))
+        Y = np.swapaxes(self._reduce(np.swapaxes(
+            Floating.regressor(self, qa, va, aa, armature=arm), -1, -2)), -1, -2)
+        if not friction:
+            return Y
+        J = _regressor.friction_columns(qd[..., 6:])
+        J = np.concatenate([np.zeros(J.shape[:-2] + (6, J.shape[-1])), J], axis=-2)
+        return np.concatenate([Y, J], axis=-1)
 
     def base_reaction(self, q, qd_joints):
         raise NotImplementedError("base_reaction with mimic joints is not available; "

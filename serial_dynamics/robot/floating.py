@@ -218,7 +218,7 @@ class Floating:
         Y = fb.regressor(self.model, q, s["v"], s["a"])
         extra = []
         if arm:
-            extra.append(s["a"][:, 6:, None] * np.eye(self.dof))
+            extra.append(s["a"][:, 6:, None] * np.eye(self.model.dof))   # every joint's
         if friction:
             extra.append(regressor.friction_columns(s["v"][:, 6:]))
         if extra:                                          # joint columns: zero base rows

@@ -12,7 +12,9 @@ work the reduced system is
 ``MimicRobot`` (``facade.py``: ``class MimicRobot(Mimic, Robot)``) overrides: every method
 maps its inputs to all joints, calls the chain's algorithms (compiled or reference,
 ``super()``) on them, and maps the results back; forward dynamics solves
-(G^T M G) qdd = tau - G^T b. Its coordinates, names, limits and dissipation are the
+(G^T M G) qdd = tau - G^T b. On the compiled backend a single state's inverse dynamics,
+bias torques, M and forward dynamics are one call each (``core/mimic.py``, with the maps and
+the reduced tree of ``mimic_layout``). Its coordinates, names, limits and dissipation are the
 independent joints'; a mimic joint's viscous and Coulomb friction act on its leader as
 m^2 beta and |m| tau_c (exact: its friction torque, times m by virtual work).
 """

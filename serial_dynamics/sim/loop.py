@@ -51,7 +51,7 @@ def semi_implicit_euler_loop(P, q0, qd0, tau, dt, nsteps, viscous, w, flags):
             t[i] = tk[i] - viscous[i] * qd[i]
         wk = w[k if nw else 0] if use_w else t      # t stands in, unread, without a wrench
         if (flags & F.ABA) != 0:
-            chk = aba_core(P, d.sc, d.R, d.p, a.IA, a.pA, a.U, a.c, a.Du, a.Y, a.va,
+            chk = aba_core(P, d.sc, d.R, d.p, a.IA, a.pA, a.U, a.c, a.Du, a.Y,
                            q, qd, t, wk, damping, flags, qdd)
         else:
             chk = cholesky_core(P, d.sc, d.R, d.p, d.f, c.M, c.b, q, qd, t, wk, damping, flags, qdd)

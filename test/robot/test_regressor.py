@@ -314,3 +314,33 @@ def test_every_chain_of(rel_path):
         checked += 1
     if checked == 0:
         pytest.skip("no chain loads (test_pinocchio.py)")
+
+
+def test_a_floating_base_with_mimic_joints_has_the_reduced_regressor():
+    """FloatingMimicRobot: Y = G_v^T Y_all of the floating regressor (the base's ten
+    columns first), the friction columns of the independent joints; Y phi is the reduced
+    inverse dynamics (less the friction torques), for one state and a batch."""
+    import dataclasses
+    from pin_reference import erd
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", sd.HeldJointsWarning)
+        robot = sd.load_urdf(erd("panda_description/urdf/panda.urdf"), floating_base=True,
+                             armature={"panda_joint2": 0.1, "panda_finger_joint2": 0.02})
+    assert robot.model.has_mimic_joints and robot.is_floating
+    free = sd.Robot(dataclasses.replace(robot.model, mimic_leader=np.full(robot.model.dof, -1)))
+    rng = np.random.default_rng(3)
+    q, v = robot.random_state(rng, batch=4)
+    a = rng.uniform(-1, 1, (4, robot.nv))
+    Y = robot.regressor(q, v, a, friction=True)
+    phi = robot.inertial_parameters(friction=True)
+    assert Y.shape == (4, robot.nv, phi.size) and len(reg.parameter_names(robot, friction=True)) == phi.size
+    tau = robot.inverse_dynamics(q, v, a) - np.concatenate(
+        [np.zeros((4, 6)), robot.dissipation_torques(v[:, 6:])], axis=1)
+    assert rel(np.einsum("nij,j->ni", Y, phi), tau) <= 1e-11
+    G, o = robot.model.mimic_matrix
+    Gv = np.zeros((6 + G.shape[0], robot.nv))
+    Gv[:6, :6], Gv[6:, 6:] = np.eye(6), G
+    qa = np.concatenate([q[0, :7], G @ q[0, 7:] + o])
+    Y_all = free.regressor(qa, Gv @ v[0], Gv @ a[0])
+    assert rel(Y[0, :, :Y_all.shape[1]], Gv.T @ Y_all) <= TOL
+    assert rel(robot.regressor(q[1], v[1], a[1], friction=True), Y[1]) <= TOL

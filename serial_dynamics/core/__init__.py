@@ -5,7 +5,7 @@
     signatures.py the argument types, named; ``internal`` (one signature per algorithm)
     spatial.py    small helpers: sincos, joint transforms, frame changes of vectors/forces
     rnea.py       inverse dynamics (Newton-Euler)     rnea_lanes.py  the same, B samples in SIMD lanes
-    crba.py       mass matrix (composite rigid bodies)
+    crba.py       mass matrix (composite rigid bodies)  crba_lanes.py, forward_lanes.py  in lanes
     cholesky.py   M x = b                             aba.py         articulated bodies
     forward.py    forward dynamics (Cholesky or ABA)  flags.py       the entry points' flags
     status.py     the status codes entry points return
@@ -14,6 +14,11 @@
     dispatch.py   ENTRY_POINTS, K (built on first use), the numba hook, NUMBA_SUPPORTED
     planar.py     Newton-Euler and composite bodies of a planar chain in planar 3-vectors
     planar_lanes.py  the same, B samples in SIMD lanes
+    floating.py   a free-floating base on the instantaneous chain (six virtual joints)
+    tree.py       kinematic trees on the parent array   tree_lanes.py  their batches in lanes
+    tree_derivatives.py  the derivatives on trees
+    mimic.py      mimic joints: the reduced system of one state in one call
+    regressor.py  the torque regressor                energy.py      dT/dq, the symplectic step
 
 Each algorithm is the same as its NumPy reference in ``algorithms/`` (same frames and
 symbols; docs/conventions.md). Entry points, ``K`` and the status codes: ``dispatch.py``.

@@ -239,8 +239,12 @@ def test_a_floating_tree_with_mimic_joints_agrees_with_pinocchio(rel):
     assert rel_err(dv, Gv.T @ pdv[np.ix_(idx, idx)] @ Gv) < RTOL
     batch = robot.inverse_dynamics(np.stack([q, q]), np.stack([v, 0 * v]), np.stack([a, a]))
     assert batch[0].tobytes() == tau.tobytes()
-    with pytest.raises(NotImplementedError):
-        robot.regressor(q, v, a)
+    # the regressor (G_v^T Y_all): Y phi = tau, and the base's ten columns are Pinocchio's
+    # root joint's (base link frame, inertia about its origin), rows reduced
+    Y = robot.regressor(q, v, a)
+    assert rel_err(Y @ robot.inertial_parameters(), tau) < RTOL
+    Yp = pin.computeJointTorqueRegressor(pm, pd, qp, vp, ap)
+    assert rel_err(Y[:, :10], Gv.T @ Yp[idx, :10]) < RTOL
 
 
 @pytest.mark.parametrize("rel", TREES)

@@ -88,6 +88,25 @@ def floating_rows(name, robot, path, rounds):
              lambda: pin.aba(m, d, pq, pv, pt), "pinocchio.aba")]:
         ta, tb = pair(ours, peer, 50, rounds)
         rows.append((name, label, ta, tb, peer_name, 1.0))
+    # 10,000 states in one call against pinocchio.rnea in a Python loop over them
+    N = 10_000
+    Q, V = robot.random_state(rng, batch=N)
+    A = rng.uniform(-1, 1, (N, robot.nv))
+    PQ = np.tile(pin.neutral(m), (N, 1))
+    PQ[:, :7], PQ[:, [m.idx_qs[j] for j in jid]] = Q[:, :7], Q[:, 7:] @ G.T + o
+    PV, PA = np.zeros((N, m.nv)), np.zeros((N, m.nv))
+    PV[:, idx], PA[:, idx] = V @ Gv.T, A @ Gv.T
+    T = robot.inverse_dynamics(Q, V, A)
+    agree(T[:20], np.array([Gv.T @ pin.rnea(m, d, PQ[k], PV[k], PA[k])[idx] for k in range(20)]),
+          "rnea loop")
+
+    def loop():
+        for k in range(N):
+            pin.rnea(m, d, PQ[k], PV[k], PA[k])
+
+    ta, tb = pair(lambda: robot.inverse_dynamics(Q, V, A), loop, 1, rounds)
+    rows.append((name, f"inverse dynamics, {N:,} states, one call (per state)", ta / N, tb / N,
+                 "pinocchio.rnea in a Python loop", 0.3))
     return rows
 
 

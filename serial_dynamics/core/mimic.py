@@ -193,23 +193,25 @@ def _whole_rnea(P, d, mo, qa, va, aa, gw, flags, ta):
 
 
 @njit(cache=True, inline="always")
-def _whole_crba(P, d, qa, M):
-    """M_all of the whole model at q_all."""
-    nv = M.shape[0]
-    chk = 0.0
+def _whole_transforms(P, d, qa, nv):
+    """The joint transforms (d.sc, d.R, d.p) of the whole model at q_all (a floating base's
+    instantaneous chain or tree at its q)."""
     if P[nv, ROOT] == 0.0:
-        chk += joint_transforms(P, d.sc, d.R, d.p, qa, nv)
-    else:
-        qv, w, gw = stack_empty((nv,)), stack_empty((W_ALL,)), stack_empty((GW,))
-        for i in range(GW):
-            gw[i] = 0.0
-        chk += _chain_inputs(qa, gw, 0, qv, w)
-        chk += joint_transforms(P, d.sc, d.R, d.p, qv, nv)
+        return joint_transforms(P, d.sc, d.R, d.p, qa, nv)
+    qv, w, gw = stack_empty((nv,)), stack_empty((W_ALL,)), stack_empty((GW,))
+    for i in range(GW):
+        gw[i] = 0.0
+    return _chain_inputs(qa, gw, 0, qv, w) + joint_transforms(P, d.sc, d.R, d.p, qv, nv)
+
+
+@njit(cache=True, inline="always")
+def _whole_crba(P, d, M):
+    """M_all of the whole model from the joint transforms in d."""
+    nv = M.shape[0]
     if P[nv, TREE] != 0.0:
         tree_crba_core(P, d.R, d.p, stack_empty((nv, 10)), M)
     else:
         crba_core(P, d.R, d.p, M)
-    return chk
 
 
 # ------------------------------------------------------------------ entry points
@@ -244,7 +246,8 @@ def mimic_crba(P, Gm, q, out):
     chk = _gather_q(Gm, q, qa)
     d = new_kin(nv)
     M = scratch((nv, nv), nv * nv)
-    chk += _whole_crba(P, d, qa, M)
+    chk += _whole_transforms(P, d, qa, nv)
+    _whole_crba(P, d, M)
     reduce_mass(Gm, M, scratch((nv, k), nv * k), out)
     return status(chk)
 
@@ -267,7 +270,7 @@ def mimic_fd(P, Gm, q, qd, tau, gw, flags, out):
     chk += _whole_rnea(P, d, stack_empty((nv, 9)), qa, va, aa, gw,
                        F.QD | F.QDD if floating else F.QD, b)
     M = scratch((nv, nv), nv * nv)
-    chk += _whole_crba(P, d, qa, M)
+    _whole_crba(P, d, M)                 # on the joint transforms the Newton-Euler pass left
     for i in range(k):
         chk += tau[i] * 0.0
     reduced_fd_inline(Gm, M, b, tau, out)

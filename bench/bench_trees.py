@@ -1,8 +1,9 @@
 """Trees (issue 25): single calls and 10,000-state batches against Pinocchio from Python, in
 one process, on whole robots from example-robot-data: Talos (arms, legs, head; its
-grippers' mimic fingers held), Solo12, Baxter (two arms and the head; grippers held) on a
-fixed base, and Solo12 and Talos on a free-floating base (Pinocchio's free-flyer root), Talos
-also whole (its grippers' mimic joints: our 32 independent joints against Pinocchio's 44).
+grippers' mimic fingers held), Solo12, Baxter (two arms and the head; grippers held) and
+bench_speed.py's chains (Panda, UR5) on a fixed base, and the chains, Solo12 and Talos on a
+free-floating base (Pinocchio's free-flyer root), Talos also whole (its grippers' mimic
+joints: our 32 independent joints against Pinocchio's 44).
 (The Pinocchio adapter, the rows and their timing are bench_speed.py's.)
 
     python bench/bench_trees.py            # writes the "trees" section of bench/BENCHMARKS.md
@@ -35,8 +36,13 @@ TALOS_TIPS = ["arm_left_7_link", "arm_right_7_link", "leg_left_6_link", "leg_rig
 FIXED = {"Talos (30 joints)": ("talos_data/robots/talos_full_v2.urdf", TALOS_TIPS),
          "Solo12": ("solo_description/robots/solo12.urdf", None),
          "Baxter (15 joints)": ("baxter_description/urdf/baxter.urdf",
-                                ["left_wrist", "right_wrist", "head"])}
-FLOATING = {"Solo12, floating": ("solo_description/robots/solo12.urdf", None),
+                                ["left_wrist", "right_wrist", "head"]),
+         # the chains of bench_speed.py, in the same run
+         "Panda (chain, 7 joints)": ("panda_description/urdf/panda.urdf", ["panda_link8"]),
+         "UR5 (chain)": ("ur_description/urdf/ur5_robot.urdf", ["tool0"])}
+FLOATING = {"Panda (chain), floating": ("panda_description/urdf/panda.urdf", ["panda_link8"]),
+            "UR5 (chain), floating": ("ur_description/urdf/ur5_robot.urdf", ["tool0"]),
+            "Solo12, floating": ("solo_description/robots/solo12.urdf", None),
             "Talos (30 joints), floating": ("talos_data/robots/talos_full_v2.urdf", TALOS_TIPS),
             "Talos (full: 32 joints, grippers' mimic joints), floating":
                 ("talos_data/robots/talos_full_v2.urdf", None)}

@@ -189,3 +189,24 @@ def test_a_mimic_chain_keeps_the_dense_factor(chain):
     robot, _ = chain
     assert robot._Gm[-1, 0] == 0.0
     np.testing.assert_array_equal(robot._v_parent, np.arange(robot.nv) - 1)
+
+
+def test_a_follower_that_couples_two_branches_makes_the_reduced_system_dense():
+    """joint2 (arm a) mimics b_joint2 (arm b): the reduced b_joint2 couples with a1 and b1,
+    which are on no one path, so the reduced M is no tree's: mimic_layout falls back to a
+    dense factor (SPARSE 0, parents k - 1) and the answers stay the reference's."""
+    from serial_dynamics.robots.synthetic import two_arm_urdf
+    xml = two_arm_urdf(3)
+    start = xml.index('<joint name="joint2"')
+    end = xml.index("</joint>", start)
+    robot = sd.load_urdf(xml[:end] + '<mimic joint="b_joint2" multiplier="0.5"/>' + xml[end:])
+    assert robot.dof == 5 and robot._Gm[-1, 0] == 0.0
+    np.testing.assert_array_equal(robot._v_parent, np.arange(5) - 1)
+    ref = sd.Robot(robot.model, backend="numpy")
+    q, qd = robot.random_state(np.random.default_rng(2), speed=1.0)
+    tau = np.linspace(-1, 1, 5)
+    M = robot.mass_matrix(q)
+    assert rel_err(M, ref.mass_matrix(q)) <= 1e-12
+    assert rel_err(robot.forward_dynamics(q, qd, tau), ref.forward_dynamics(q, qd, tau)) <= 1e-10
+    L, d = robot.mass_matrix_factor(q)
+    assert rel_err(L.T @ (d[:, None] * L), M) <= 1e-12

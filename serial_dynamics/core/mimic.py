@@ -12,7 +12,7 @@ between a gather (G x + o) and a sum (G^T y), with the maps in one array ``Gm`` 
 ``layout.WIDTH`` columns (``robot/mimic.py``'s ``mimic_layout``), one row per coordinate:
 
     Gm[j, QSRC], Gm[j, QMUL], Gm[j, QOFF]  q_all[j] = q[QSRC] QMUL + QOFF  (j < nq_all)
-    Gm[i, VSRC], Gm[i, VMUL]               x_all[i] = x[VSRC] VMUL + 0 for the rates
+    Gm[i, VSRC], Gm[i, VMUL], Gm[i, VOFF]  x_all[i] = x[VSRC] VMUL + VOFF (0.0) for the rates
                                            (i < nv_all)
     Gm[k, IW]                              the whole coordinate of reduced coordinate k
                                            (its independent joint; k < nv)
@@ -52,30 +52,21 @@ from .spatial import joint_transforms
 from .status import BAD_LENGTH, status
 from .tree import tree_crba_core, tree_rnea_core
 
-QSRC, QMUL, QOFF, VSRC, VMUL, IW, FW, FT, FM = 0, 1, 2, 3, 4, 5, 6, 7, 8
+QSRC, QMUL, QOFF, VSRC, VMUL, VOFF, IW, FW, FT, FM = 0, 1, 2, 3, 4, 5, 6, 7, 8, 9
 PI, PJ, PM, PSI, PSJ, PAIR = 0, 1, 2, 3, 4, 5
 SPARSE, NF, NPAIRS = 0, 1, 2
 
 
 @njit(cache=True, inline="always")
-def _gather_q(Gm, q, qa):
-    """q_all = G q + o; returns 0.0, or NaN for a NaN/Inf entry."""
+def _gather(Gm, x, xa, src, mul, off):
+    """xa = G x + o by the columns src, mul, off of Gm (q's: QSRC, QMUL, QOFF; the rates':
+    VSRC, VMUL, VOFF, whose offsets are 0.0 as the batch path's); returns 0.0, or NaN for
+    a NaN/Inf entry."""
     chk = 0.0
-    for j in range(qa.shape[0]):
-        x = q[int(Gm[j, QSRC])]
-        chk += x * 0.0
-        qa[j] = x * Gm[j, QMUL] + Gm[j, QOFF]
-    return chk
-
-
-@njit(cache=True, inline="always")
-def _gather_v(Gm, x, xa):
-    """x_all = G x (+ 0.0, as the batch path's offsets of the rates)."""
-    chk = 0.0
-    for i in range(xa.shape[0]):
-        v = x[int(Gm[i, VSRC])]
+    for j in range(xa.shape[0]):
+        v = x[int(Gm[j, src])]
         chk += v * 0.0
-        xa[i] = v * Gm[i, VMUL] + 0.0
+        xa[j] = v * Gm[j, mul] + Gm[j, off]
     return chk
 
 
@@ -217,21 +208,29 @@ def _whole_crba(P, d, M):
 # ------------------------------------------------------------------ entry points
 # q, qd, qdd, tau, out: the reduced system's (nq, nv); gw: a floating base's (core/floating.py:
 # gravity in the world), not read on a fixed base.
+@njit(cache=True, inline="always")
+def _whole_tau(P, Gm, d, q, qd, qdd, gw, flags, nq, nv, ta):
+    """tau_all at q_all = G q + o, qd_all = G qd, qdd_all = G qdd (flag QDD; else 0) into
+    ``ta``; leaves the joint transforms of q_all in d. Returns the inputs' check."""
+    qa, va, aa = stack_empty((nq,)), stack_empty((nv,)), stack_empty((nv,))
+    chk = _gather(Gm, q, qa, QSRC, QMUL, QOFF) + _gather(Gm, qd, va, VSRC, VMUL, VOFF)
+    if (flags & F.QDD) != 0:
+        chk += _gather(Gm, qdd, aa, VSRC, VMUL, VOFF)
+    else:
+        for i in range(nv):
+            aa[i] = 0.0
+    return chk + _whole_rnea(P, d, stack_empty((nv, 9)), qa, va, aa, gw, flags, ta)
+
+
 def mimic_rnea(P, Gm, q, qd, qdd, gw, flags, out):
-    """tau = G^T tau_all of one state into ``out``; flags QD, QDD (QD alone: b)."""
+    """tau = G^T tau_all of one state into ``out``; flags QD, QDD (QD alone: b; qdd unread).
+    A floating base's qdd_all without QDD is 0.0 as with it and qdd = 0: the same bits."""
     k = out.shape[0]
     nv, nq = _lengths(P, Gm, q, k)
     if nv < 0 or qd.shape[0] != k or qdd.shape[0] != k or gw.shape[0] != GW:
         return BAD_LENGTH
-    qa, va, aa, ta = stack_empty((nq,)), stack_empty((nv,)), stack_empty((nv,)), stack_empty((nv,))
-    chk = _gather_q(Gm, q, qa) + _gather_v(Gm, qd, va)
-    if (flags & F.QDD) != 0:
-        chk += _gather_v(Gm, qdd, aa)
-    else:
-        for i in range(nv):
-            aa[i] = 0.0
-    d = new_kin(nv)
-    chk += _whole_rnea(P, d, stack_empty((nv, 9)), qa, va, aa, gw, flags, ta)
+    ta = stack_empty((nv,))
+    chk = _whole_tau(P, Gm, new_kin(nv), q, qd, qdd, gw, flags, nq, nv, ta)
     reduce_vector(Gm, ta, out)
     return status(chk)
 
@@ -243,7 +242,7 @@ def mimic_crba(P, Gm, q, out):
     if nv < 0 or out.shape[1] != k:
         return BAD_LENGTH
     qa = stack_empty((nq,))
-    chk = _gather_q(Gm, q, qa)
+    chk = _gather(Gm, q, qa, QSRC, QMUL, QOFF)
     d = new_kin(nv)
     M = scratch((nv, nv), nv * nv)
     chk += _whole_transforms(P, d, qa, nv)
@@ -259,16 +258,8 @@ def mimic_fd(P, Gm, q, qd, tau, gw, flags, out):
     nv, nq = _lengths(P, Gm, q, k)
     if nv < 0 or qd.shape[0] != k or tau.shape[0] != k or gw.shape[0] != GW:
         return BAD_LENGTH
-    qa, va, aa, b = stack_empty((nq,)), stack_empty((nv,)), stack_empty((nv,)), stack_empty((nv,))
-    chk = _gather_q(Gm, q, qa) + _gather_v(Gm, qd, va)
-    floating = P[nv, ROOT] != 0.0
-    for i in range(nv):
-        aa[i] = 0.0
-    d = new_kin(nv)
-    # b_all as the kinds' bias_torques compute it: a floating base's at a = 0 (QD | QDD),
-    # a fixed base's with QD alone
-    chk += _whole_rnea(P, d, stack_empty((nv, 9)), qa, va, aa, gw,
-                       F.QD | F.QDD if floating else F.QD, b)
+    d, b = new_kin(nv), stack_empty((nv,))
+    chk = _whole_tau(P, Gm, d, q, qd, tau, gw, F.QD, nq, nv, b)    # b_all (tau: unread)
     M = scratch((nv, nv), nv * nv)
     _whole_crba(P, d, M)                 # on the joint transforms the Newton-Euler pass left
     for i in range(k):

@@ -29,8 +29,9 @@ from ..core import OK
 from ..core import flags as F
 from ..core.floating import GW
 from ..core.layout import PARENT, WIDTH
-from ..core.mimic import (FM, FT, FW, IW, NF, NPAIRS, PAIR, PI, PJ, PM, PSI, PSJ, QMUL, QOFF, QSRC, SPARSE, VMUL,
-                          VSRC, reduce_mass, reduce_matrix, reduce_vector, reduced_fd)
+from ..core.mimic import (FM, FT, FW, IW, NF, NPAIRS, PAIR, PI, PJ, PM, PSI, PSJ, QMUL,
+                          QOFF, QSRC, SPARSE, VMUL, VSRC, reduce_mass, reduce_matrix,
+                          reduce_vector, reduced_fd)
 from ..model.dissipation import Dissipation
 from . import derivatives, regressor
 from .wrenches import generalized_forces
@@ -84,9 +85,6 @@ class Mimic:
         self._mk = self._k if compiled else None
         self._Pk = (self._chain if model.floating else self._P) if compiled else None
         self._gwk = self._gw if model.floating else np.zeros(GW)
-        # b as each kind computes it: a floating base's at a = 0, a fixed base's with QD alone
-        self._bias_flags = F.QD | F.QDD if model.floating else F.QD
-        self._zero_v = np.zeros(self.nv)
 
     # ------------------------------------------------------------- description
     dof = property(lambda self: self._view.dof)
@@ -201,8 +199,7 @@ class Mimic:
                          - generalized_forces(self, q, wrenches))
         if self._mk is not None and wrench is None and base_motion is None:
             o = _empty(self.nv) if out is None else out
-            if self._mk.mimic_rnea(self._Pk, self._Gm, q, qd, self._zero_v, self._gwk,
-                                   self._bias_flags, o) == OK:
+            if self._mk.mimic_rnea(self._Pk, self._Gm, q, qd, qd, self._gwk, F.QD, o) == OK:
                 return o
         _, _, (q, qd) = self._all(("q", q), ("qd", qd))
         return _into(out, self._reduce(super().bias_torques(q, qd, wrench, base_motion)))

@@ -118,7 +118,7 @@ def articulated_bodies(P, sc, R, p, IA, pA, U, c, Du, Y, va, q, qd, tau, w, damp
         fx, fy, fz, mx, my, mz = w[0], w[1], w[2], w[3], w[4], w[5]
         chk += finite(fx) + finite(fy) + finite(fz) + finite(mx) + finite(my) + finite(mz)
         for i in range(n):               # base -> last body, along its path
-            if P[i, TIPPATH] != 0.0:
+            if not tree or P[i, TIPPATH] != 0.0:
                 fx, fy, fz = to_child(R, i, fx, fy, fz)
                 mx, my, mz = to_child(R, i, mx, my, mz)
         tpx, tpy, tpz = P[n, TIPP], P[n, TIPP + 1], P[n, TIPP + 2]

@@ -205,9 +205,6 @@ def _whole_crba(P, d, M):
         crba_core(P, d.R, d.p, M)
 
 
-# ------------------------------------------------------------------ entry points
-# q, qd, qdd, tau, out: the reduced system's (nq, nv); gw: a floating base's (core/floating.py:
-# gravity in the world), not read on a fixed base.
 @njit(cache=True, inline="always")
 def _whole_tau(P, Gm, d, q, qd, qdd, gw, flags, nq, nv, ta):
     """tau_all at q_all = G q + o, qd_all = G qd, qdd_all = G qdd (flag QDD; else 0) into
@@ -222,6 +219,9 @@ def _whole_tau(P, Gm, d, q, qd, qdd, gw, flags, nq, nv, ta):
     return chk + _whole_rnea(P, d, stack_empty((nv, 9)), qa, va, aa, gw, flags, ta)
 
 
+# ------------------------------------------------------------------ entry points
+# q, qd, qdd, tau, out: the reduced system's (nq, nv); gw: a floating base's (core/floating.py:
+# gravity in the world), not read on a fixed base.
 def mimic_rnea(P, Gm, q, qd, qdd, gw, flags, out):
     """tau = G^T tau_all of one state into ``out``; flags QD, QDD (QD alone: b; qdd unread).
     A floating base's qdd_all without QDD is 0.0 as with it and qdd = 0: the same bits."""

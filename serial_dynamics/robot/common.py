@@ -18,7 +18,8 @@ PARALLEL_MIN = 2048
 # 2026-11-24: ABA / Cholesky 1.25 at 6 joints, 1.03 at 18, 0.89 at 24, 0.61 at 40). A tree:
 # the sparse factor M = L^T D L costs sum_i d_i^2 for joint i at depth d_i (six more on a
 # floating base), so from a mean d_i^2 of TREE_CROSSOVER on (bench_trees.py's "method"
-# table, BENCHMARKS.md, 2026-11-28: ABA / sparse factor 1.07 at a mean of 116, 0.69 at 144).
+# table, BENCHMARKS.md, 2026-11-28, over four runs: ABA / sparse factor 1.01-1.17 at a
+# mean of 116 (the floating Talos), 0.60-0.75 at 144).
 FLOATING_CHAIN_CROSSOVER = 24
 TREE_CROSSOVER = 125.0
 

@@ -71,6 +71,7 @@ class Robot:
 
     is_planar = False        # a planar chain on the planar fast path (PlanarRobot)
     is_floating = False      # a free-floating base (FloatingRobot)
+    _fd_flags = _FD_FLAGS    # forward_dynamics(method=...): the kernels' flags
 
     def __new__(cls, model, *args, **kwargs):
         # Robot(model) builds the kind the model needs: kind_of(model), at the end of this
@@ -87,8 +88,7 @@ class Robot:
         self._backend = backend
         self._n, self._nn = model.dof, (model.dof, model.dof)
         # forward_dynamics(method="auto"): common.aba_by_default
-        self._fd_flags = _FD_FLAGS
-        self._fd_auto = self._fd_flags["aba" if aba_by_default(model, False) else "cholesky"]
+        self._fd_auto = _FD_FLAGS["aba" if aba_by_default(model, False) else "cholesky"]
         # the compiled kernels: K's for a chain, the tree table (core/tree.py) for a tree;
         # _compiled says that the chain kernels apply (the regressor, dT/dq, sim/); the
         # derivatives take the table (the chain's or the tree's)

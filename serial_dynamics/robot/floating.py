@@ -65,17 +65,16 @@ class Floating:
     """What a free-floating base overrides (``is_floating``); see the module docstring."""
 
     is_floating = True
+    _fd_flags = _FD_FLAGS
 
     def __init__(self, model, dissipation=None, backend=None, **kwargs):
         super().__init__(model, dissipation, backend, **kwargs)
         self._nq, self._nv = model.dof + 7, model.dof + 6
         self._nvnv = (self._nv, self._nv)
-        # the floating kernels of the table self._k (K, or the tree table whose forward
-        # dynamics is Cholesky: method="aba" on a tree runs the reference), on the
+        # the floating kernels of the table self._k (K, or the tree table), on the
         # instantaneous chain or tree
         self._compiled = self._k is not None
-        self._fd_flags = _FD_FLAGS
-        self._fd_auto = self._fd_flags["aba" if aba_by_default(model, True) else "cholesky"]
+        self._fd_auto = _FD_FLAGS["aba" if aba_by_default(model, True) else "cholesky"]
         self._chain = layout_pack(virtual_chain(model), root=6) if self._compiled else None
         self._gw = np.concatenate((np.zeros(6), model.gravity))   # core/floating.py's gw
 
@@ -187,11 +186,11 @@ class Floating:
             elif self._k.floating_fd(self._chain, q, qd, tau, *self._gw_single(wrench, flags), o) == OK:
                 return o
         _no_base_motion(base_motion)
-        if flags is None and method not in _FD_FLAGS:
+        if flags is None:
             raise ValueError(f"forward-dynamics method {method!r} unknown for a floating base; "
                              f"use one of {FD_METHODS}")
-        if not self._compiled or flags is None:               # flags None: "aba" on a tree
-            method = "aba" if flags is None or flags & F.ABA else "cholesky"
+        if not self._compiled:
+            method = "aba" if flags & F.ABA else "cholesky"
             return _into(out, fb.forward_dynamics(self.model, q, qd, tau, wrench, method))
         single, q, _, s = fb.as_batch(self.model, q, False, v=qd, tau=tau)
         N = q.shape[0]

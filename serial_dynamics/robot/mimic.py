@@ -80,10 +80,10 @@ class Mimic:
         # the compiled reduced system (core/mimic.py): the maps, the reduced tree; its
         # entry points run the whole model's kernels on P (a floating base's instantaneous
         # chain or tree)
-        self._Gm, self._parent_r = mimic_layout(model, self._src, self._m, self._o, bq, bv)
-        compiled = self._k is not None
-        self._mk = self._k if compiled else None
-        self._Pk = (self._chain if model.floating else self._P) if compiled else None
+        self._Gm, self._parent_r = mimic_layout(
+            model, self._q_map, self._v_map, self._ind, (self._fi, self._fk, self._fm),
+            self._v_parent_whole)
+        self._Pk = self._chain if model.floating else self._P
         self._gwk = self._gw if model.floating else np.zeros(GW)
 
     # ------------------------------------------------------------- description
@@ -185,9 +185,9 @@ class Mimic:
         if wrenches is not None:     # wrenches on links: - sum_k J_k^T w_k (robot/wrenches.py)
             return _into(out, self.inverse_dynamics(q, qd, qdd, wrench, base_motion)
                          - generalized_forces(self, q, wrenches))
-        if self._mk is not None and wrench is None and base_motion is None:   # one call
+        if self._k is not None and wrench is None and base_motion is None:   # one call
             o = _empty(self.nv) if out is None else out
-            if self._mk.mimic_rnea(self._Pk, self._Gm, q, qd, qdd, self._gwk, _QD_QDD, o) == OK:
+            if self._k.mimic_rnea(self._Pk, self._Gm, q, qd, qdd, self._gwk, _QD_QDD, o) == OK:
                 return o
         _, _, (q, qd, qdd) = self._all(("q", q), ("qd", qd), ("qdd", qdd))
         tau = super().inverse_dynamics(q, qd, qdd, wrench, base_motion)
@@ -197,9 +197,9 @@ class Mimic:
         if wrenches is not None:
             return _into(out, self.bias_torques(q, qd, wrench, base_motion)
                          - generalized_forces(self, q, wrenches))
-        if self._mk is not None and wrench is None and base_motion is None:
+        if self._k is not None and wrench is None and base_motion is None:
             o = _empty(self.nv) if out is None else out
-            if self._mk.mimic_rnea(self._Pk, self._Gm, q, qd, qd, self._gwk, F.QD, o) == OK:
+            if self._k.mimic_rnea(self._Pk, self._Gm, q, qd, qd, self._gwk, F.QD, o) == OK:
                 return o
         _, _, (q, qd) = self._all(("q", q), ("qd", qd))
         return _into(out, self._reduce(super().bias_torques(q, qd, wrench, base_motion)))
@@ -212,10 +212,14 @@ class Mimic:
     def _v_parent(self):            # G^T M G's zeros: the reduced tree (mimic_layout)
         return self._parent_r
 
+    @property
+    def _v_parent_whole(self):      # the whole model's M (the kind's own _v_parent)
+        return super()._v_parent
+
     def mass_matrix(self, q, out=None):
-        if self._mk is not None:
+        if self._k is not None:
             o = _empty((self.nv, self.nv)) if out is None else out
-            if self._mk.mimic_crba(self._Pk, self._Gm, q, o) == OK:
+            if self._k.mimic_crba(self._Pk, self._Gm, q, o) == OK:
                 return o
         _, _, (q,) = self._all(("q", q))
         return _into(out, self._reduce_mass(super().mass_matrix(q)))   # G^T M_all G
@@ -244,9 +248,9 @@ class Mimic:
         if method not in FD_METHODS:
             raise ValueError(f"forward-dynamics method {method!r} unknown; use one of "
                              f"{FD_METHODS}")
-        if self._mk is not None and wrench is None and base_motion is None:   # one call
+        if self._k is not None and wrench is None and base_motion is None:   # one call
             o = _empty(self.nv) if out is None else out
-            if self._mk.mimic_fd(self._Pk, self._Gm, q, qd, tau, self._gwk, 0, o) == OK:
+            if self._k.mimic_fd(self._Pk, self._Gm, q, qd, tau, self._gwk, 0, o) == OK:
                 return o
         single, (_, _, tau), (q, qd, _) = self._all(("q", q), ("qd", qd), ("tau", tau))
         M, b = super().mass_matrix(q), super().bias_torques(q, qd, wrench, base_motion)
@@ -256,7 +260,7 @@ class Mimic:
         return _into(out, o)
 
     def kernels(self, batch=False):
-        return super().kernels(batch) + (_MIMIC_KERNELS if self._mk is not None else ())
+        return super().kernels(batch) + (_MIMIC_KERNELS if self._k is not None else ())
 
     # ------------------------------------------------------------- kinematics, energy
     def forward_kinematics(self, q, link=None):
@@ -322,27 +326,22 @@ _empty = np.empty
 _MIMIC_KERNELS = ("mimic_rnea", "mimic_crba", "mimic_fd")
 
 
-def mimic_layout(model, src, m, o, bq, bv):
-    """(Gm, parent_r): core/mimic.py's maps of q_all = G q + o and x_all = G x over whole
-    states (``bq``, ``bv`` base coordinates first, each its own image), and the reduced
-    tree: parent_r[k], the parent of reduced coordinate k. G^T M G couples k and l when a
-    joint of k's and one of l's are on one path; where each coordinate's coupled lower ones
-    are its ancestors through parent_r, L^T D L on parent_r has no fill-in (SPARSE: a
-    tree's; a chain keeps dense Cholesky, and its bits). Else parent_r = k - 1 (dense)."""
-    n = model.dof
-    nq, nv = n + bq, n + bv
+def mimic_layout(model, q_map, v_map, ind, followers, whole):
+    """(Gm, parent_r): core/mimic.py's layout of the maps q_all = G q + o and x_all = G x over
+    whole states (``Mimic``'s: (src, m, o) of q and of the rates, the independent coordinates
+    ``ind``, the followers (whole coordinate, reduced one, multiplier)), and the reduced tree
+    from the whole model's parents ``whole``: parent_r[k], the parent of reduced coordinate
+    k. G^T M G couples k and l when a coordinate of k's and one of l's are on one path; where
+    each coordinate's coupled lower ones are its ancestors through parent_r, L^T D L on
+    parent_r has no fill-in (SPARSE: a tree's; a chain keeps dense Cholesky, and its bits).
+    Else parent_r = k - 1 (dense)."""
+    (qsrc, qmul, qoff), (vsrc, vmul, _), (fw, ft, fm) = q_map, v_map, followers
+    nq, nv, k, nf = qsrc.size, vsrc.size, ind.size, fw.size
     Gm = np.zeros((nq, WIDTH))
-    Gm[:bq, QSRC], Gm[:bq, QMUL] = np.arange(bq), 1.0
-    Gm[bq:nq, QSRC], Gm[bq:nq, QMUL], Gm[bq:nq, QOFF] = bq + src, m, o
-    # the reduced coordinate of each whole coordinate (v's), and whether it is independent
-    vsrc = np.r_[np.arange(bv), bv + np.asarray(src)].astype(np.int64)
-    Gm[:nv, VSRC], Gm[:nv, VMUL] = vsrc, np.r_[np.ones(bv), m]
-    k = bv + len(model.independent)
-    Gm[:k, IW] = np.r_[np.arange(bv), bv + model.independent]
-    fi = np.flatnonzero(model.mimic_leader >= 0)           # the followers, in joint order
-    Gm[:fi.size, FW], Gm[:fi.size, FT], Gm[:fi.size, FM] = bv + fi, vsrc[bv + fi], m[fi]
-    whole = (np.r_[np.arange(6) - 1, np.where(model.parent < 0, 5, model.parent + 6)]
-             if bv else np.asarray(model.parent))
+    Gm[:, QSRC], Gm[:, QMUL], Gm[:, QOFF] = qsrc, qmul, qoff
+    Gm[:nv, VSRC], Gm[:nv, VMUL] = vsrc, vmul
+    Gm[:k, IW] = ind
+    Gm[:nf, FW], Gm[:nf, FT], Gm[:nf, FM] = fw, ft, fm
     coupled = np.zeros((k, k), dtype=bool)        # whole coordinates on one path, reduced
     for i in range(nv):
         j = i
@@ -361,12 +360,14 @@ def mimic_layout(model, src, m, o, bq, bv):
     if not ok:
         parent_r = np.arange(k) - 1
     Gm[:k, PARENT] = parent_r
-    pairs, follows = [], np.r_[np.zeros(bv, bool), model.mimic_leader >= 0]
+    follows = np.zeros(nv, dtype=bool)
+    follows[fw] = True
+    pairs = []
     for i in range(nv if ok else 0):               # M's nonzeros with a follower: i and
         j = i                                      # its ancestors j
         while j >= 0:
             if follows[i] or follows[j]:
-                pairs.append((i, j, Gm[i, VMUL] * Gm[j, VMUL], vsrc[i], vsrc[j]))
+                pairs.append((i, j, vmul[i] * vmul[j], vsrc[i], vsrc[j]))
             j = whole[j]
     flat = np.zeros(-(-PAIR * len(pairs) // WIDTH) * WIDTH)    # packed, PAIR numbers each
     rows = flat[:PAIR * len(pairs)].reshape(-1, PAIR)
@@ -375,7 +376,7 @@ def mimic_layout(model, src, m, o, bq, bv):
         index[p, [PI, PJ, PSI, PSJ]] = i, j, si, sj
         rows[p, PM] = mm
     head = np.zeros((1, WIDTH))
-    head[0, [SPARSE, NF, NPAIRS]] = float(ok), fi.size, len(pairs)
+    head[0, [SPARSE, NF, NPAIRS]] = float(ok), nf, len(pairs)
     return np.vstack([Gm, flat.reshape(-1, WIDTH), head]), parent_r
 
 

@@ -16,28 +16,66 @@ from .layout import ARM, H, IO, KIND, MASS
 from .spatial import joint_transforms, rotation, to_parent
 
 
-def crba_core(P, R, p, M):
-    """M into ``M`` (n, n); R, p hold the joint transforms (``joint_transforms``)."""
+@njit(cache=True, inline="always")
+def joint_momentum(P, i, m, hx, hy, Ixz, Iyz, Izz):
+    """F = IC_i S_i, the momentum (n; f) of composite i moving with a unit rate of joint i,
+    and M_ii = S_i^T F + I_a,i (the armature), from the composite's m, h, I_O: 7 numbers."""
+    if P[i, KIND] == 0.0:       # unit spin about z: n = I_O e_z, f = e_z x h
+        return Ixz, Iyz, Izz, -hy, hx, 0.0, Izz + P[i, ARM]
+    return hy, -hx, 0.0, 0.0, 0.0, m, m + P[i, ARM]       # unit slide along z: n = h x e_z, f = m e_z
+
+
+@njit(cache=True, inline="always")
+def root_block_upper(m, hx, hy, hz, Ixx, Iyy, Izz, Ixy, Ixz, Iyz):
+    """The upper triangle, row by row (21 numbers), of M's 6 x 6 block of a free-flyer root,
+    v = [v_O, omega] (base frame): the composite inertia of the whole robot (m, h, I_O),
+    [m 1, -[h]x; [h]x, I_O] (Featherstone 2008, Sec. 9.2): f = m v_O + omega x h,
+    n = h x v_O + I_O omega."""
+    return (m, 0.0, 0.0, 0.0, hz, -hy,
+            m, 0.0, -hz, 0.0, hx,
+            m, hy, -hx, 0.0,
+            Ixx, Ixy, Ixz,
+            Iyy, Iyz,
+            Izz)
+
+
+@njit(cache=True, inline="always")
+def root_block(M, m, hx, hy, hz, Ixx, Iyy, Izz, Ixy, Ixz, Iyz):
+    """M[:6, :6] = the root block (``root_block_upper``)."""
+    u = root_block_upper(m, hx, hy, hz, Ixx, Iyy, Izz, Ixy, Ixz, Iyz)
+    k = 0
+    for r in range(6):
+        for c in range(r, 6):
+            M[r, c] = M[c, r] = u[k]
+            k += 1
+
+
+@njit(cache=True, inline="always")
+def composite_bodies(P, R, p, M, nb):
+    """M into ``M`` (n, n); R, p hold the joint transforms (``joint_transforms``). ``nb``, a
+    constant of the caller: 0 (``crba_core``), or 6: a floating base's virtual chain, its
+    first six bodies one free-flyer root joint (``floating_crba_core``): each joint's F
+    carried into the base frame is its column of M's root rows, the composite of the whole
+    robot M's root block (Featherstone 2008, Sec. 9.2)."""
     n = M.shape[0]
     k = n - 1
     m, hx, hy, hz = P[k, MASS], P[k, H], P[k, H + 1], P[k, H + 2]
     Ixx, Iyy, Izz, Ixy, Ixz, Iyz = (P[k, IO], P[k, IO + 1], P[k, IO + 2], P[k, IO + 3],
                                     P[k, IO + 4], P[k, IO + 5])
-    for i in range(n - 1, -1, -1):
+    for i in range(n - 1, nb - 1, -1):
         # F = IC_i S_i: the momentum of composite i.. moving with a unit joint rate
-        if P[i, KIND] == 0.0:       # unit spin about z: n = I_O e_z, f = e_z x h
-            nx, ny, nz, fx, fy, fz = Ixz, Iyz, Izz, -hy, hx, 0.0
-            M[i, i] = nz + P[i, ARM]                      # + the armature I_a,i
-        else:                       # unit slide along z: n = h x e_z, f = m e_z
-            nx, ny, nz, fx, fy, fz = hy, -hx, 0.0, 0.0, 0.0, m
-            M[i, i] = fz + P[i, ARM]
+        nx, ny, nz, fx, fy, fz, M[i, i] = joint_momentum(P, i, m, hx, hy, Ixz, Iyz, Izz)
         j = i
-        while j > 1:                # carry F into the parent frame: F = Xup_j^T F
+        while j > (nb if nb > 0 else 1):    # carry F into the parent frame: F = Xup_j^T F
             nx, ny, nz, fx, fy, fz = to_parent(R, p, j, nx, ny, nz, fx, fy, fz)
             j -= 1
             M[j, i] = nz if P[j, KIND] == 0.0 else fz     # M_ji = S_j^T F
             M[i, j] = M[j, i]
-        if i > 0:
+        if nb > 0:                  # into the base frame: M_root,i = F (v = [v_O, omega])
+            nx, ny, nz, fx, fy, fz = to_parent(R, p, nb, nx, ny, nz, fx, fy, fz)
+            M[0, i], M[1, i], M[2, i], M[3, i], M[4, i], M[5, i] = fx, fy, fz, nx, ny, nz
+            M[i, 0], M[i, 1], M[i, 2], M[i, 3], M[i, 4], M[i, 5] = fx, fy, fz, nx, ny, nz
+        elif i > 0:
             if j == 1:              # last step, into body 0: only S_0^T F is needed
                 if P[0, KIND] == 0.0:
                     gx = R[1, 0, 0] * fx + R[1, 0, 1] * fy + R[1, 0, 2] * fz
@@ -60,11 +98,24 @@ def crba_core(P, R, p, M):
                 else:
                     M[0, 0] = P[0, MASS] + m + P[0, ARM]
                 return
+        if i > 0:
             k = i - 1
             m, hx, hy, hz, Ixx, Iyy, Izz, Ixy, Ixz, Iyz = add_in_parent(
                 P[k, MASS], P[k, H], P[k, H + 1], P[k, H + 2], P[k, IO], P[k, IO + 1],
                 P[k, IO + 2], P[k, IO + 3], P[k, IO + 4], P[k, IO + 5], rotation(R, i),
                 p[i, 0], p[i, 1], p[i, 2], m, hx, hy, hz, Ixx, Iyy, Izz, Ixy, Ixz, Iyz)
+    if nb > 0:                      # composite nb-1: the whole robot, in the base frame
+        root_block(M, m, hx, hy, hz, Ixx, Iyy, Izz, Ixy, Ixz, Iyz)
+
+
+def crba_core(P, R, p, M):
+    """M into ``M`` (n, n) on a fixed base (``composite_bodies``)."""
+    composite_bodies(P, R, p, M, 0)
+
+
+def floating_crba_core(P, R, p, M):
+    """M into ``M`` (n, n) of a floating base's virtual chain (``composite_bodies``)."""
+    composite_bodies(P, R, p, M, 6)
 
 
 @njit(cache=True, inline="always")
@@ -94,6 +145,8 @@ def add_in_parent(bm, bhx, bhy, bhz, bxx, byy, bzz, bxy, bxz, byz, r, px, py, pz
 
 crba_inline = njit(cache=True, inline="always")(crba_core)   # into the single-state entry
 crba_core = internal(types.void(Pm, D3, D2, Out2))(crba_core)   # called by the others
+floating_crba_inline = njit(cache=True, inline="always")(floating_crba_core)
+floating_crba_core = internal(types.void(Pm, D3, D2, Out2))(floating_crba_core)
 
 
 # ------------------------------------------------------------------ entry points

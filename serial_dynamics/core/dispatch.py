@@ -35,15 +35,17 @@ from .status import BAD_LENGTH, NOT_CONVERGED, NOT_FINITE, OK, OTHER_TYPES   # n
 NUMBA_SUPPORTED = ">=0.59,<0.69"   # the numba releases the tests have run on (setup.py pins it)
 HOOK = "_compile_for_args"          # the dispatcher method the hook replaces
 
-FD_CALLS = ("aba_core", "rnea_core", "crba_core", "cholesky_solve", "cholesky_core", "fd_block")
+FD_CALLS = ("aba_core", "cholesky_solve", "cholesky_core", "floating_cholesky_core", "fd_block",
+            "floating_fd_block")
 
 ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core functions it calls)
     "rnea": (rnea.rnea, i8(Pm, Vec, Vec, Vec, i8, Vec), False, ()),
     "rnea_wrench": (rnea.rnea_wrench, i8(Pm, Vec, Vec, Vec, Vec, i8, Vec), False, ("rnea_core",)),
     "crba": (crba.crba, i8(Pm, Vec, Mat), False, ()),
     "fd": (forward.fd, i8(Pm, Vec, Vec, Vec, Vec, i8, Vec), False, FD_CALLS),
-    "rnea_batch": (rnea_lanes.rnea_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True, ("rnea_block",)),
-    "crba_batch": (crba_lanes.crba_batch, i8(Pm, In2, Out3), True, ("crba_block", "crba_core")),
+    "rnea_batch": (rnea_lanes.rnea_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True, ("rnea_block", "floating_rnea_block")),
+    "crba_batch": (crba_lanes.crba_batch, i8(Pm, In2, Out3), True, ("crba_block", "floating_crba_block",
+                                                                    "crba_core", "floating_crba_core")),
     "fd_batch": (forward.fd_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True, FD_CALLS),
     **planar.ENTRY_POINTS,   # the planar fast path (planar 3-vectors; Robot.is_planar),
     **planar_lanes.ENTRY_POINTS,   # and its batches

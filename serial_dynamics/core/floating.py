@@ -30,11 +30,11 @@ from numba import njit
 
 from . import flags as F
 from .aba import aba_core
-from .crba import crba_inline
-from .data import new_art, new_chol, new_kin
-from .forward import cholesky_core
+from .crba import floating_crba_inline
+from .data import new_art, new_chol, new_kin, stack_empty
+from .forward import floating_cholesky_core
 from .layout import W_ACC, W_ALL
-from .rnea import rnea_core
+from .rnea import floating_rnea_core
 from .signatures import In2, Mat, Out2, Pm, Vec, i8
 from .spatial import joint_transforms
 from .status import BAD_LENGTH, status
@@ -114,7 +114,8 @@ def fd_inputs(q, tau, gw, flags, qv, w, tv):
 @njit(cache=True, inline="always")
 def _rnea_one(P, d, qv, w, qddv, q, v, a, gw, flags, out):
     chk = rnea_inputs(q, v, a, gw, flags, qv, w, qddv)
-    chk += rnea_core(P, d.sc, d.R, d.p, d.f, qv, v, qddv, w, flags | F.BASE | F.QDD, out)
+    chk += floating_rnea_core(P, d.sc, d.R, d.p, d.f, qv, v, qddv, w, flags | F.BASE | F.QDD,
+                             out)
     return chk
 
 
@@ -125,8 +126,8 @@ def _fd_one(P, d, c, art, qv, w, tv, q, v, tau, gw, flags, out):
         chk += aba_core(P, d.sc, d.R, d.p, art.IA, art.pA, art.U, art.c, art.Du, art.Y,
                         qv, v, tv, w, tv, flags | F.BASE, out)
     else:
-        chk += cholesky_core(P, d.sc, d.R, d.p, d.f, c.M, c.b, qv, v, tv, w, tv, flags | F.BASE,
-                             out)
+        chk += floating_cholesky_core(P, d.sc, d.R, d.p, d.f, c.M, c.b, qv, v, tv, w, tv,
+                                      flags | F.BASE, out)
     _products(v, -1.0, out)
     return chk
 
@@ -138,7 +139,7 @@ def floating_rnea(P, q, v, a, gw, flags, out):
             or out.shape[0] != nv):
         return BAD_LENGTH
     d = new_kin(nv)
-    qv, w, qddv = np.empty(nv), np.empty(W_ALL), np.empty(nv)
+    qv, w, qddv = stack_empty((nv,)), stack_empty((W_ALL,)), stack_empty((nv,))
     return status(_rnea_one(P, d, qv, w, qddv, q, v, a, gw, flags, out))
 
 
@@ -150,7 +151,7 @@ def floating_fd(P, q, v, tau, gw, flags, out):
             or gw.shape[0] != GW or out.shape[0] != nv):
         return BAD_LENGTH
     d, c, art = new_kin(nv), new_chol(nv), new_art(nv)
-    qv, w, tv = np.empty(nv), np.empty(W_ALL), np.empty(nv)
+    qv, w, tv = stack_empty((nv,)), stack_empty((W_ALL,)), stack_empty((nv,))
     return status(_fd_one(P, d, c, art, qv, w, tv, q, v, tau, gw, flags | F.QD, out))
 
 
@@ -160,10 +161,12 @@ def floating_crba(P, q, out):
     if q.shape[0] != nv + 1 or out.shape[0] != nv or out.shape[1] != nv:
         return BAD_LENGTH
     d = new_kin(nv)
-    qv, w = np.empty(nv), np.empty(W_ALL)
-    chk = _chain_inputs(q, np.zeros(GW), 0, qv, w)
-    chk += joint_transforms(P, d.sc, d.R, d.p, qv, nv)
-    crba_inline(P, d.R, d.p, out)
+    qv, w, gw = stack_empty((nv,)), stack_empty((W_ALL,)), stack_empty((GW,))
+    for i in range(GW):
+        gw[i] = 0.0
+    chk = _chain_inputs(q, gw, 0, qv, w)
+    chk += joint_transforms(P, d.sc, d.R, d.p, qv, nv, 6)
+    floating_crba_inline(P, d.R, d.p, out)
     return status(chk)
 
 
@@ -196,9 +199,10 @@ def floating_accelerations(v, qdd):
     return 0
 
 
-_FD_CALLS = ("aba_core", "rnea_core", "crba_core", "cholesky_solve", "cholesky_core")
+_FD_CALLS = ("aba_core", "cholesky_solve", "floating_cholesky_core")
 ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core functions it calls)
-    "floating_rnea": (floating_rnea, i8(Pm, Vec, Vec, Vec, Vec, i8, Vec), False, ("rnea_core",)),
+    "floating_rnea": (floating_rnea, i8(Pm, Vec, Vec, Vec, Vec, i8, Vec), False,
+                      ("floating_rnea_core",)),
     "floating_fd": (floating_fd, i8(Pm, Vec, Vec, Vec, Vec, i8, Vec), False, _FD_CALLS),
     "floating_crba": (floating_crba, i8(Pm, Vec, Mat), False, ()),
     "floating_rows": (floating_rows, i8(In2, In2, In2, In2, i8, Out2, Out2, Out2), True, ()),

@@ -14,24 +14,33 @@ from numba import njit
 from . import flags as F
 from .aba import aba_core
 from .cholesky import cholesky_solve
-from .crba import crba_core
+from .crba import composite_bodies
 from .data import new_art, new_chol, new_kin, square_lanes_fit
-from .forward_lanes import fd_block
-from .layout import LANES, W_ALL, W_WRENCH
+from .forward_lanes import fd_block, floating_fd_block
+from .layout import LANES, ROOT, W_ALL, W_WRENCH
 from .signatures import D1, D2, D3, In1, Out1, Pm, f8, i8, internal
-from .rnea import rnea_core
+from .rnea import newton_euler
 from .status import BAD_LENGTH, NOT_FINITE, OK, status
 from .spatial import finite
 
 
-def cholesky_core(P, sc, R, p, f, M, b, q, qd, tau, w, damping, flags, out):
-    """qdd into ``out`` by the Cholesky route. Returns 0.0, or NaN on a NaN/Inf input."""
+@njit(cache=True, inline="always")
+def cholesky_route(P, sc, R, p, f, M, b, q, qd, tau, w, damping, flags, out, nb):
+    """qdd into ``out`` by the Cholesky route. Returns 0.0, or NaN on a NaN/Inf input.
+    ``nb``, a constant of the caller: 0, or 6 for a floating base's virtual chain, whose
+    recursions take its first six bodies as one free-flyer root (rnea.newton_euler,
+    crba.composite_bodies)."""
     n = out.shape[0]
-    chk = rnea_core(P, sc, R, p, f, q, qd, q, w, flags & (F.QD | F.WRENCH | F.BASE), b)   # b - J^T w
+    fl = flags & (F.QD | F.WRENCH | F.BASE)
+    chk = (newton_euler(P, sc, R, p, f, q, qd, q, w, fl, b, 0) if nb == 0 else
+           newton_euler(P, sc, R, p, f, q, qd, q, w, fl, b, 6))        # b - J^T w
     for i in range(n):
         chk += finite(tau[i])
         b[i] = tau[i] - b[i]
-    crba_core(P, R, p, M)                # R, p: the joint transforms of q, from rnea_core
+    if nb == 0:                          # R, p: the joint transforms of q, from newton_euler
+        composite_bodies(P, R, p, M, 0)
+    else:
+        composite_bodies(P, R, p, M, 6)
     if (flags & F.DAMPING) != 0:
         for i in range(n):
             M[i, i] += damping[i]
@@ -39,9 +48,22 @@ def cholesky_core(P, sc, R, p, f, M, b, q, qd, tau, w, damping, flags, out):
     return chk
 
 
+def cholesky_core(P, sc, R, p, f, M, b, q, qd, tau, w, damping, flags, out):
+    """``cholesky_route`` on a fixed base (a moving one with flag BASE)."""
+    return cholesky_route(P, sc, R, p, f, M, b, q, qd, tau, w, damping, flags, out, 0)
+
+
+def floating_cholesky_core(P, sc, R, p, f, M, b, q, qd, tau, w, damping, flags, out):
+    """``cholesky_route`` on a floating base's virtual chain (a free-flyer root)."""
+    return cholesky_route(P, sc, R, p, f, M, b, q, qd, tau, w, damping, flags, out, 6)
+
+
 cholesky_inline = njit(cache=True, inline="always")(cholesky_core)   # into the entry fd
 cholesky_core = internal(f8(Pm, D2, D3, D2, D2, D2, D1, In1, In1, In1, In1, In1, i8, Out1),
-                         calls=("rnea_core", "crba_core", "cholesky_solve"))(cholesky_core)
+                         calls=("cholesky_solve",))(cholesky_core)
+floating_cholesky_core = internal(
+    f8(Pm, D2, D3, D2, D2, D2, D1, In1, In1, In1, In1, In1, i8, Out1),
+    calls=("cholesky_solve",))(floating_cholesky_core)
 
 
 # ------------------------------------------------------------------ entry points
@@ -84,7 +106,10 @@ def fd_batch(P, q, qd, tau, w, flags, out):
     if not aba and square_lanes_fit(n, L):
         bad = OK
         for k0 in range(0, N, L):
-            bad |= fd_block(P, q, qd, tau, w, flags, out, k0)
+            if P[n, ROOT] != 0.0:        # a floating base's virtual chain: a free-flyer root
+                bad |= floating_fd_block(P, q, qd, tau, w, flags, out, k0)
+            else:
+                bad |= fd_block(P, q, qd, tau, w, flags, out, k0)
         return bad
     d, a, c = new_kin(n), new_art(n), new_chol(n)
     nq, nv, nt, nw = q.shape[0] > 1, qd.shape[0] > 1, tau.shape[0] > 1, w.shape[0] > 1
@@ -94,6 +119,9 @@ def fd_batch(P, q, qd, tau, w, flags, out):
         if aba:
             chk = aba_core(P, d.sc, d.R, d.p, a.IA, a.pA, a.U, a.c, a.Du, a.Y,
                            qk, qdk, tk, wk, tk, flags, out[k])
+        elif P[n, ROOT] != 0.0:
+            chk = floating_cholesky_core(P, d.sc, d.R, d.p, d.f, c.M, c.b, qk, qdk, tk, wk, tk,
+                                         flags, out[k])
         else:
             chk = cholesky_core(P, d.sc, d.R, d.p, d.f, c.M, c.b, qk, qdk, tk, wk, tk, flags, out[k])
         if chk != 0.0:

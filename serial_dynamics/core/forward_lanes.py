@@ -70,21 +70,23 @@ def fd_scratch(n, L):
 
 
 @njit(cache=True, inline="always")
-def fd_lanes_core(P, q, qd, tau, w, flags, k0, nl, QV, WB, TB, ST, RB, PB, FB, CB, MB, SB):
+def fd_lanes_core(P, q, qd, tau, w, flags, k0, nl, QV, WB, TB, ST, RB, PB, FB, CB, MB, SB,
+                  nb=0):
     """qdd of the samples k0 .. k0 + nl - 1 into TB (n, B), M's Cholesky factors left in MB
-    (``cholesky_lanes``' layout). Returns whether every input was finite."""
+    (``cholesky_lanes``' layout). Returns whether every input was finite. ``nb``: 6 for a
+    floating base's virtual chain (a free-flyer root; ``forward.cholesky_route``)."""
     n = P.shape[0] - 1
     # b - J^T w: Newton-Euler at qdd = 0
     small, fin = gather(P, q, qd, q, w, flags & (F.QD | F.WRENCH | F.BASE), QV, WB, k0, nl)
-    newton_euler_lanes(P, flags & (F.QD | F.WRENCH | F.BASE), QV, WB, RB, PB, FB, ST, TB, nl, small)
+    newton_euler_lanes(P, flags & (F.QD | F.WRENCH | F.BASE), QV, WB, RB, PB, FB, ST, TB, nl, small, nb)
     fin = tau_minus_bias(tau, TB, k0, nl, fin)
-    composite_lanes(P, RB, PB, CB, ST, MB, nl)   # M, on the transforms of q
+    composite_lanes(P, RB, PB, CB, ST, MB, nl, nb)   # M, on the transforms of q
     cholesky_lanes(n, MB, TB, SB, nl)            # x <- M^-1 (tau - b)
     return fin
 
 
-@internal(i8(Pm, In2, In2, In2, In2, i8, Out2, i8))
-def fd_block(P, q, qd, tau, w, flags, out, k0):
+@njit(cache=True, inline="always")
+def cholesky_block(P, q, qd, tau, w, flags, out, k0, nb):
     """qdd of the samples k0 .. k0 + B - 1 (fewer at the batch's end) into the same rows of
     ``out`` (flags as ``forward.fd``'s, without ABA). Returns 1 if one of them has a NaN/Inf
     input, else 0."""
@@ -93,7 +95,19 @@ def fd_block(P, q, qd, tau, w, flags, out, k0):
     nl = min(L, out.shape[0] - k0)
     QV, WB, TB, ST, RB, PB, FB, CB, SB = fd_scratch(n, L)
     MB = stack_empty((n * n, L))         # fd_batch calls this only where it fits
-    fin = fd_lanes_core(P, q, qd, tau, w, flags, k0, nl, QV, WB, TB, ST, RB, PB, FB, CB, MB, SB)
+    fin = fd_lanes_core(P, q, qd, tau, w, flags, k0, nl, QV, WB, TB, ST, RB, PB, FB, CB, MB, SB,
+                        nb)
     scatter(TB, out, k0, nl)
     return OK if fin else NOT_FINITE
 
+
+@internal(i8(Pm, In2, In2, In2, In2, i8, Out2, i8))
+def fd_block(P, q, qd, tau, w, flags, out, k0):
+    """``cholesky_block`` on a fixed base (``forward.cholesky_core`` in every lane)."""
+    return cholesky_block(P, q, qd, tau, w, flags, out, k0, 0)
+
+
+@internal(i8(Pm, In2, In2, In2, In2, i8, Out2, i8))
+def floating_fd_block(P, q, qd, tau, w, flags, out, k0):
+    """``cholesky_block`` with a free-flyer root (``forward.floating_cholesky_core``)."""
+    return cholesky_block(P, q, qd, tau, w, flags, out, k0, 6)

@@ -42,11 +42,11 @@ from numba import njit
 
 from . import flags as F
 from .cholesky import cholesky_factor, cholesky_solve_factored, ltdl_factor, ltdl_solve_factored
-from .crba import crba_core
+from .crba import crba_core, floating_crba_core
 from .data import new_kin, scratch, stack_empty
 from .floating import GW, _chain_inputs, rnea_inputs
 from .layout import ROOT, TREE, W_ALL
-from .rnea import rnea_core
+from .rnea import floating_rnea_core, rnea_core
 from .signatures import Mat, Pm, Vec, i8
 from .spatial import joint_transforms
 from .status import BAD_LENGTH, status
@@ -180,7 +180,8 @@ def _whole_rnea(P, d, mo, qa, va, aa, gw, flags, ta):
     if tree:
         return chk + tree_rnea_core(P, d.sc, d.R, d.p, d.f, mo, qv, va, qddv, w,
                                     flags | F.BASE | F.QDD, ta)
-    return chk + rnea_core(P, d.sc, d.R, d.p, d.f, qv, va, qddv, w, flags | F.BASE | F.QDD, ta)
+    return chk + floating_rnea_core(P, d.sc, d.R, d.p, d.f, qv, va, qddv, w,
+                                    flags | F.BASE | F.QDD, ta)
 
 
 @njit(cache=True, inline="always")
@@ -201,6 +202,8 @@ def _whole_crba(P, d, M):
     nv = M.shape[0]
     if P[nv, TREE] != 0.0:
         tree_crba_core(P, d.R, d.p, stack_empty((nv, 10)), M)
+    elif P[nv, ROOT] != 0.0:
+        floating_crba_core(P, d.R, d.p, M)
     else:
         crba_core(P, d.R, d.p, M)
 
@@ -271,7 +274,7 @@ def mimic_fd(P, Gm, q, qd, tau, gw, flags, out):
 reduced_fd_inline = njit(cache=True, inline="always")(reduced_fd)
 reduced_fd = njit(cache=True)(reduced_fd)        # the batch path's, state by state
 
-_CALLS = ("rnea_core", "tree_rnea_core", "crba_core", "tree_crba_core", "cholesky_factor",
+_CALLS = ("rnea_core", "floating_rnea_core", "tree_rnea_core", "crba_core", "floating_crba_core", "tree_crba_core", "cholesky_factor",
           "cholesky_solve_factored", "ltdl_factor", "ltdl_solve_factored")
 ENTRY_POINTS = {
     "mimic_rnea": (mimic_rnea, i8(Pm, Mat, Vec, Vec, Vec, Vec, i8, Vec), False, _CALLS),

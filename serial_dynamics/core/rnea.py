@@ -132,17 +132,43 @@ def inward_step(R, p, f, i, nx, ny, nz, fx, fy, fz):
     return nx + f[i, 0], ny + f[i, 1], nz + f[i, 2], fx + f[i, 3], fy + f[i, 4], fz + f[i, 5]
 
 
-def rnea_core(P, sc, R, p, f, q, qd, qdd, w, flags, tau):
-    """tau = M(q) qdd + b(q, qd) - J^T w into ``tau``; fills the Data arrays sc, R, p, f.
-    ``w``: the external inputs (layout.W_*): the tip wrench (flag WRENCH), the base motion
-    (flag BASE).
-    Returns 0.0, or NaN if an input has a NaN/Inf entry. Every operation is that of the lane-parallel
-    batch kernel (rnea_lanes.py) in the same order, so both give the same bits."""
+@njit(cache=True, inline="always")
+def free_flyer_motion(qd, qdd, base, flags):
+    """A free-flyer root joint's body motion (omega, alpha, acc) in its frame, 9 numbers: a
+    floating base's six coordinates (a virtual tree's first six, robot/floating.py) as one
+    joint (Featherstone 2008, Sec. 9.3). ``base``: base_state's start (acc = -g there);
+    qd[:6] = v = [v_O, omega] and qdd[:6] = dv/dt plus the velocity products
+    (core/floating.rnea_inputs), both in the base frame; the root adds the products of its
+    successive axes: alpha = qdd[3:6] + (wy wz, -wx wz, wx wy), acc = base acc + qdd[:3]."""
+    wx, wy, wz = (qd[3], qd[4], qd[5]) if (flags & F.QD) != 0 else (0.0, 0.0, 0.0)
+    a0, a1, a2, a3, a4, a5 = ((qdd[0], qdd[1], qdd[2], qdd[3], qdd[4], qdd[5])
+                              if (flags & F.QDD) != 0 else (0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
+    return (wx, wy, wz, a3 + wy * wz, a4 - wx * wz, a5 + wx * wy,
+            base[6] + a0, base[7] + a1, base[8] + a2)
+
+
+@njit(cache=True, inline="always")
+def newton_euler(P, sc, R, p, f, q, qd, qdd, w, flags, tau, nb):
+    """tau = M(q) qdd + b(q, qd) - J^T w of a chain into ``tau``; fills the Data arrays sc,
+    R, p, f. ``w``: the external inputs (layout.W_*): the tip wrench (flag WRENCH), the base
+    motion (flag BASE). ``nb``, a constant of the caller: 0 (``rnea_core``), or 6: a floating
+    base's six coordinates (its virtual chain's first bodies) as one free-flyer root joint
+    (``floating_rnea_core``; tau[:6] the base wrench [f; n]).
+    Returns 0.0, or NaN if an input has a NaN/Inf entry. Every operation is that of the
+    lane-parallel batch kernel (rnea_lanes.py) in the same order, so both give the same bits."""
     n = tau.shape[0]
     use_qdd, use_w = (flags & F.QDD) != 0, (flags & F.WRENCH) != 0
-    chk = joint_transforms(P, sc, R, p, q, n)
-    (wx, wy, wz, ax, ay, az, lx, ly, lz), (ex, ey, ez, mx, my, mz), chk = base_state(P, w, flags, n, chk)
-    for i in range(n):
+    chk = joint_transforms(P, sc, R, p, q, n, nb)
+    base, (ex, ey, ez, mx, my, mz), chk = base_state(P, w, flags, n, chk)
+    wx, wy, wz, ax, ay, az, lx, ly, lz = base
+    if nb > 0:                  # the free-flyer root: body nb-1's motion and wrench at once
+        for i in range(nb):
+            chk += joint_rates(qd, qdd, i, flags)[2]
+        wx, wy, wz, ax, ay, az, lx, ly, lz = free_flyer_motion(qd, qdd, base, flags)
+        k = nb - 1
+        f[k, 0], f[k, 1], f[k, 2], f[k, 3], f[k, 4], f[k, 5] = body_wrench(
+            P, k, wx, wy, wz, ax, ay, az, lx, ly, lz)
+    for i in range(nb, n):
         dq, ddq, c = joint_rates(qd, qdd, i, flags)
         chk += c
         wx, wy, wz, ax, ay, az, lx, ly, lz = outward_step(P, R, p, i, wx, wy, wz, ax, ay, az,
@@ -157,14 +183,29 @@ def rnea_core(P, sc, R, p, f, q, qd, qdd, w, flags, tau):
     nx, ny, nz, fx, fy, fz = tip_load(P, n, f[k, 0], f[k, 1], f[k, 2], f[k, 3], f[k, 4], f[k, 5],
                                       ex, ey, ez, mx, my, mz)
     tau[k] = (nz if P[k, KIND] == 0.0 else fz) + P[k, ARM] * (qdd[k] if use_qdd else 0.0)
-    for i in range(n - 2, -1, -1):
+    for i in range(n - 2, nb - 1, -1):
         nx, ny, nz, fx, fy, fz = inward_step(R, p, f, i, nx, ny, nz, fx, fy, fz)
         tau[i] = (nz if P[i, KIND] == 0.0 else fz) + P[i, ARM] * (qdd[i] if use_qdd else 0.0)
+    if nb > 0:                  # the free-flyer's generalized forces: the root's [f; n]
+        nx, ny, nz, fx, fy, fz = inward_step(R, p, f, nb - 1, nx, ny, nz, fx, fy, fz)
+        tau[0], tau[1], tau[2], tau[3], tau[4], tau[5] = fx, fy, fz, nx, ny, nz
     return chk
+
+
+def rnea_core(P, sc, R, p, f, q, qd, qdd, w, flags, tau):
+    """``newton_euler`` on a fixed base (a moving one with flag BASE)."""
+    return newton_euler(P, sc, R, p, f, q, qd, qdd, w, flags, tau, 0)
+
+
+def floating_rnea_core(P, sc, R, p, f, q, qd, qdd, w, flags, tau):
+    """``newton_euler`` with a free-flyer root (a floating base's virtual chain)."""
+    return newton_euler(P, sc, R, p, f, q, qd, qdd, w, flags, tau, 6)
 
 
 rnea_inline = njit(cache=True, inline="always")(rnea_core)   # into the single-state entries
 rnea_core = internal(f8(Pm, D2, D3, D2, D2, In1, In1, In1, In1, i8, Out1))(rnea_core)   # the others call it
+floating_rnea_core = internal(f8(Pm, D2, D3, D2, D2, In1, In1, In1, In1, i8, Out1))(
+    floating_rnea_core)
 
 
 # ------------------------------------------------------------------ entry points

@@ -16,8 +16,8 @@ from numba import njit
 
 from . import flags as F
 from .data import stack_empty
-from .layout import ARM, G, H, IO, KIND, LANES, MASS, TIPP, W_ACC, W_ALL, XP, XR
-from .rnea import w_length
+from .layout import ARM, G, H, IO, KIND, LANES, MASS, ROOT, TIPP, W_ACC, W_ALL, XP, XR
+from .rnea import body_wrench, free_flyer_motion, w_length
 from .status import NOT_FINITE, OK
 from .signatures import In2, Out2, Pm, i8, internal
 from .spatial import SMALL_ANGLE, sincos
@@ -94,8 +94,8 @@ def lane_transforms(P, i, QV, RB, PB, nl, small):
             PB[pi, b], PB[pi + 1, b], PB[pi + 2, b] = pp0 + qi * rp2, pp1 + qi * rp5, pp2 + qi * rp8
 
 
-@internal(i8(Pm, In2, In2, In2, In2, i8, Out2, i8))
-def rnea_block(P, q, qd, qdd, w, flags, out, k0):
+@njit(cache=True, inline="always")
+def lanes_block(P, q, qd, qdd, w, flags, out, k0, nb):
     """Inverse dynamics of the samples k0 .. k0 + B - 1 of the batch (fewer at its end), in
     lock step, into the same rows of ``out``. Returns 1 if one of them has a NaN/Inf
     input, else 0. The lanes' scratch is on this function's stack, shape (rows, B), each
@@ -111,9 +111,21 @@ def rnea_block(P, q, qd, qdd, w, flags, out, k0):
     nl = min(L, N - k0)
     QV, WB, TB, ST, RB, PB, FB = lanes_scratch(n, L)
     small, fin = gather(P, q, qd, qdd, w, flags, QV, WB, k0, nl)
-    newton_euler_lanes(P, flags, QV, WB, RB, PB, FB, ST, TB, nl, small)
+    newton_euler_lanes(P, flags, QV, WB, RB, PB, FB, ST, TB, nl, small, nb)
     scatter(TB, out, k0, nl)
     return OK if fin else NOT_FINITE
+
+
+@internal(i8(Pm, In2, In2, In2, In2, i8, Out2, i8))
+def rnea_block(P, q, qd, qdd, w, flags, out, k0):
+    """``lanes_block`` on a fixed base (``rnea.rnea_core`` in every lane)."""
+    return lanes_block(P, q, qd, qdd, w, flags, out, k0, 0)
+
+
+@internal(i8(Pm, In2, In2, In2, In2, i8, Out2, i8))
+def floating_rnea_block(P, q, qd, qdd, w, flags, out, k0):
+    """``lanes_block`` with a free-flyer root (``rnea.floating_rnea_core`` in every lane)."""
+    return lanes_block(P, q, qd, qdd, w, flags, out, k0, 6)
 
 
 @njit(cache=True, inline="always")
@@ -148,9 +160,10 @@ def tau_minus_bias(tau, TB, k0, nl, fin):
 
 
 @njit(cache=True, inline="always")
-def newton_euler_lanes(P, flags, QV, WB, RB, PB, FB, ST, TB, nl, small):
+def newton_euler_lanes(P, flags, QV, WB, RB, PB, FB, ST, TB, nl, small, nb):
     """The recursions of ``rnea_block`` on gathered lanes: the torques into TB (n, B),
-    the joint transforms left in RB, PB (scratch as there)."""
+    the joint transforms left in RB, PB (scratch as there); ``nb`` as ``rnea.newton_euler``'s
+    (6: a free-flyer root, the virtual joints' transforms not computed)."""
     n = P.shape[0] - 1
     use_w, use_base = (flags & F.WRENCH) != 0, (flags & F.BASE) != 0
     for k in range(15):          # omega = alpha = 0, a = -g; moving base: WB[6:15] - (0, 0, g)
@@ -160,7 +173,17 @@ def newton_euler_lanes(P, flags, QV, WB, RB, PB, FB, ST, TB, nl, small):
                 ST[k, b] = (WB[W_ACC + k - 6, b] - P[n, G + k - 6] if k >= 6 else WB[6 + k, b]) if use_base else v
             else:
                 ST[k, b] = WB[k - 9, b] if use_w else 0.0
-    for i in range(n):
+    if nb > 0:                           # the free-flyer root (rnea.free_flyer_motion)
+        fk = 6 * (nb - 1)
+        for b in range(nl):
+            wx, wy, wz, ax, ay, az, lx, ly, lz = free_flyer_motion(
+                QV[n:2 * n, b], QV[2 * n:3 * n, b], ST[:, b], F.QD | F.QDD)
+            ST[0, b], ST[1, b], ST[2, b], ST[3, b], ST[4, b], ST[5, b] = wx, wy, wz, ax, ay, az
+            ST[6, b], ST[7, b], ST[8, b] = lx, ly, lz
+            nx, ny, nz, fx, fy, fz = body_wrench(P, nb - 1, wx, wy, wz, ax, ay, az, lx, ly, lz)
+            FB[fk, b], FB[fk + 1, b], FB[fk + 2, b] = fx, fy, fz
+            FB[fk + 3, b], FB[fk + 4, b], FB[fk + 5, b] = nx, ny, nz
+    for i in range(nb, n):
         ri, pi, fi = 9 * i, 3 * i, 6 * i
         rev = P[i, KIND] == 0.0          # the same in every lane: selects, not branches
         lane_transforms(P, i, QV, RB, PB, nl, small)
@@ -231,23 +254,35 @@ def newton_euler_lanes(P, flags, QV, WB, RB, PB, FB, ST, TB, nl, small):
         mz = FB[fi + 5, b] - ST[14, b] - tpx * ST[10, b] + tpy * ST[9, b]
         ST[0, b], ST[1, b], ST[2, b], ST[3, b], ST[4, b], ST[5, b] = fx, fy, fz, mx, my, mz
         TB[n - 1, b] = (mz if rev else fz) + P[n - 1, ARM] * QV[3 * n - 1, b]   # S_i^T (n; f) + I_a qdd
-    for i in range(n - 2, -1, -1):
-        fi, rj, pj = 6 * i, 9 * (i + 1), 3 * (i + 1)
+    for i in range(n - 2, nb - 1, -1):
         rev = P[i, KIND] == 0.0
-        for b in range(nl):              # outboard force into body i: f = R f, m = R m + p x f
-            r0, r1, r2 = RB[rj, b], RB[rj + 1, b], RB[rj + 2, b]
-            r3, r4, r5 = RB[rj + 3, b], RB[rj + 4, b], RB[rj + 5, b]
-            r6, r7, r8 = RB[rj + 6, b], RB[rj + 7, b], RB[rj + 8, b]
-            px, py, pz = PB[pj, b], PB[pj + 1, b], PB[pj + 2, b]
-            fx, fy, fz = ST[0, b], ST[1, b], ST[2, b]
-            mx, my, mz = ST[3, b], ST[4, b], ST[5, b]
-            fx, fy, fz = r0 * fx + r1 * fy + r2 * fz, r3 * fx + r4 * fy + r5 * fz, r6 * fx + r7 * fy + r8 * fz
-            mx, my, mz = r0 * mx + r1 * my + r2 * mz, r3 * mx + r4 * my + r5 * mz, r6 * mx + r7 * my + r8 * mz
-            mx, my, mz = mx + py * fz - pz * fy, my + pz * fx - px * fz, mz + px * fy - py * fx
-            fx, fy, fz = fx + FB[fi, b], fy + FB[fi + 1, b], fz + FB[fi + 2, b]
-            mx, my, mz = mx + FB[fi + 3, b], my + FB[fi + 4, b], mz + FB[fi + 5, b]
+        for b in range(nl):
+            fx, fy, fz, mx, my, mz = carry_in(RB, PB, FB, ST, i, b)
             ST[0, b], ST[1, b], ST[2, b], ST[3, b], ST[4, b], ST[5, b] = fx, fy, fz, mx, my, mz
             TB[i, b] = (mz if rev else fz) + P[i, ARM] * QV[2 * n + i, b]
+    if nb > 0:                           # the free-flyer's generalized forces: the root's [f; n]
+        for b in range(nl):
+            TB[0, b], TB[1, b], TB[2, b], TB[3, b], TB[4, b], TB[5, b] = carry_in(
+                RB, PB, FB, ST, nb - 1, b)
+
+
+@njit(cache=True, inline="always")
+def carry_in(RB, PB, FB, ST, i, b):
+    """Lane b's joint wrench of body i (f; m): body i+1's (ST rows 0..5) carried into frame
+    i (f = R f, m = R m + p x f; ``spatial.to_parent``) plus body i's wrench (FB rows 6i..)."""
+    fi, rj, pj = 6 * i, 9 * (i + 1), 3 * (i + 1)
+    r0, r1, r2 = RB[rj, b], RB[rj + 1, b], RB[rj + 2, b]
+    r3, r4, r5 = RB[rj + 3, b], RB[rj + 4, b], RB[rj + 5, b]
+    r6, r7, r8 = RB[rj + 6, b], RB[rj + 7, b], RB[rj + 8, b]
+    px, py, pz = PB[pj, b], PB[pj + 1, b], PB[pj + 2, b]
+    fx, fy, fz = ST[0, b], ST[1, b], ST[2, b]
+    mx, my, mz = ST[3, b], ST[4, b], ST[5, b]
+    fx, fy, fz = r0 * fx + r1 * fy + r2 * fz, r3 * fx + r4 * fy + r5 * fz, r6 * fx + r7 * fy + r8 * fz
+    mx, my, mz = r0 * mx + r1 * my + r2 * mz, r3 * mx + r4 * my + r5 * mz, r6 * mx + r7 * my + r8 * mz
+    mx, my, mz = mx + py * fz - pz * fy, my + pz * fx - px * fz, mz + px * fy - py * fx
+    fx, fy, fz = fx + FB[fi, b], fy + FB[fi + 1, b], fz + FB[fi + 2, b]
+    mx, my, mz = mx + FB[fi + 3, b], my + FB[fi + 4, b], mz + FB[fi + 5, b]
+    return fx, fy, fz, mx, my, mz
 
 
 # ------------------------------------------------------------------ entry point
@@ -256,6 +291,10 @@ def rnea_batch(P, q, qd, qdd, w, flags, out):
     (1, 6), with flag BASE (N or 1, W_ALL) (layout.W_*). Blocks of B samples run in lanes (the last one with the samples left). Returns
     0, or 1 if some input had a NaN/Inf (its rows are then not meaningful)."""
     bad = OK
-    for k0 in range(0, out.shape[0], int(P[P.shape[0] - 1, LANES])):
-        bad |= rnea_block(P, q, qd, qdd, w, flags, out, k0)
+    n = P.shape[0] - 1
+    for k0 in range(0, out.shape[0], int(P[n, LANES])):
+        if P[n, ROOT] != 0.0:            # a floating base's virtual chain: a free-flyer root
+            bad |= floating_rnea_block(P, q, qd, qdd, w, flags, out, k0)
+        else:
+            bad |= rnea_block(P, q, qd, qdd, w, flags, out, k0)
     return bad

@@ -57,18 +57,19 @@ def sincos(x):
 
 
 @internal
-def joint_transforms(P, sc, R, p, q, n):
+def joint_transforms(P, sc, R, p, q, n, first=0):
     """R_i = Xtree_R Rz(q_i) (revolute) or Xtree_R (prismatic) and p_i = Xtree_p
     (+ q_i Xtree_R e_z): body i in body i-1, into R, p; sin q, cos q into sc (2, n)
-    (Featherstone 2008, Sec. 4.2). Returns 0.0, or NaN when some q_i is NaN or Inf
-    (x * 0.0 is NaN iff x is)."""
+    (Featherstone 2008, Sec. 4.2), for i = first .. n-1 (6: past a free-flyer root's virtual
+    joints, whose transforms its recursions do not read). Returns 0.0, or NaN when some
+    q_i is NaN or Inf (x * 0.0 is NaN iff x is)."""
     small = True
-    for i in range(n):
+    for i in range(first, n):
         small &= abs(q[i]) < SMALL_ANGLE
     chk = 0.0
     if small:                            # 8 at a time in loops of their own, so that they
         x, z = stack_empty((8,)), stack_empty((2, 8))   # vectorize (a loop of n < 8 would not)
-        for i0 in range(0, n, 8):
+        for i0 in range(first, n, 8):
             for j in range(8):
                 x[j] = q[i0 + j] if i0 + j < n else 0.0
             for j in range(8):
@@ -76,10 +77,10 @@ def joint_transforms(P, sc, R, p, q, n):
             for j in range(min(8, n - i0)):
                 sc[0, i0 + j], sc[1, i0 + j] = z[0, j], z[1, j]
     else:                                # huge, NaN or Inf angles: libm's argument reduction
-        for i in range(n):
+        for i in range(first, n):
             chk += q[i] * 0.0
             sc[0, i], sc[1, i] = math.sin(q[i]), math.cos(q[i])
-    for i in range(n):
+    for i in range(first, n):
         if P[i, KIND] == 0.0:
             s, c = sc[0, i], sc[1, i]
             for r in range(3):

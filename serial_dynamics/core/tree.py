@@ -17,12 +17,12 @@ from numba import types
 from . import flags as F
 from .aba import tree_aba_core
 from .cholesky import ltdl_factor, ltdl_solve_factored
-from .crba import add_in_parent
+from .crba import add_in_parent, joint_momentum, root_block
 from .floating import GW, _chain_inputs, _products, fd_inputs, rnea_inputs
 from .data import new_art, new_chol, new_kin, scratch, square_lanes_fit, stack_empty
 from .energy import axis_gradient, body_momentum, body_velocity
 from .layout import ARM, H, IO, KIND, LANES, MASS, PARENT, ROOT, TIPPATH, W_ALL, W_WRENCH
-from .rnea import base_state, body_wrench, joint_rates, outward_step, tip_load
+from .rnea import base_state, body_wrench, free_flyer_motion, joint_rates, outward_step, tip_load
 from .signatures import D2, D3, In1, In2, Mat, Out1, Out2, Out3, Pm, Vec, f8, i8, internal
 from .spatial import finite, joint_transforms, rotation, to_child, to_parent
 from .status import BAD_LENGTH, NOT_FINITE, OK, status
@@ -34,23 +34,16 @@ def tree_rnea_core(P, sc, R, p, f, mo, q, qd, qdd, w, flags, tau):
     f and mo (each body's omega, alpha, acc). Returns 0.0, or NaN on a NaN/Inf input."""
     n = tau.shape[0]
     use_qdd, use_w = (flags & F.QDD) != 0, (flags & F.WRENCH) != 0
-    chk = joint_transforms(P, sc, R, p, q, n)
-    base, (ex, ey, ez, mx, my, mz), chk = base_state(P, w, flags, n, chk)
     nb = int(P[n, ROOT])
+    chk = joint_transforms(P, sc, R, p, q, n, nb)
+    base, (ex, ey, ez, mx, my, mz), chk = base_state(P, w, flags, n, chk)
     if nb > 0:
         # a floating base (the virtual tree's six coordinates, P[n, ROOT] = 6) as one free-
-        # flyer joint: the base body's motion at once, what its six single-axis joints give
-        # from a base at rest (their frames share the origin, their axes the base's):
-        # omega = qd[3:6], alpha = qdd[3:6] + the products of the successive axes
-        # (wy wz, -wx wz, wx wy), acc = base acc + qdd[:3] (Featherstone 2008, Sec. 9.3)
+        # flyer joint: the base body's motion at once (rnea.free_flyer_motion)
         k = nb - 1
         for i in range(nb):
             chk += joint_rates(qd, qdd, i, flags)[2]
-        wx, wy, wz = (qd[3], qd[4], qd[5]) if (flags & F.QD) != 0 else (0.0, 0.0, 0.0)
-        a0, a1, a2, a3, a4, a5 = ((qdd[0], qdd[1], qdd[2], qdd[3], qdd[4], qdd[5]) if use_qdd
-                                  else (0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
-        ax, ay, az = a3 + wy * wz, a4 - wx * wz, a5 + wx * wy
-        lx, ly, lz = base[6] + a0, base[7] + a1, base[8] + a2
+        wx, wy, wz, ax, ay, az, lx, ly, lz = free_flyer_motion(qd, qdd, base, flags)
         mo[k, 0], mo[k, 1], mo[k, 2], mo[k, 3], mo[k, 4] = wx, wy, wz, ax, ay
         mo[k, 5], mo[k, 6], mo[k, 7], mo[k, 8] = az, lx, ly, lz
         f[k, 0], f[k, 1], f[k, 2], f[k, 3], f[k, 4], f[k, 5] = body_wrench(
@@ -113,12 +106,7 @@ def tree_crba_core(P, R, p, IC, M):
         m, hx, hy, hz = IC[i, 0], IC[i, 1], IC[i, 2], IC[i, 3]
         Ixx, Iyy, Izz, Ixy, Ixz, Iyz = IC[i, 4], IC[i, 5], IC[i, 6], IC[i, 7], IC[i, 8], IC[i, 9]
         # F = IC_i S_i; M_ii = S_i^T F + I_a,i
-        if P[i, KIND] == 0.0:       # unit spin about z: n = I_O e_z, f = e_z x h
-            nx, ny, nz, fx, fy, fz = Ixz, Iyz, Izz, -hy, hx, 0.0
-            M[i, i] = nz + P[i, ARM]
-        else:                       # unit slide along z: n = h x e_z, f = m e_z
-            nx, ny, nz, fx, fy, fz = hy, -hx, 0.0, 0.0, 0.0, m
-            M[i, i] = fz + P[i, ARM]
+        nx, ny, nz, fx, fy, fz, M[i, i] = joint_momentum(P, i, m, hx, hy, Ixz, Iyz, Izz)
         j = i
         while P[j, PARENT] >= nb:   # up the ancestors: F = Xup_j^T F, M_ji = S_j^T F
             nx, ny, nz, fx, fy, fz = to_parent(R, p, j, nx, ny, nz, fx, fy, fz)
@@ -138,16 +126,8 @@ def tree_crba_core(P, R, p, IC, M):
                 m, hx, hy, hz, Ixx, Iyy, Izz, Ixy, Ixz, Iyz)
     if nb > 0:                      # the root's block: IC of everything, in the base frame
         r = nb - 1
-        m, hx, hy, hz = IC[r, 0], IC[r, 1], IC[r, 2], IC[r, 3]
-        M[0, 0] = M[1, 1] = M[2, 2] = m                           # f = m v_O
-        M[1, 5], M[2, 4], M[0, 5], M[2, 3], M[0, 4], M[1, 3] = hx, -hx, -hy, hy, hz, -hz
-        for a in range(3):                                        # f = omega x h, n = h x v_O
-            for c in range(3, 6):
-                M[c, a] = M[a, c]
-        M[3, 3], M[4, 4], M[5, 5] = IC[r, 4], IC[r, 5], IC[r, 6]  # n = I_O omega
-        M[3, 4] = M[4, 3] = IC[r, 7]
-        M[3, 5] = M[5, 3] = IC[r, 8]
-        M[4, 5] = M[5, 4] = IC[r, 9]
+        root_block(M, IC[r, 0], IC[r, 1], IC[r, 2], IC[r, 3], IC[r, 4], IC[r, 5], IC[r, 6],
+                   IC[r, 7], IC[r, 8], IC[r, 9])
 
 
 tree_crba_core = internal(types.void(Pm, D3, D2, D2, Out2))(tree_crba_core)
@@ -363,7 +343,7 @@ def floating_tree_crba(P, q, out):
     for i in range(GW):
         gw[i] = 0.0
     chk = _chain_inputs(q, gw, 0, qv, w)
-    chk += joint_transforms(P, d.sc, d.R, d.p, qv, nv)
+    chk += joint_transforms(P, d.sc, d.R, d.p, qv, nv, 6)
     tree_crba_core(P, d.R, d.p, stack_empty((nv, 10)), out)
     return status(chk)
 

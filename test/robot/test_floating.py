@@ -95,18 +95,21 @@ def test_the_floating_robot_is_a_free_flyer(chain):
 
 def test_batches_give_the_single_results():
     robot, _ = load("ur5e")
-    q, v = robot.random_state(3, batch=5)
-    a = np.random.default_rng(4).normal(size=(5, robot.nv))
+    q, v = robot.random_state(3, batch=37)     # more than one SIMD block, and a short tail
+    a = np.random.default_rng(4).normal(size=(37, robot.nv))
     tau = robot.inverse_dynamics(q, v, a)
     M = robot.mass_matrix(q)
-    for k in range(5):
+    w = np.array([1.0, -2.0, 3.0, 0.1, 0.2, -0.3])
+    tau_w = robot.inverse_dynamics(q, v, a, wrench=w)
+    for k in range(37):
         np.testing.assert_array_equal(tau[k], robot.inverse_dynamics(q[k], v[k], a[k]))
+        np.testing.assert_array_equal(tau_w[k], robot.inverse_dynamics(q[k], v[k], a[k], wrench=w))
         np.testing.assert_array_equal(M[k], robot.mass_matrix(q[k]))
     np.testing.assert_allclose(robot.forward_dynamics(q, v, tau), a, rtol=0, atol=1e-9)
     w = np.array([1.0, -2.0, 3.0, 0.1, 0.2, -0.3])
     for method in ("aba", "cholesky"):                   # same bits alone or in a batch
         A = robot.forward_dynamics(q, v, tau[:, 6:], wrench=w, method=method)
-        for k in range(5):
+        for k in range(37):
             np.testing.assert_array_equal(
                 A[k], robot.forward_dynamics(q[k], v[k], tau[k, 6:], wrench=w, method=method))
 
@@ -231,6 +234,34 @@ def test_the_compiled_backend_is_the_reference():
                        ref.forward_dynamics(q[0], v[0], tau[0], method="cholesky")),
                       (robot.kinetic_energy(q, v), ref.kinetic_energy(q, v))):
         assert rel_err(got, want) <= 1e-12
+
+
+@pytest.mark.parametrize("n", [6, 41])
+def test_the_free_flyer_root_is_the_references_root_alone_and_in_batches(n):
+    """The compiled recursions take a floating chain's six base coordinates as one free-flyer
+    joint (core/rnea.py, crba.py, forward.py and their lanes); 41 joints (47 coordinates)
+    are too many for the lanes' stack, and those batches run state by state: either way
+    each row is bitwise its single call, and both agree with the reference's 6-DoF root."""
+    from serial_dynamics.robots.synthetic import chain_urdf
+    base = ('<link name="base_link"><inertial><mass value="10"/><inertia ixx="0.2" iyy="0.3" '
+            'izz="0.25" ixy="0" ixz="0" iyz="0"/></inertial></link>')
+    robot = sd.load_urdf(chain_urdf(n).replace('<link name="base_link"/>', base),
+                         floating_base=True)
+    ref = sd.Robot(robot.model, backend="numpy")
+    q, v = robot.random_state(5, batch=35, speed=2.0)
+    rng = np.random.default_rng(6)
+    a, w = rng.normal(size=(35, robot.nv)), rng.normal(size=6)
+    tau = robot.inverse_dynamics(q, v, a, w)
+    M = robot.mass_matrix(q)
+    qdd = robot.forward_dynamics(q, v, tau, w, method="cholesky")
+    assert rel_err(tau, ref.inverse_dynamics(q, v, a, w)) <= 1e-12
+    assert rel_err(M, ref.mass_matrix(q)) <= 1e-12
+    assert rel_err(qdd, a) <= 1e-9
+    for k in (0, 31, 32, 34):                      # first, last of a block, next block, tail
+        assert tau[k].tobytes() == robot.inverse_dynamics(q[k], v[k], a[k], w).tobytes()
+        assert M[k].tobytes() == robot.mass_matrix(q[k]).tobytes()
+        assert qdd[k].tobytes() == robot.forward_dynamics(q[k], v[k], tau[k], w,
+                                                          method="cholesky").tobytes()
 
 
 def test_armature_payload_and_warmup_as_for_a_fixed_base():

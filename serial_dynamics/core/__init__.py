@@ -14,7 +14,7 @@
     dispatch.py   ENTRY_POINTS, K (built on first use), the numba hook, NUMBA_SUPPORTED
     planar.py     Newton-Euler and composite bodies of a planar chain in planar 3-vectors
     planar_lanes.py  the same, B samples in SIMD lanes
-    floating.py   a free-floating base on the instantaneous chain (six virtual joints)
+    floating.py   a free-floating base on the instantaneous chain (six virtual joints, one free-flyer root)
     tree.py       kinematic trees on the parent array   tree_lanes.py  their batches in lanes
     tree_derivatives.py  the derivatives on trees
     mimic.py      mimic joints: the reduced system of one state in one call

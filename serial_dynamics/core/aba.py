@@ -15,11 +15,14 @@ on the parent array l = lambda(i) (``P[i, PARENT]``; i - 1 in a chain), so one k
 chains and trees, as Featherstone writes it (Table 7.1 is for trees). On a tree each body's
 velocity (pass 1), then its acceleration (pass 3), is kept in ``va`` for its children; a
 chain carries its parent's in registers, and its parent's rows are known to be others than
-its own. One source, two kernels: ``aba_core`` (a chain) and ``tree_aba_core`` (a tree,
+its own. One source, four kernels: ``aba_core`` (a chain) and ``tree_aba_core`` (a tree,
 with ``va`` from its caller; run on a chain it gives the same bits, ~20 % slower, measured
-2026-11-28). A floating
-base's virtual tree (``P[n, ROOT]`` = 6) is six ordinary joints here: its velocity products
-are the caller's (core/floating.py).
+2026-11-28), and their ``floating_`` twins for a floating base's virtual chain or tree
+(``P[n, ROOT]`` = 6), whose first six bodies are one free-flyer root joint: FDfb
+(Featherstone 2008, Table 9.6): the root body starts pass 1 with v = (omega; v_O), pass 2
+ends in its 6 x 6 articulated inertia, IA_0 a_0 = f_0 - pA_0 gives its acceleration, pass 3
+starts from it; the six virtual joints' rates are returned with the velocity products that
+the caller removes (core/floating.py).
 
 The armature adds to D_i = S_i^T IA_i S_i + I_a,i (as it adds to M_ii); with the DAMPING flag,
 D_i += damping_i: (M + diag(damping)) qdd = tau - b. A base with known motion (flag BASE)
@@ -33,6 +36,7 @@ from .layout import ARM, G, H, IO, KIND, MASS, PARENT, TIPP, TIPPATH, W_ACC, W_A
 from numba import njit
 
 from .signatures import D2, D3, In1, Out1, Pm, f8, i8, internal
+from .cholesky import cholesky_factor, cholesky_solve_factored
 from .spatial import finite, joint_transforms, to_child, to_parent
 
 @internal
@@ -49,13 +53,50 @@ def rot_block(R, i, X, a0, b0, Y):
             Y[a, b] = s
 
 @njit(cache=True, inline="always")
+def rigid_body(P, i, I6, pA, wx, wy, wz, ux, uy, uz):
+    """Pass 1's start of body i moving with (omega; v_O) = (w*; u*): IA_i = I_i into I6 and
+    pA_i = v x* I_i v into pA[i]."""
+    # IA_i = I_i = [[I_O, [h]x], [[h]x^T, m 1]]  (Featherstone 2008, eq. 2.63)
+    m = P[i, MASS]
+    hx, hy, hz = P[i, H], P[i, H + 1], P[i, H + 2]
+    Ixx, Iyy, Izz, Ixy, Ixz, Iyz = (P[i, IO], P[i, IO + 1], P[i, IO + 2], P[i, IO + 3],
+                                    P[i, IO + 4], P[i, IO + 5])
+    I6[0, 0], I6[0, 1], I6[0, 2] = Ixx, Ixy, Ixz
+    I6[1, 0], I6[1, 1], I6[1, 2] = Ixy, Iyy, Iyz
+    I6[2, 0], I6[2, 1], I6[2, 2] = Ixz, Iyz, Izz
+    I6[0, 3], I6[0, 4], I6[0, 5] = 0.0, -hz, hy
+    I6[1, 3], I6[1, 4], I6[1, 5] = hz, 0.0, -hx
+    I6[2, 3], I6[2, 4], I6[2, 5] = -hy, hx, 0.0
+    for a in range(3):
+        for b in range(3):
+            I6[3 + a, b] = I6[b, 3 + a]
+            I6[3 + a, 3 + b] = m if a == b else 0.0
+    # pA = v x* (I v): momentum L = I_O omega + h x v_O, Pm = m v_O + omega x h;
+    # (omega, v_O) x* (L, Pm) = (omega x L + v_O x Pm, omega x Pm)
+    Lx = Ixx * wx + Ixy * wy + Ixz * wz + hy * uz - hz * uy
+    Ly = Ixy * wx + Iyy * wy + Iyz * wz + hz * ux - hx * uz
+    Lz = Ixz * wx + Iyz * wy + Izz * wz + hx * uy - hy * ux
+    Px = m * ux + wy * hz - wz * hy
+    Py = m * uy + wz * hx - wx * hz
+    Pz = m * uz + wx * hy - wy * hx
+    pA[i, 0] = wy * Lz - wz * Ly + uy * Pz - uz * Py
+    pA[i, 1] = wz * Lx - wx * Lz + uz * Px - ux * Pz
+    pA[i, 2] = wx * Ly - wy * Lx + ux * Py - uy * Px
+    pA[i, 3] = wy * Pz - wz * Py
+    pA[i, 4] = wz * Px - wx * Pz
+    pA[i, 5] = wx * Py - wy * Px
+
+
+@njit(cache=True, inline="always")
 def articulated_bodies(P, sc, R, p, IA, pA, U, c, Du, Y, va, q, qd, tau, w, damping, flags,
-                       out, tree):
-    """qdd into ``out``. Returns 0.0, or NaN if an input has a NaN/Inf entry. ``tree``, a
-    constant of the caller (aba_core, tree_aba_core): read lambda(i) (else i - 1)."""
+                       out, tree, nb):
+    """qdd into ``out``. Returns 0.0, or NaN if an input has a NaN/Inf entry. ``tree`` and
+    ``nb``, constants of the caller (aba_core, tree_aba_core and their floating_ twins): read
+    lambda(i) (else i - 1); 6: a floating base's virtual chain or tree, whose first six
+    bodies are one free-flyer root joint (FDfb)."""
     n = out.shape[0]
     use_qd = (flags & F.QD) != 0
-    chk = joint_transforms(P, sc, R, p, q, n)
+    chk = joint_transforms(P, sc, R, p, q, n, nb)
     # --- pass 1, outward: velocities, velocity-product accelerations c, bias forces pA
     vx = vy = vz = ux = uy = uz = 0.0    # (omega; v_O) of the parent: the base's at first
     use_base = (flags & F.BASE) != 0
@@ -63,7 +104,16 @@ def articulated_bodies(P, sc, R, p, IA, pA, U, c, Du, Y, va, q, qd, tau, w, damp
         vx, vy, vz = w[W_OMEGA], w[W_OMEGA + 1], w[W_OMEGA + 2]
         chk += finite(vx) + finite(vy) + finite(vz)
     bx, by, bz = vx, vy, vz
-    for i in range(n):
+    if nb > 0:                           # FDfb (Featherstone 2008, Table 9.6): the root body
+        k = nb - 1                       # moves with v = (omega; v_O) = (qd[3:6]; qd[:3])
+        for i in range(nb):
+            chk += finite(qd[i] if use_qd else 0.0) + finite(tau[i])
+        vx, vy, vz = (qd[3], qd[4], qd[5]) if use_qd else (0.0, 0.0, 0.0)
+        ux, uy, uz = (qd[0], qd[1], qd[2]) if use_qd else (0.0, 0.0, 0.0)
+        if tree:
+            va[k, 0], va[k, 1], va[k, 2], va[k, 3], va[k, 4], va[k, 5] = vx, vy, vz, ux, uy, uz
+        rigid_body(P, k, IA[k], pA, vx, vy, vz, ux, uy, uz)
+    for i in range(nb, n):
         dq = qd[i] if use_qd else 0.0
         chk += finite(dq) + finite(tau[i])
         if tree:                         # the parent's (a chain's: the previous step's)
@@ -84,40 +134,11 @@ def articulated_bodies(P, sc, R, p, IA, pA, U, c, Du, Y, va, q, qd, tau, w, damp
         vx, vy, vz = wx, wy, wz
         if tree:
             va[i, 0], va[i, 1], va[i, 2], va[i, 3], va[i, 4], va[i, 5] = wx, wy, wz, ux, uy, uz
-        # IA_i = I_i = [[I_O, [h]x], [[h]x^T, m 1]]  (Featherstone 2008, eq. 2.63)
-        m = P[i, MASS]
-        hx, hy, hz = P[i, H], P[i, H + 1], P[i, H + 2]
-        Ixx, Iyy, Izz, Ixy, Ixz, Iyz = (P[i, IO], P[i, IO + 1], P[i, IO + 2], P[i, IO + 3],
-                                        P[i, IO + 4], P[i, IO + 5])
-        I6 = IA[i]
-        I6[0, 0], I6[0, 1], I6[0, 2] = Ixx, Ixy, Ixz
-        I6[1, 0], I6[1, 1], I6[1, 2] = Ixy, Iyy, Iyz
-        I6[2, 0], I6[2, 1], I6[2, 2] = Ixz, Iyz, Izz
-        I6[0, 3], I6[0, 4], I6[0, 5] = 0.0, -hz, hy
-        I6[1, 3], I6[1, 4], I6[1, 5] = hz, 0.0, -hx
-        I6[2, 3], I6[2, 4], I6[2, 5] = -hy, hx, 0.0
-        for a in range(3):
-            for b in range(3):
-                I6[3 + a, b] = I6[b, 3 + a]
-                I6[3 + a, 3 + b] = m if a == b else 0.0
-        # pA = v x* (I v): momentum L = I_O omega + h x v_O, Pm = m v_O + omega x h;
-        # (omega, v_O) x* (L, Pm) = (omega x L + v_O x Pm, omega x Pm)
-        Lx = Ixx * wx + Ixy * wy + Ixz * wz + hy * uz - hz * uy
-        Ly = Ixy * wx + Iyy * wy + Iyz * wz + hz * ux - hx * uz
-        Lz = Ixz * wx + Iyz * wy + Izz * wz + hx * uy - hy * ux
-        Px = m * ux + wy * hz - wz * hy
-        Py = m * uy + wz * hx - wx * hz
-        Pz = m * uz + wx * hy - wy * hx
-        pA[i, 0] = wy * Lz - wz * Ly + uy * Pz - uz * Py
-        pA[i, 1] = wz * Lx - wx * Lz + uz * Px - ux * Pz
-        pA[i, 2] = wx * Ly - wy * Lx + ux * Py - uy * Px
-        pA[i, 3] = wy * Pz - wz * Py
-        pA[i, 4] = wz * Px - wx * Pz
-        pA[i, 5] = wx * Py - wy * Px
+        rigid_body(P, i, IA[i], pA, wx, wy, wz, ux, uy, uz)
     if (flags & F.WRENCH) != 0:          # pA_{n-1} -= the tip wrench, about the last origin
         fx, fy, fz, mx, my, mz = w[0], w[1], w[2], w[3], w[4], w[5]
         chk += finite(fx) + finite(fy) + finite(fz) + finite(mx) + finite(my) + finite(mz)
-        for i in range(n):               # base -> last body, along its path
+        for i in range(nb, n):           # base -> last body, along its path
             if not tree or P[i, TIPPATH] != 0.0:
                 fx, fy, fz = to_child(R, i, fx, fy, fz)
                 mx, my, mz = to_child(R, i, mx, my, mz)
@@ -130,7 +151,7 @@ def articulated_bodies(P, sc, R, p, IA, pA, U, c, Du, Y, va, q, qd, tau, w, damp
         pA[k, 4] -= fy
         pA[k, 5] -= fz
     # --- pass 2, inward: articulated inertias and bias forces
-    for i in range(n - 1, -1, -1):
+    for i in range(n - 1, nb - 1, -1):
         I6 = IA[i]
         s = 2 if P[i, KIND] == 0.0 else 5
         D = I6[s, s] + P[i, ARM]                            # D = S^T IA S + I_a (+ damping)
@@ -240,7 +261,27 @@ def articulated_bodies(P, sc, R, p, IA, pA, U, c, Du, Y, va, q, qd, tau, w, damp
         lx, ly, lz = w[W_ACC] - P[n, G], w[W_ACC + 1] - P[n, G + 1], w[W_ACC + 2] - P[n, G + 2]
         chk += finite(ax) + finite(ay) + finite(az) + finite(lx) + finite(ly) + finite(lz)
     b0, b1, b2, b3, b4, b5 = ax, ay, az, lx, ly, lz
-    for i in range(n):
+    if nb > 0:                           # the root: IA_0 a_0 = tau_0 - pA_0 (the base's [f; n]
+        k = nb - 1                       # as a spatial force (n; f)), a_0 in the frame where
+        x = U[k]                         # the world accelerates by the base acceleration b
+        x[0], x[1], x[2] = tau[3] - pA[k, 0], tau[4] - pA[k, 1], tau[5] - pA[k, 2]
+        x[3], x[4], x[5] = tau[0] - pA[k, 3], tau[1] - pA[k, 4], tau[2] - pA[k, 5]
+        cholesky_factor(IA[k])
+        cholesky_solve_factored(IA[k], x)
+        ax, ay, az, lx, ly, lz = x[0], x[1], x[2], x[3], x[4], x[5]
+        if tree:
+            va[k, 0], va[k, 1], va[k, 2], va[k, 3], va[k, 4], va[k, 5] = ax, ay, az, lx, ly, lz
+        # the six virtual joints' rates: a_0 - b = (alpha; a_O - omega x v_O) for the
+        # caller's a = dv/dt plus the velocity products (core/floating.py's _products)
+        wx, wy, wz = (qd[3], qd[4], qd[5]) if use_qd else (0.0, 0.0, 0.0)
+        vx, vy, vz = (qd[0], qd[1], qd[2]) if use_qd else (0.0, 0.0, 0.0)
+        out[0] = (lx - b3) + (wy * vz - wz * vy)
+        out[1] = (ly - b4) + (wz * vx - wx * vz)
+        out[2] = (lz - b5) + (wx * vy - wy * vx)
+        out[3] = (ax - b0) - wy * wz
+        out[4] = (ay - b1) + wx * wz
+        out[5] = (az - b2) - wx * wy
+    for i in range(nb, n):
         if tree:                         # the parent's acceleration (va: pass 3's now)
             l = int(P[i, PARENT])
             ax, ay, az, lx, ly, lz = (b0, b1, b2, b3, b4, b5) if l < 0 else (
@@ -265,15 +306,35 @@ def articulated_bodies(P, sc, R, p, IA, pA, U, c, Du, Y, va, q, qd, tau, w, damp
     return chk
 
 
-@internal(f8(Pm, D2, D3, D2, D3, D2, D2, D2, D2, D2, In1, In1, In1, In1, In1, i8, Out1))
+_CHAIN = f8(Pm, D2, D3, D2, D3, D2, D2, D2, D2, D2, In1, In1, In1, In1, In1, i8, Out1)
+_TREE = f8(Pm, D2, D3, D2, D3, D2, D2, D2, D2, D2, D2, In1, In1, In1, In1, In1, i8, Out1)
+_SOLVE = ("cholesky_factor", "cholesky_solve_factored")
+
+
+@internal(_CHAIN)
 def aba_core(P, sc, R, p, IA, pA, U, c, Du, Y, q, qd, tau, w, damping, flags, out):
     """A chain's articulated bodies (lambda(i) = i - 1; no ``va``: Y stands in, unread)."""
     return articulated_bodies(P, sc, R, p, IA, pA, U, c, Du, Y, Y, q, qd, tau, w, damping,
-                              flags, out, False)
+                              flags, out, False, 0)
 
 
-@internal(f8(Pm, D2, D3, D2, D3, D2, D2, D2, D2, D2, D2, In1, In1, In1, In1, In1, i8, Out1))
+@internal(_CHAIN, calls=_SOLVE)
+def floating_aba_core(P, sc, R, p, IA, pA, U, c, Du, Y, q, qd, tau, w, damping, flags, out):
+    """``aba_core`` on a floating base's virtual chain: FDfb."""
+    return articulated_bodies(P, sc, R, p, IA, pA, U, c, Du, Y, Y, q, qd, tau, w, damping,
+                              flags, out, False, 6)
+
+
+@internal(_TREE)
 def tree_aba_core(P, sc, R, p, IA, pA, U, c, Du, Y, va, q, qd, tau, w, damping, flags, out):
     """A tree's articulated bodies (on lambda(i), ``P[i, PARENT]``); va (n, 6) scratch."""
     return articulated_bodies(P, sc, R, p, IA, pA, U, c, Du, Y, va, q, qd, tau, w, damping,
-                              flags, out, True)
+                              flags, out, True, 0)
+
+
+@internal(_TREE, calls=_SOLVE)
+def floating_tree_aba_core(P, sc, R, p, IA, pA, U, c, Du, Y, va, q, qd, tau, w, damping, flags,
+                           out):
+    """``tree_aba_core`` on a floating base's virtual tree: FDfb."""
+    return articulated_bodies(P, sc, R, p, IA, pA, U, c, Du, Y, va, q, qd, tau, w, damping,
+                              flags, out, True, 6)

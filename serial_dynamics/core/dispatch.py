@@ -35,7 +35,7 @@ from .status import BAD_LENGTH, NOT_CONVERGED, NOT_FINITE, OK, OTHER_TYPES   # n
 NUMBA_SUPPORTED = ">=0.59,<0.69"   # the numba releases the tests have run on (setup.py pins it)
 HOOK = "_compile_for_args"          # the dispatcher method the hook replaces
 
-FD_CALLS = ("aba_core", "cholesky_solve", "cholesky_core", "floating_cholesky_core", "fd_block",
+FD_CALLS = ("aba_core", "floating_aba_core", "cholesky_solve", "cholesky_core", "floating_cholesky_core", "fd_block",
             "floating_fd_block")
 
 ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core functions it calls)

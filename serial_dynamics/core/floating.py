@@ -1,12 +1,16 @@
-"""A free-floating base, compiled: the fixed-base core on the *instantaneous chain*.
+"""A free-floating base, compiled: the core on the *instantaneous chain*.
 
 ``P`` is the packed model of ``robot/floating.virtual_chain(model)``: three prismatic joints
 along the base's x, y, z axes and three revolute joints about them, all at zero, the last
-carrying the base's inertia, then the chain; its gravity is zero. At that configuration
-the virtual joints' rates are v's base part [v_O; omega] (base frame), so the chain's mass
-matrix is the floating base's M and its generalized forces are the base wrench [f; m]
-(base frame) and the joint torques; the accelerations differ by the virtual joints'
-velocity products (``_products``):
+carrying the base's inertia, then the chain; its gravity is zero; ``P[n, ROOT]`` = 6. The
+recursions take those six as one free-flyer root joint (Newton-Euler, composite rigid
+bodies, the Cholesky route, articulated bodies: FDfb; the constant ``nb`` = 6 of
+``rnea.newton_euler``, ``crba.composite_bodies``, ``forward.cholesky_route``,
+``aba.articulated_bodies`` and their lanes). At that configuration the virtual joints'
+rates are v's base part [v_O; omega] (base frame), so the chain's mass matrix is the
+floating base's M and its generalized forces are the base wrench [f; m] (base frame) and
+the joint torques; the accelerations differ by the virtual joints' velocity products
+(``_products``):
 
     qdd_chain = a + (omega x v_O, -wy wz, wx wz, -wx wy, 0 ...)
 
@@ -19,8 +23,9 @@ Entry points (``ENTRY_POINTS``, in ``core.K``): q (n+7) = [x, y, z, qx, qy, qz, 
 v, a (n+6); ``gw`` (9,) = [tip wrench [f; m] in the world (read with flag WRENCH); world
 gravity]; tau (n+6) or joint torques (n) for forward dynamics. Status: 0 ok, 1 a NaN/Inf or
 a quaternion of zero length, 2 a wrong length. Batches: ``floating_rows`` converts N states
-to the instantaneous chain's rows, the fixed-base batch kernels (Newton-Euler in SIMD lanes,
-forward dynamics, composite bodies) run on them, ``floating_accelerations`` converts back:
+to the instantaneous chain's rows, the batch kernels (Newton-Euler, composite bodies and
+the Cholesky route in SIMD lanes; articulated bodies) run on them, choosing the free-flyer
+versions by ``P[n, ROOT]``, ``floating_accelerations`` converts back:
 the same operations, in the same order, as the single-state entry points.
 """
 import math
@@ -29,7 +34,7 @@ import numpy as np
 from numba import njit
 
 from . import flags as F
-from .aba import aba_core
+from .aba import floating_aba_core
 from .crba import floating_crba_inline
 from .data import new_art, new_chol, new_kin, stack_empty
 from .forward import floating_cholesky_core
@@ -123,8 +128,8 @@ def _rnea_one(P, d, qv, w, qddv, q, v, a, gw, flags, out):
 def _fd_one(P, d, c, art, qv, w, tv, q, v, tau, gw, flags, out):
     chk = fd_inputs(q, tau, gw, flags, qv, w, tv)
     if (flags & F.ABA) != 0:
-        chk += aba_core(P, d.sc, d.R, d.p, art.IA, art.pA, art.U, art.c, art.Du, art.Y,
-                        qv, v, tv, w, tv, flags | F.BASE, out)
+        chk += floating_aba_core(P, d.sc, d.R, d.p, art.IA, art.pA, art.U, art.c, art.Du,
+                                 art.Y, qv, v, tv, w, tv, flags | F.BASE, out)
     else:
         chk += floating_cholesky_core(P, d.sc, d.R, d.p, d.f, c.M, c.b, qv, v, tv, w, tv,
                                       flags | F.BASE, out)
@@ -199,7 +204,7 @@ def floating_accelerations(v, qdd):
     return 0
 
 
-_FD_CALLS = ("aba_core", "cholesky_solve", "floating_cholesky_core")
+_FD_CALLS = ("floating_aba_core", "cholesky_solve", "floating_cholesky_core")
 ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core functions it calls)
     "floating_rnea": (floating_rnea, i8(Pm, Vec, Vec, Vec, Vec, i8, Vec), False,
                       ("floating_rnea_core",)),

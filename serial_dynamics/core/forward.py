@@ -12,7 +12,7 @@
 from numba import njit
 
 from . import flags as F
-from .aba import aba_core
+from .aba import aba_core, floating_aba_core
 from .cholesky import cholesky_solve
 from .crba import composite_bodies
 from .data import new_art, new_chol, new_kin, square_lanes_fit
@@ -116,7 +116,10 @@ def fd_batch(P, q, qd, tau, w, flags, out):
     bad = OK
     for k in range(N):
         qk, qdk, tk, wk = q[k if nq else 0], qd[k if nv else 0], tau[k if nt else 0], w[k if nw else 0]
-        if aba:
+        if aba and P[n, ROOT] != 0.0:    # FDfb on a floating base's virtual chain
+            chk = floating_aba_core(P, d.sc, d.R, d.p, a.IA, a.pA, a.U, a.c, a.Du, a.Y,
+                                    qk, qdk, tk, wk, tk, flags, out[k])
+        elif aba:
             chk = aba_core(P, d.sc, d.R, d.p, a.IA, a.pA, a.U, a.c, a.Du, a.Y,
                            qk, qdk, tk, wk, tk, flags, out[k])
         elif P[n, ROOT] != 0.0:

@@ -15,7 +15,7 @@ wrench acts on body n-1 (the last leaf) and is carried into its frame along its 
 from numba import types
 
 from . import flags as F
-from .aba import tree_aba_core
+from .aba import floating_tree_aba_core, tree_aba_core
 from .cholesky import ltdl_factor, ltdl_solve_factored
 from .crba import add_in_parent, joint_momentum, root_block
 from .floating import GW, _chain_inputs, _products, fd_inputs, rnea_inputs
@@ -286,7 +286,10 @@ def tree_fd_batch(P, q, qd, tau, w, flags, out):
     bad = OK
     for k in range(N):
         qk, qdk, tk, wk = q[k if nq else 0], qd[k if nv else 0], tau[k if nt else 0], w[k if nw else 0]
-        if aba:
+        if aba and P[n, ROOT] != 0.0:    # FDfb on a floating base's virtual tree
+            chk = floating_tree_aba_core(P, d.sc, d.R, d.p, a.IA, a.pA, a.U, a.c, a.Du, a.Y, va,
+                                         qk, qdk, tk, wk, tk, flags, out[k])
+        elif aba:
             chk = tree_aba_core(P, d.sc, d.R, d.p, a.IA, a.pA, a.U, a.c, a.Du, a.Y, va,
                            qk, qdk, tk, wk, tk, flags, out[k])
         else:
@@ -299,7 +302,8 @@ def tree_fd_batch(P, q, qd, tau, w, flags, out):
 # ------------------------------------------------------------------ a floating base on a tree
 # core/floating.py's entry points on the instantaneous tree (robot/floating.virtual_chain of a
 # tree: the six virtual joints, then the tree hanging from the last): the same conversions
-# (rnea_inputs, fd_inputs, _products) around the tree kernels; forward dynamics by L^T D L.
+# (rnea_inputs, fd_inputs, _products) around the tree kernels, which take the six as one
+# free-flyer root (P[n, ROOT]); forward dynamics by L^T D L or articulated bodies (FDfb).
 def floating_tree_rnea(P, q, v, a, gw, flags, out):
     nv = P.shape[0] - 1
     if (q.shape[0] != nv + 1 or v.shape[0] != nv or a.shape[0] != nv or gw.shape[0] != GW
@@ -322,10 +326,10 @@ def floating_tree_fd(P, q, v, tau, gw, flags, out):
     qv, w, tv = stack_empty((nv,)), stack_empty((W_ALL,)), stack_empty((nv,))
     chk = fd_inputs(q, tau, gw, flags, qv, w, tv)
     flags = (flags | F.QD | F.BASE) & ~F.DAMPING
-    if (flags & F.ABA) != 0:             # articulated bodies through the six virtual joints
+    if (flags & F.ABA) != 0:             # articulated bodies through the free-flyer root
         a, va = new_art(nv), scratch((nv, 6), 6 * nv)
-        chk += tree_aba_core(P, d.sc, d.R, d.p, a.IA, a.pA, a.U, a.c, a.Du, a.Y, va,
-                        qv, v, tv, w, tv, flags, out)
+        chk += floating_tree_aba_core(P, d.sc, d.R, d.p, a.IA, a.pA, a.U, a.c, a.Du, a.Y, va,
+                                      qv, v, tv, w, tv, flags, out)
     else:
         c = new_chol(nv)
         chk += tree_fd_core(P, d.sc, d.R, d.p, d.f, stack_empty((nv, 9)),
@@ -361,7 +365,7 @@ def tree_kinetic_energy_gradient(P, q, qd, out):
     return status(chk)
 
 
-_FD = ("tree_fd_core", "tree_aba_core")
+_FD = ("tree_fd_core", "tree_aba_core", "floating_tree_aba_core")
 ENTRY_POINTS = {
     "tree_rnea": (tree_rnea, i8(Pm, Vec, Vec, Vec, i8, Vec), False, ("tree_rnea_core",)),
     "tree_rnea_wrench": (tree_rnea_wrench, i8(Pm, Vec, Vec, Vec, Vec, i8, Vec), False,

@@ -10,13 +10,14 @@ takes joint torques (n,) (the base is free) or (n+6,). Poses and Jacobians are i
 frame, and a tip ``wrench`` is given in world coordinates. Gravity is the world's.
 
 Backends. ``"numpy"`` runs the reference (``algorithms/floating.py``). ``"numba"`` (the
-default) runs ``core/floating.py``: the fixed-base compiled kernels on the *instantaneous
-chain* (``virtual_chain``): the base's six degrees of freedom as three prismatic joints
-along the base's x, y, z axes and three revolute joints about them, all at zero, the base's
-inertia on the last. There the virtual joints' rates are v's base part, so the chain's
-mass matrix is M and its generalized forces are the base wrench in the base frame; only
-the accelerations differ, by the velocity products of the virtual joints. The tests hold
-both backends to Pinocchio's free-flyer.
+default) runs ``core/floating.py``: the compiled kernels on the *instantaneous chain*
+(``virtual_chain``): the base's six degrees of freedom as three prismatic joints along the
+base's x, y, z axes and three revolute joints about them, all at zero, the base's inertia
+on the last, which Newton-Euler, the CRBA, the Cholesky route and articulated bodies (FDfb)
+take as one free-flyer root joint (``P[n, ROOT]`` = 6). There the virtual joints' rates
+are v's base part, so the chain's mass matrix is M and its generalized forces are the base
+wrench in the base frame; only the accelerations differ, by the velocity products of the
+virtual joints. The tests hold both backends to Pinocchio's free-flyer.
 
 Beyond the dynamics: the Coriolis matrix (NOC in a frame turning with the base), the
 regressor (the base's ten parameters first), both derivatives, dT/dq (the joints'; zeros on

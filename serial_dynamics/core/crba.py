@@ -26,28 +26,24 @@ def joint_momentum(P, i, m, hx, hy, Ixz, Iyz, Izz):
 
 
 @njit(cache=True, inline="always")
-def root_block_upper(m, hx, hy, hz, Ixx, Iyy, Izz, Ixy, Ixz, Iyz):
-    """The upper triangle, row by row (21 numbers), of M's 6 x 6 block of a free-flyer root,
-    v = [v_O, omega] (base frame): the composite inertia of the whole robot (m, h, I_O),
-    [m 1, -[h]x; [h]x, I_O] (Featherstone 2008, Sec. 9.2): f = m v_O + omega x h,
-    n = h x v_O + I_O omega."""
-    return (m, 0.0, 0.0, 0.0, hz, -hy,
-            m, 0.0, -hz, 0.0, hx,
-            m, hy, -hx, 0.0,
-            Ixx, Ixy, Ixz,
-            Iyy, Iyz,
-            Izz)
-
-
-@njit(cache=True, inline="always")
 def root_block(M, m, hx, hy, hz, Ixx, Iyy, Izz, Ixy, Ixz, Iyz):
-    """M[:6, :6] = the root block (``root_block_upper``)."""
-    u = root_block_upper(m, hx, hy, hz, Ixx, Iyy, Izz, Ixy, Ixz, Iyz)
-    k = 0
+    """M[:6, :6], the block of a free-flyer root, v = [v_O, omega] (base frame): the composite
+    inertia of the whole robot (m, h, I_O), [m 1, -[h]x; [h]x, I_O] (Featherstone 2008,
+    Sec. 9.2): f = m v_O + omega x h, n = h x v_O + I_O omega."""
     for r in range(6):
-        for c in range(r, 6):
-            M[r, c] = M[c, r] = u[k]
-            k += 1
+        for c in range(6):
+            M[r, c] = 0.0
+    M[0, 0] = M[1, 1] = M[2, 2] = m
+    M[0, 4] = M[4, 0] = hz
+    M[0, 5] = M[5, 0] = -hy
+    M[1, 3] = M[3, 1] = -hz
+    M[1, 5] = M[5, 1] = hx
+    M[2, 3] = M[3, 2] = hy
+    M[2, 4] = M[4, 2] = -hx
+    M[3, 3], M[4, 4], M[5, 5] = Ixx, Iyy, Izz
+    M[3, 4] = M[4, 3] = Ixy
+    M[3, 5] = M[5, 3] = Ixz
+    M[4, 5] = M[5, 4] = Iyz
 
 
 @njit(cache=True, inline="always")

@@ -10,8 +10,8 @@ a sample's M is bitwise the same alone or in any batch.
 """
 from numba import njit
 
-from .layout import ARM, H, IO, KIND, LANES, MASS, ROOT, W_ALL
-from .crba import add_in_parent, crba_core, floating_crba_core, root_block_upper
+from .layout import ARM, H, IO, KIND, LANES, MASS, W_ALL
+from .crba import add_in_parent, crba_core, floating_crba_core, joint_momentum
 from .data import new_kin, square_lanes_fit, stack_empty
 from .rnea_lanes import gather, lane_transforms
 from .signatures import In2, Out3, Pm, i8, internal
@@ -27,7 +27,7 @@ def lane_rotation(RB, ri, b):
 
 
 @njit(cache=True, inline="always")
-def composite_block(P, q, out, k0, nb):
+def composite_block(P, q, out, k0, first, composite):
     """Mass matrices of the samples k0 .. k0 + B - 1 (fewer at the batch's end) into the
     same rows of ``out``; 1 if one of them has a NaN/Inf angle, else 0. Lanes' scratch
     (rows, B) on the stack (``crba_batch`` calls it only where it fits): QV angles (and the
@@ -41,9 +41,9 @@ def composite_block(P, q, out, k0, nb):
     RB, PB = stack_empty((9 * n, L)), stack_empty((3 * n, L))
     CB, FB, MB = stack_empty((10, L)), stack_empty((6, L)), stack_empty((n * n, L))
     small, fin = gather(P, q, q, q, q, 0, QV, WB, k0, nl)
-    for i in range(nb, n):
+    for i in range(first, n):
         lane_transforms(P, i, QV, RB, PB, nl, small)
-    composite_lanes(P, RB, PB, CB, FB, MB, nl, nb)
+    composite(P, RB, PB, CB, FB, MB, nl)
     for b in range(nl):                  # scatter, M symmetric
         for i in range(n):
             for j in range(i, n):
@@ -54,27 +54,26 @@ def composite_block(P, q, out, k0, nb):
 @internal(i8(Pm, In2, Out3, i8))
 def crba_block(P, q, out, k0):
     """``composite_block`` on a fixed base (``crba.crba_core`` in every lane)."""
-    return composite_block(P, q, out, k0, 0)
+    return composite_block(P, q, out, k0, 0, composite_lanes)
 
 
 @internal(i8(Pm, In2, Out3, i8))
 def floating_crba_block(P, q, out, k0):
     """``composite_block`` with a free-flyer root (``crba.floating_crba_core`` in every lane)."""
-    return composite_block(P, q, out, k0, 6)
+    return composite_block(P, q, out, k0, 6, floating_composite_lanes)
 
 
 @njit(cache=True, inline="always")
-def composite_lanes(P, RB, PB, CB, FB, MB, nl, nb):
-    """``crba.composite_bodies`` on lanes whose joint transforms are in RB, PB: M's upper
-    triangle into MB (row i * n + j holds M_ij, j >= i); CB, FB scratch (10, B), (6, B);
-    ``nb`` as there (6: a free-flyer root)."""
+def composite_lanes(P, RB, PB, CB, FB, MB, nl):
+    """``crba_core`` on lanes whose joint transforms are in RB, PB: M's upper triangle
+    into MB (row i * n + j holds M_ij, j >= i); CB, FB scratch (10, B), (6, B)."""
     n = P.shape[0] - 1
     k = n - 1                            # composite n-1: body n-1
     for r in range(10):
         v = P[k, MASS] if r == 0 else (P[k, H + r - 1] if r < 4 else P[k, IO + r - 4])
         for b in range(nl):
             CB[r, b] = v
-    for i in range(n - 1, nb - 1, -1):
+    for i in range(n - 1, -1, -1):
         rev, arm = P[i, KIND] == 0.0, P[i, ARM]
         # F = IC_i S_i: revolute n = I_O e_z, f = e_z x h; prismatic n = h x e_z, f = m e_z
         for b in range(nl):
@@ -86,7 +85,7 @@ def composite_lanes(P, RB, PB, CB, FB, MB, nl, nb):
             FB[4, b] = hx if rev else 0.0
             FB[5, b] = 0.0 if rev else m
             MB[i * n + i, b] = (CB[6, b] if rev else m) + arm      # + the armature I_a,i
-        for j in range(i, nb if nb > 0 else 1, -1):   # F = Xup_j^T F, M_(j-1)i = S_(j-1)^T F
+        for j in range(i, 1, -1):        # F = Xup_j^T F, M_(j-1)i = S_(j-1)^T F
             rj, pj = 9 * j, 3 * j
             up = P[j - 1, KIND] == 0.0
             for b in range(nl):
@@ -95,39 +94,30 @@ def composite_lanes(P, RB, PB, CB, FB, MB, nl, nb):
                     FB[0, b], FB[1, b], FB[2, b], FB[3, b], FB[4, b], FB[5, b])
                 FB[0, b], FB[1, b], FB[2, b], FB[3, b], FB[4, b], FB[5, b] = nx, ny, nz, fx, fy, fz
                 MB[(j - 1) * n + i, b] = nz if up else fz
-        if nb > 0:                       # into the base frame: M_root,i = F
-            rj, pj = 9 * nb, 3 * nb
+        if i == 0:
+            break
+        rev0 = P[0, KIND] == 0.0         # the last step, into body 0: S_0^T F only
+        for b in range(nl):
+            nx, ny, nz, fx, fy, fz = FB[0, b], FB[1, b], FB[2, b], FB[3, b], FB[4, b], FB[5, b]
+            gx = RB[9, b] * fx + RB[10, b] * fy + RB[11, b] * fz
+            gy = RB[12, b] * fx + RB[13, b] * fy + RB[14, b] * fz
+            MB[i, b] = ((RB[15, b] * nx + RB[16, b] * ny + RB[17, b] * nz + PB[3, b] * gy
+                         - PB[4, b] * gx) if rev0 else RB[15, b] * fx + RB[16, b] * fy + RB[17, b] * fz)
+        if i == 1:                       # of composite 0 only S_0^T IC_0 S_0
             for b in range(nl):
-                nx, ny, nz, fx, fy, fz = force_to_parent(
-                    lane_rotation(RB, rj, b), PB[pj, b], PB[pj + 1, b], PB[pj + 2, b],
-                    FB[0, b], FB[1, b], FB[2, b], FB[3, b], FB[4, b], FB[5, b])
-                MB[i, b], MB[n + i, b], MB[2 * n + i, b] = fx, fy, fz
-                MB[3 * n + i, b], MB[4 * n + i, b], MB[5 * n + i, b] = nx, ny, nz
-        else:
-            if i == 0:
-                break
-            rev0 = P[0, KIND] == 0.0     # the last step, into body 0: S_0^T F only
-            for b in range(nl):
-                nx, ny, nz, fx, fy, fz = FB[0, b], FB[1, b], FB[2, b], FB[3, b], FB[4, b], FB[5, b]
-                gx = RB[9, b] * fx + RB[10, b] * fy + RB[11, b] * fz
-                gy = RB[12, b] * fx + RB[13, b] * fy + RB[14, b] * fz
-                MB[i, b] = ((RB[15, b] * nx + RB[16, b] * ny + RB[17, b] * nz + PB[3, b] * gy
-                             - PB[4, b] * gx) if rev0 else RB[15, b] * fx + RB[16, b] * fy + RB[17, b] * fz)
-            if i == 1:                   # of composite 0 only S_0^T IC_0 S_0
-                for b in range(nl):
-                    m, hx, hy, hz = CB[0, b], CB[1, b], CB[2, b], CB[3, b]
-                    Ixx, Iyy, Izz, Ixy, Ixz, Iyz = CB[4, b], CB[5, b], CB[6, b], CB[7, b], CB[8, b], CB[9, b]
-                    r6, r7, r8 = RB[15, b], RB[16, b], RB[17, b]
-                    px, py = PB[3, b], PB[4, b]
-                    gx = RB[9, b] * hx + RB[10, b] * hy + RB[11, b] * hz
-                    gy = RB[12, b] * hx + RB[13, b] * hy + RB[14, b] * hz
-                    t6 = r6 * Ixx + r7 * Ixy + r8 * Ixz
-                    t7 = r6 * Ixy + r7 * Iyy + r8 * Iyz
-                    t8 = r6 * Ixz + r7 * Iyz + r8 * Izz
-                    d = 2.0 * (gx * px + gy * py) + m * (px * px + py * py)
-                    MB[0, b] = ((P[0, IO + 2] + t6 * r6 + t7 * r7 + t8 * r8 + d + P[0, ARM]) if rev0
-                                else P[0, MASS] + m + P[0, ARM])
-                break
+                m, hx, hy, hz = CB[0, b], CB[1, b], CB[2, b], CB[3, b]
+                Ixx, Iyy, Izz, Ixy, Ixz, Iyz = CB[4, b], CB[5, b], CB[6, b], CB[7, b], CB[8, b], CB[9, b]
+                r6, r7, r8 = RB[15, b], RB[16, b], RB[17, b]
+                px, py = PB[3, b], PB[4, b]
+                gx = RB[9, b] * hx + RB[10, b] * hy + RB[11, b] * hz
+                gy = RB[12, b] * hx + RB[13, b] * hy + RB[14, b] * hz
+                t6 = r6 * Ixx + r7 * Ixy + r8 * Ixz
+                t7 = r6 * Ixy + r7 * Iyy + r8 * Iyz
+                t8 = r6 * Ixz + r7 * Iyz + r8 * Izz
+                d = 2.0 * (gx * px + gy * py) + m * (px * px + py * py)
+                MB[0, b] = ((P[0, IO + 2] + t6 * r6 + t7 * r7 + t8 * r8 + d + P[0, ARM]) if rev0
+                            else P[0, MASS] + m + P[0, ARM])
+            break
         k, ri, pi = i - 1, 9 * i, 3 * i  # composite i-1 = body i-1 + composite i in frame i-1
         for b in range(nl):
             (CB[0, b], CB[1, b], CB[2, b], CB[3, b], CB[4, b], CB[5, b], CB[6, b], CB[7, b],
@@ -137,38 +127,87 @@ def composite_lanes(P, RB, PB, CB, FB, MB, nl, nb):
                 PB[pi, b], PB[pi + 1, b], PB[pi + 2, b], CB[0, b], CB[1, b], CB[2, b], CB[3, b],
                 CB[4, b], CB[5, b], CB[6, b], CB[7, b], CB[8, b], CB[9, b])
 
-    if nb > 0:                           # composite nb-1, the whole robot: M's root block
-        for b in range(nl):
-            u = root_block_upper(CB[0, b], CB[1, b], CB[2, b], CB[3, b], CB[4, b], CB[5, b],
-                                 CB[6, b], CB[7, b], CB[8, b], CB[9, b])
-            k = 0
-            for r in range(6):
-                for c in range(r, 6):
-                    MB[r * n + c, b] = u[k]
-                    k += 1
 
-def crba_batch(P, q, out):
-    """Mass matrices (N, n, n) of N configurations (N, n), B at a time in lanes (a chain too
-    long for the lanes' stack, ``data.square_lanes_fit``, one at a time by ``crba_core``).
-    Returns OK, or NOT_FINITE on a NaN/Inf."""
+@njit(cache=True, inline="always")
+def floating_composite_lanes(P, RB, PB, CB, FB, MB, nl):
+    """``crba.floating_crba_core`` on lanes (``composite_lanes``' layout and scratch): a
+    floating base's virtual chain, its first six bodies one free-flyer root joint."""
+    n, nb = P.shape[0] - 1, 6
+    k = n - 1                            # composite n-1: body n-1
+    for r in range(10):
+        v = P[k, MASS] if r == 0 else (P[k, H + r - 1] if r < 4 else P[k, IO + r - 4])
+        for b in range(nl):
+            CB[r, b] = v
+    for i in range(n - 1, nb - 1, -1):
+        rev, arm = P[i, KIND] == 0.0, P[i, ARM]
+        for b in range(nl):              # F = IC_i S_i, M_ii (crba.joint_momentum)
+            (FB[0, b], FB[1, b], FB[2, b], FB[3, b], FB[4, b], FB[5, b],
+             MB[i * n + i, b]) = joint_momentum(P, i, CB[0, b], CB[1, b], CB[2, b], CB[8, b],
+                                                CB[9, b], CB[6, b])
+        for j in range(i, nb, -1):       # F = Xup_j^T F, M_(j-1)i = S_(j-1)^T F
+            rj, pj = 9 * j, 3 * j
+            up = P[j - 1, KIND] == 0.0
+            for b in range(nl):
+                nx, ny, nz, fx, fy, fz = force_to_parent(
+                    lane_rotation(RB, rj, b), PB[pj, b], PB[pj + 1, b], PB[pj + 2, b],
+                    FB[0, b], FB[1, b], FB[2, b], FB[3, b], FB[4, b], FB[5, b])
+                FB[0, b], FB[1, b], FB[2, b], FB[3, b], FB[4, b], FB[5, b] = nx, ny, nz, fx, fy, fz
+                MB[(j - 1) * n + i, b] = nz if up else fz
+        rj, pj = 9 * nb, 3 * nb          # into the base frame: M_root,i = F
+        for b in range(nl):
+            nx, ny, nz, fx, fy, fz = force_to_parent(
+                lane_rotation(RB, rj, b), PB[pj, b], PB[pj + 1, b], PB[pj + 2, b],
+                FB[0, b], FB[1, b], FB[2, b], FB[3, b], FB[4, b], FB[5, b])
+            MB[i, b], MB[n + i, b], MB[2 * n + i, b] = fx, fy, fz
+            MB[3 * n + i, b], MB[4 * n + i, b], MB[5 * n + i, b] = nx, ny, nz
+        k, ri, pi = i - 1, 9 * i, 3 * i  # composite i-1 = body i-1 + composite i in frame i-1
+        for b in range(nl):
+            (CB[0, b], CB[1, b], CB[2, b], CB[3, b], CB[4, b], CB[5, b], CB[6, b], CB[7, b],
+             CB[8, b], CB[9, b]) = add_in_parent(
+                P[k, MASS], P[k, H], P[k, H + 1], P[k, H + 2], P[k, IO], P[k, IO + 1],
+                P[k, IO + 2], P[k, IO + 3], P[k, IO + 4], P[k, IO + 5], lane_rotation(RB, ri, b),
+                PB[pi, b], PB[pi + 1, b], PB[pi + 2, b], CB[0, b], CB[1, b], CB[2, b], CB[3, b],
+                CB[4, b], CB[5, b], CB[6, b], CB[7, b], CB[8, b], CB[9, b])
+    for r in range(6):                   # composite nb-1, the whole robot: M's root block
+        for c in range(r, 6):            # (crba.root_block; M_rc in row r n + c, c >= r)
+            for b in range(nl):
+                MB[r * n + c, b] = 0.0
+    for b in range(nl):
+        m, hx, hy, hz = CB[0, b], CB[1, b], CB[2, b], CB[3, b]
+        MB[0, b] = MB[n + 1, b] = MB[2 * n + 2, b] = m
+        MB[4, b], MB[5, b] = hz, -hy
+        MB[n + 3, b], MB[n + 5, b] = -hz, hx
+        MB[2 * n + 3, b], MB[2 * n + 4, b] = hy, -hx
+        MB[3 * n + 3, b], MB[4 * n + 4, b], MB[5 * n + 5, b] = CB[4, b], CB[5, b], CB[6, b]
+        MB[3 * n + 4, b], MB[3 * n + 5, b], MB[4 * n + 5, b] = CB[7, b], CB[8, b], CB[9, b]
+
+
+@njit(cache=True, inline="always")
+def batch(P, q, out, block, one, first):
+    """Mass matrices (N, n, n) of N configurations (N, n), B at a time in lanes (``block``; a
+    chain too long for the lanes' stack, ``data.square_lanes_fit``, one at a time by
+    ``one`` on the transforms from joint ``first`` on). Returns OK, or NOT_FINITE on a
+    NaN/Inf. The kernels are the caller's: a fixed base's or a floating one's."""
     n = P.shape[0] - 1
     L = int(P[n, LANES])
     bad = OK
     if not square_lanes_fit(n, L):
         d = new_kin(n)
         for k in range(q.shape[0]):
-            if P[n, ROOT] != 0.0:
-                if joint_transforms(P, d.sc, d.R, d.p, q[k], n, 6) != 0.0:
-                    bad = NOT_FINITE
-                floating_crba_core(P, d.R, d.p, out[k])
-            else:
-                if joint_transforms(P, d.sc, d.R, d.p, q[k], n) != 0.0:
-                    bad = NOT_FINITE
-                crba_core(P, d.R, d.p, out[k])
+            if joint_transforms(P, d.sc, d.R, d.p, q[k], n, first) != 0.0:
+                bad = NOT_FINITE
+            one(P, d.R, d.p, out[k])
         return bad
     for k0 in range(0, out.shape[0], L):
-        if P[n, ROOT] != 0.0:            # a floating base's virtual chain: a free-flyer root
-            bad |= floating_crba_block(P, q, out, k0)
-        else:
-            bad |= crba_block(P, q, out, k0)
+        bad |= block(P, q, out, k0)
     return bad
+
+
+def crba_batch(P, q, out):
+    """``batch`` on a fixed base."""
+    return batch(P, q, out, crba_block, crba_core, 0)
+
+
+def floating_crba_batch(P, q, out):
+    """``batch`` on a floating base's virtual chain: the free-flyer root's kernels."""
+    return batch(P, q, out, floating_crba_block, floating_crba_core, 6)

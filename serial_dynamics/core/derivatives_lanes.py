@@ -20,8 +20,9 @@ from .derivatives import (_body_tangent, _inertia_times, _torques, derivatives_c
                           tip_tangents)
 from .layout import H, IO, KIND, LANES, MASS, W_ALL
 from .rnea import base_state, body_wrench, into_body, joint_rate, tip_load
+from .crba_lanes import composite_lanes
 from .forward_lanes import fd_lanes_core, fd_scratch
-from .rnea_lanes import gather, lane_transforms, scatter
+from .rnea_lanes import fixed_base, gather, lane_transforms, scatter
 from .signatures import In2, Out3, Pm, i8, internal
 from .spatial import force_to_parent, rotate_t
 from .status import NOT_FINITE, OK
@@ -222,7 +223,7 @@ def fd_derivatives_batch(P, q, qd, tau, w, flags, dq, dqd, Minv):
     for k0 in range(0, N, L):
         nl = min(L, N - k0)
         if not fd_lanes_core(P, q, qd, tau, w, flags, k0, nl,
-                             QV, WB, TB, ST, RB, PB, FB, CB, MB, SB):
+                             QV, WB, TB, ST, RB, PB, FB, CB, MB, SB, 0, fixed_base, composite_lanes):
             bad = NOT_FINITE
         scatter(TB, qdd, k0, nl)
         bad |= derivatives_block(P, q, qd, qdd, w, flags | F.QDD, dq, dqd, k0)

@@ -35,18 +35,26 @@ from .status import BAD_LENGTH, NOT_CONVERGED, NOT_FINITE, OK, OTHER_TYPES   # n
 NUMBA_SUPPORTED = ">=0.59,<0.69"   # the numba releases the tests have run on (setup.py pins it)
 HOOK = "_compile_for_args"          # the dispatcher method the hook replaces
 
-FD_CALLS = ("aba_core", "floating_aba_core", "cholesky_solve", "cholesky_core", "floating_cholesky_core", "fd_block",
-            "floating_fd_block")
+FD_CALLS = ("aba_core", "cholesky_solve", "cholesky_core", "fd_block")
+FLOATING_FD_CALLS = ("floating_aba_core", "cholesky_solve", "floating_cholesky_core",
+                     "floating_fd_block")
 
 ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core functions it calls)
     "rnea": (rnea.rnea, i8(Pm, Vec, Vec, Vec, i8, Vec), False, ()),
     "rnea_wrench": (rnea.rnea_wrench, i8(Pm, Vec, Vec, Vec, Vec, i8, Vec), False, ("rnea_core",)),
     "crba": (crba.crba, i8(Pm, Vec, Mat), False, ()),
     "fd": (forward.fd, i8(Pm, Vec, Vec, Vec, Vec, i8, Vec), False, FD_CALLS),
-    "rnea_batch": (rnea_lanes.rnea_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True, ("rnea_block", "floating_rnea_block")),
-    "crba_batch": (crba_lanes.crba_batch, i8(Pm, In2, Out3), True, ("crba_block", "floating_crba_block",
-                                                                    "crba_core", "floating_crba_core")),
+    "rnea_batch": (rnea_lanes.rnea_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True, ("rnea_block",)),
+    "crba_batch": (crba_lanes.crba_batch, i8(Pm, In2, Out3), True, ("crba_block", "crba_core")),
     "fd_batch": (forward.fd_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True, FD_CALLS),
+    # a floating base's virtual chain (its free-flyer root; their own kernels, so that a fixed
+    # base's cold start compiles none of them)
+    "floating_rnea_batch": (rnea_lanes.floating_rnea_batch, i8(Pm, In2, In2, In2, In2, i8, Out2),
+                            True, ("floating_rnea_block",)),
+    "floating_crba_batch": (crba_lanes.floating_crba_batch, i8(Pm, In2, Out3), True,
+                            ("floating_crba_block", "floating_crba_core")),
+    "floating_fd_batch": (forward.floating_fd_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True,
+                          FLOATING_FD_CALLS),
     **planar.ENTRY_POINTS,   # the planar fast path (planar 3-vectors; Robot.is_planar),
     **planar_lanes.ENTRY_POINTS,   # and its batches
     **derivatives.ENTRY_POINTS,    # derivatives of inverse and forward dynamics
@@ -141,6 +149,9 @@ class _Kernels:
     floating_fd = _EntryPoint()
     floating_crba = _EntryPoint()
     floating_rows = _EntryPoint()
+    floating_rnea_batch = _EntryPoint()
+    floating_crba_batch = _EntryPoint()
+    floating_fd_batch = _EntryPoint()
     floating_accelerations = _EntryPoint()
     # kinematic trees (tree.py)
     tree_rnea = _EntryPoint()
@@ -188,6 +199,8 @@ class TreeTable:
              "fd_batch": "tree_fd_batch", "floating_rnea": "floating_tree_rnea",
              "floating_fd": "floating_tree_fd", "floating_crba": "floating_tree_crba",
              "floating_rows": "floating_rows", "floating_accelerations": "floating_accelerations",
+             "floating_rnea_batch": "tree_rnea_batch", "floating_crba_batch": "tree_crba_batch",
+             "floating_fd_batch": "tree_fd_batch",
              "kinetic_energy_gradient": "tree_kinetic_energy_gradient",
              "rnea_derivatives": "tree_rnea_derivatives", "fd_derivatives": "tree_fd_derivatives",
              "rnea_derivatives_batch": "tree_rnea_derivatives_batch",

@@ -14,33 +14,27 @@ from numba import njit
 from . import flags as F
 from .aba import aba_core, floating_aba_core
 from .cholesky import cholesky_solve
-from .crba import composite_bodies
+from .crba import crba_core, floating_crba_core
 from .data import new_art, new_chol, new_kin, square_lanes_fit
 from .forward_lanes import fd_block, floating_fd_block
-from .layout import LANES, ROOT, W_ALL, W_WRENCH
+from .layout import LANES, W_ALL, W_WRENCH
 from .signatures import D1, D2, D3, In1, Out1, Pm, f8, i8, internal
-from .rnea import newton_euler
+from .rnea import floating_rnea_core, rnea_core
 from .status import BAD_LENGTH, NOT_FINITE, OK, status
 from .spatial import finite
 
 
 @njit(cache=True, inline="always")
-def cholesky_route(P, sc, R, p, f, M, b, q, qd, tau, w, damping, flags, out, nb):
+def cholesky_route(P, sc, R, p, f, M, b, q, qd, tau, w, damping, flags, out, rnea, crba):
     """qdd into ``out`` by the Cholesky route. Returns 0.0, or NaN on a NaN/Inf input.
-    ``nb``, a constant of the caller: 0, or 6 for a floating base's virtual chain, whose
-    recursions take its first six bodies as one free-flyer root (rnea.newton_euler,
-    crba.composite_bodies)."""
+    ``rnea``, ``crba``: the caller's recursions (a fixed base's, or a floating base's whose
+    first six bodies are one free-flyer root: rnea.floating_rnea_core, crba.floating_crba_core)."""
     n = out.shape[0]
-    fl = flags & (F.QD | F.WRENCH | F.BASE)
-    chk = (newton_euler(P, sc, R, p, f, q, qd, q, w, fl, b, 0) if nb == 0 else
-           newton_euler(P, sc, R, p, f, q, qd, q, w, fl, b, 6))        # b - J^T w
+    chk = rnea(P, sc, R, p, f, q, qd, q, w, flags & (F.QD | F.WRENCH | F.BASE), b)   # b - J^T w
     for i in range(n):
         chk += finite(tau[i])
         b[i] = tau[i] - b[i]
-    if nb == 0:                          # R, p: the joint transforms of q, from newton_euler
-        composite_bodies(P, R, p, M, 0)
-    else:
-        composite_bodies(P, R, p, M, 6)
+    crba(P, R, p, M)                     # R, p: the joint transforms of q, from rnea
     if (flags & F.DAMPING) != 0:
         for i in range(n):
             M[i, i] += damping[i]
@@ -50,20 +44,22 @@ def cholesky_route(P, sc, R, p, f, M, b, q, qd, tau, w, damping, flags, out, nb)
 
 def cholesky_core(P, sc, R, p, f, M, b, q, qd, tau, w, damping, flags, out):
     """``cholesky_route`` on a fixed base (a moving one with flag BASE)."""
-    return cholesky_route(P, sc, R, p, f, M, b, q, qd, tau, w, damping, flags, out, 0)
+    return cholesky_route(P, sc, R, p, f, M, b, q, qd, tau, w, damping, flags, out, rnea_core,
+                          crba_core)
 
 
 def floating_cholesky_core(P, sc, R, p, f, M, b, q, qd, tau, w, damping, flags, out):
     """``cholesky_route`` on a floating base's virtual chain (a free-flyer root)."""
-    return cholesky_route(P, sc, R, p, f, M, b, q, qd, tau, w, damping, flags, out, 6)
+    return cholesky_route(P, sc, R, p, f, M, b, q, qd, tau, w, damping, flags, out,
+                          floating_rnea_core, floating_crba_core)
 
 
 cholesky_inline = njit(cache=True, inline="always")(cholesky_core)   # into the entry fd
 cholesky_core = internal(f8(Pm, D2, D3, D2, D2, D2, D1, In1, In1, In1, In1, In1, i8, Out1),
-                         calls=("cholesky_solve",))(cholesky_core)
+                         calls=("rnea_core", "crba_core", "cholesky_solve"))(cholesky_core)
 floating_cholesky_core = internal(
     f8(Pm, D2, D3, D2, D2, D2, D1, In1, In1, In1, In1, In1, i8, Out1),
-    calls=("cholesky_solve",))(floating_cholesky_core)
+    calls=("floating_rnea_core", "floating_crba_core", "cholesky_solve"))(floating_cholesky_core)
 
 
 # ------------------------------------------------------------------ entry points
@@ -94,39 +90,43 @@ def fd(P, q, qd, tau, w, flags, out):
     return status(cholesky_inline(P, d.sc, d.R, d.p, d.f, c.M, c.b, q, qd, tau, w, tau, flags, out))
 
 
-def fd_batch(P, q, qd, tau, w, flags, out):
+@njit(cache=True, inline="always")
+def batch(P, q, qd, tau, w, flags, out, block, aba, cholesky):
     """Forward dynamics of N states (rows broadcast as in ``rnea_batch``): the Cholesky route
-    B at a time in SIMD lanes (``forward_lanes.py``; a chain too long for the lanes' stack,
-    ``data.square_lanes_fit``, one state at a time by ``cholesky_core``, the same bits),
-    ABA one state after the other. Returns OK, or NOT_FINITE if some input had a NaN/Inf."""
+    B at a time in SIMD lanes (``block``; a chain too long for the lanes' stack,
+    ``data.square_lanes_fit``, one state at a time by ``cholesky``, the same bits), ABA
+    (``aba``) one state after the other. Returns OK, or NOT_FINITE if some input had a
+    NaN/Inf. The kernels are the caller's: a fixed base's or a floating one's."""
     N, n = out.shape[0], P.shape[0] - 1
     L = int(P[n, LANES])
     flags &= ~F.DAMPING                  # tau stands in for the unread damping argument
-    aba = (flags & F.ABA) != 0
-    if not aba and square_lanes_fit(n, L):
+    use_aba = (flags & F.ABA) != 0
+    if not use_aba and square_lanes_fit(n, L):
         bad = OK
         for k0 in range(0, N, L):
-            if P[n, ROOT] != 0.0:        # a floating base's virtual chain: a free-flyer root
-                bad |= floating_fd_block(P, q, qd, tau, w, flags, out, k0)
-            else:
-                bad |= fd_block(P, q, qd, tau, w, flags, out, k0)
+            bad |= block(P, q, qd, tau, w, flags, out, k0)
         return bad
     d, a, c = new_kin(n), new_art(n), new_chol(n)
     nq, nv, nt, nw = q.shape[0] > 1, qd.shape[0] > 1, tau.shape[0] > 1, w.shape[0] > 1
     bad = OK
     for k in range(N):
         qk, qdk, tk, wk = q[k if nq else 0], qd[k if nv else 0], tau[k if nt else 0], w[k if nw else 0]
-        if aba and P[n, ROOT] != 0.0:    # FDfb on a floating base's virtual chain
-            chk = floating_aba_core(P, d.sc, d.R, d.p, a.IA, a.pA, a.U, a.c, a.Du, a.Y,
-                                    qk, qdk, tk, wk, tk, flags, out[k])
-        elif aba:
-            chk = aba_core(P, d.sc, d.R, d.p, a.IA, a.pA, a.U, a.c, a.Du, a.Y,
-                           qk, qdk, tk, wk, tk, flags, out[k])
-        elif P[n, ROOT] != 0.0:
-            chk = floating_cholesky_core(P, d.sc, d.R, d.p, d.f, c.M, c.b, qk, qdk, tk, wk, tk,
-                                         flags, out[k])
+        if use_aba:
+            chk = aba(P, d.sc, d.R, d.p, a.IA, a.pA, a.U, a.c, a.Du, a.Y, qk, qdk, tk, wk, tk,
+                      flags, out[k])
         else:
-            chk = cholesky_core(P, d.sc, d.R, d.p, d.f, c.M, c.b, qk, qdk, tk, wk, tk, flags, out[k])
+            chk = cholesky(P, d.sc, d.R, d.p, d.f, c.M, c.b, qk, qdk, tk, wk, tk, flags, out[k])
         if chk != 0.0:
             bad = NOT_FINITE
     return bad
+
+
+def fd_batch(P, q, qd, tau, w, flags, out):
+    """``batch`` on a fixed base (or one with a known motion, flag BASE)."""
+    return batch(P, q, qd, tau, w, flags, out, fd_block, aba_core, cholesky_core)
+
+
+def floating_fd_batch(P, q, qd, tau, w, flags, out):
+    """``batch`` on a floating base's virtual chain: the free-flyer root's kernels."""
+    return batch(P, q, qd, tau, w, flags, out, floating_fd_block, floating_aba_core,
+                 floating_cholesky_core)

@@ -13,10 +13,11 @@ import math
 from numba import njit
 
 from . import flags as F
-from .crba_lanes import composite_lanes
+from .crba_lanes import composite_lanes, floating_composite_lanes
 from .data import stack_empty
 from .layout import LANES
-from .rnea_lanes import gather, lanes_scratch, newton_euler_lanes, scatter, tau_minus_bias
+from .rnea_lanes import (fixed_base, free_flyer_root, gather, lanes_scratch, newton_euler_lanes,
+                         scatter, tau_minus_bias)
 from .signatures import In2, Out2, Pm, i8, internal
 from .status import NOT_FINITE, OK
 
@@ -71,22 +72,23 @@ def fd_scratch(n, L):
 
 @njit(cache=True, inline="always")
 def fd_lanes_core(P, q, qd, tau, w, flags, k0, nl, QV, WB, TB, ST, RB, PB, FB, CB, MB, SB,
-                  nb=0):
+                  first, root, composite):
     """qdd of the samples k0 .. k0 + nl - 1 into TB (n, B), M's Cholesky factors left in MB
-    (``cholesky_lanes``' layout). Returns whether every input was finite. ``nb``: 6 for a
-    floating base's virtual chain (a free-flyer root; ``forward.cholesky_route``)."""
+    (``cholesky_lanes``' layout). Returns whether every input was finite. ``first``, ``root``,
+    ``composite``: a fixed base's (0, ``rnea_lanes.fixed_base``, ``composite_lanes``) or a
+    floating base's virtual chain's (6, ``free_flyer_root``, ``floating_composite_lanes``)."""
     n = P.shape[0] - 1
     # b - J^T w: Newton-Euler at qdd = 0
     small, fin = gather(P, q, qd, q, w, flags & (F.QD | F.WRENCH | F.BASE), QV, WB, k0, nl)
-    newton_euler_lanes(P, flags & (F.QD | F.WRENCH | F.BASE), QV, WB, RB, PB, FB, ST, TB, nl, small, nb)
+    newton_euler_lanes(P, flags & (F.QD | F.WRENCH | F.BASE), QV, WB, RB, PB, FB, ST, TB, nl, small, first, root)
     fin = tau_minus_bias(tau, TB, k0, nl, fin)
-    composite_lanes(P, RB, PB, CB, ST, MB, nl, nb)   # M, on the transforms of q
+    composite(P, RB, PB, CB, ST, MB, nl)         # M, on the transforms of q
     cholesky_lanes(n, MB, TB, SB, nl)            # x <- M^-1 (tau - b)
     return fin
 
 
 @njit(cache=True, inline="always")
-def cholesky_block(P, q, qd, tau, w, flags, out, k0, nb):
+def cholesky_block(P, q, qd, tau, w, flags, out, k0, first, root, composite):
     """qdd of the samples k0 .. k0 + B - 1 (fewer at the batch's end) into the same rows of
     ``out`` (flags as ``forward.fd``'s, without ABA). Returns 1 if one of them has a NaN/Inf
     input, else 0."""
@@ -96,7 +98,7 @@ def cholesky_block(P, q, qd, tau, w, flags, out, k0, nb):
     QV, WB, TB, ST, RB, PB, FB, CB, SB = fd_scratch(n, L)
     MB = stack_empty((n * n, L))         # fd_batch calls this only where it fits
     fin = fd_lanes_core(P, q, qd, tau, w, flags, k0, nl, QV, WB, TB, ST, RB, PB, FB, CB, MB, SB,
-                        nb)
+                        first, root, composite)
     scatter(TB, out, k0, nl)
     return OK if fin else NOT_FINITE
 
@@ -104,10 +106,11 @@ def cholesky_block(P, q, qd, tau, w, flags, out, k0, nb):
 @internal(i8(Pm, In2, In2, In2, In2, i8, Out2, i8))
 def fd_block(P, q, qd, tau, w, flags, out, k0):
     """``cholesky_block`` on a fixed base (``forward.cholesky_core`` in every lane)."""
-    return cholesky_block(P, q, qd, tau, w, flags, out, k0, 0)
+    return cholesky_block(P, q, qd, tau, w, flags, out, k0, 0, fixed_base, composite_lanes)
 
 
 @internal(i8(Pm, In2, In2, In2, In2, i8, Out2, i8))
 def floating_fd_block(P, q, qd, tau, w, flags, out, k0):
     """``cholesky_block`` with a free-flyer root (``forward.floating_cholesky_core``)."""
-    return cholesky_block(P, q, qd, tau, w, flags, out, k0, 6)
+    return cholesky_block(P, q, qd, tau, w, flags, out, k0, 6, free_flyer_root,
+                          floating_composite_lanes)

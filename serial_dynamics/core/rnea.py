@@ -143,8 +143,13 @@ def free_flyer_motion(qd, qdd, base, flags):
     wx, wy, wz = (qd[3], qd[4], qd[5]) if (flags & F.QD) != 0 else (0.0, 0.0, 0.0)
     a0, a1, a2, a3, a4, a5 = ((qdd[0], qdd[1], qdd[2], qdd[3], qdd[4], qdd[5])
                               if (flags & F.QDD) != 0 else (0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
-    return (wx, wy, wz, a3 + wy * wz, a4 - wx * wz, a5 + wx * wy,
-            base[6] + a0, base[7] + a1, base[8] + a2)
+    return free_flyer(wx, wy, wz, a0, a1, a2, a3, a4, a5, base[6], base[7], base[8])
+
+
+@njit(cache=True, inline="always")
+def free_flyer(wx, wy, wz, a0, a1, a2, a3, a4, a5, bx, by, bz):
+    """``free_flyer_motion`` of omega, qdd[:6] and the base acceleration, 9 numbers."""
+    return wx, wy, wz, a3 + wy * wz, a4 - wx * wz, a5 + wx * wy, bx + a0, by + a1, bz + a2
 
 
 @njit(cache=True, inline="always")

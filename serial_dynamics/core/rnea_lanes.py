@@ -16,8 +16,8 @@ from numba import njit
 
 from . import flags as F
 from .data import stack_empty
-from .layout import ARM, G, H, IO, KIND, LANES, MASS, ROOT, TIPP, W_ACC, W_ALL, XP, XR
-from .rnea import body_wrench, free_flyer_motion, w_length
+from .layout import ARM, G, H, IO, KIND, LANES, MASS, TIPP, W_ACC, W_ALL, XP, XR
+from .rnea import body_wrench, free_flyer, w_length
 from .status import NOT_FINITE, OK
 from .signatures import In2, Out2, Pm, i8, internal
 from .spatial import SMALL_ANGLE, sincos
@@ -95,7 +95,7 @@ def lane_transforms(P, i, QV, RB, PB, nl, small):
 
 
 @njit(cache=True, inline="always")
-def lanes_block(P, q, qd, qdd, w, flags, out, k0, nb):
+def lanes_block(P, q, qd, qdd, w, flags, out, k0, first, root):
     """Inverse dynamics of the samples k0 .. k0 + B - 1 of the batch (fewer at its end), in
     lock step, into the same rows of ``out``. Returns 1 if one of them has a NaN/Inf
     input, else 0. The lanes' scratch is on this function's stack, shape (rows, B), each
@@ -111,7 +111,7 @@ def lanes_block(P, q, qd, qdd, w, flags, out, k0, nb):
     nl = min(L, N - k0)
     QV, WB, TB, ST, RB, PB, FB = lanes_scratch(n, L)
     small, fin = gather(P, q, qd, qdd, w, flags, QV, WB, k0, nl)
-    newton_euler_lanes(P, flags, QV, WB, RB, PB, FB, ST, TB, nl, small, nb)
+    newton_euler_lanes(P, flags, QV, WB, RB, PB, FB, ST, TB, nl, small, first, root)
     scatter(TB, out, k0, nl)
     return OK if fin else NOT_FINITE
 
@@ -119,13 +119,13 @@ def lanes_block(P, q, qd, qdd, w, flags, out, k0, nb):
 @internal(i8(Pm, In2, In2, In2, In2, i8, Out2, i8))
 def rnea_block(P, q, qd, qdd, w, flags, out, k0):
     """``lanes_block`` on a fixed base (``rnea.rnea_core`` in every lane)."""
-    return lanes_block(P, q, qd, qdd, w, flags, out, k0, 0)
+    return lanes_block(P, q, qd, qdd, w, flags, out, k0, 0, fixed_base)
 
 
 @internal(i8(Pm, In2, In2, In2, In2, i8, Out2, i8))
 def floating_rnea_block(P, q, qd, qdd, w, flags, out, k0):
     """``lanes_block`` with a free-flyer root (``rnea.floating_rnea_core`` in every lane)."""
-    return lanes_block(P, q, qd, qdd, w, flags, out, k0, 6)
+    return lanes_block(P, q, qd, qdd, w, flags, out, k0, 6, free_flyer_root)
 
 
 @njit(cache=True, inline="always")
@@ -160,10 +160,10 @@ def tau_minus_bias(tau, TB, k0, nl, fin):
 
 
 @njit(cache=True, inline="always")
-def newton_euler_lanes(P, flags, QV, WB, RB, PB, FB, ST, TB, nl, small, nb):
+def newton_euler_lanes(P, flags, QV, WB, RB, PB, FB, ST, TB, nl, small, first, root):
     """The recursions of ``rnea_block`` on gathered lanes: the torques into TB (n, B),
-    the joint transforms left in RB, PB (scratch as there); ``nb`` as ``rnea.newton_euler``'s
-    (6: a free-flyer root, the virtual joints' transforms not computed)."""
+    the joint transforms left in RB, PB (scratch as there), from body ``first`` on, ``root``
+    the caller's root joint: ``fixed_base`` (first 0), or ``free_flyer_root`` (first 6)."""
     n = P.shape[0] - 1
     use_w, use_base = (flags & F.WRENCH) != 0, (flags & F.BASE) != 0
     for k in range(15):          # omega = alpha = 0, a = -g; moving base: WB[6:15] - (0, 0, g)
@@ -173,17 +173,8 @@ def newton_euler_lanes(P, flags, QV, WB, RB, PB, FB, ST, TB, nl, small, nb):
                 ST[k, b] = (WB[W_ACC + k - 6, b] - P[n, G + k - 6] if k >= 6 else WB[6 + k, b]) if use_base else v
             else:
                 ST[k, b] = WB[k - 9, b] if use_w else 0.0
-    if nb > 0:                           # the free-flyer root (rnea.free_flyer_motion)
-        fk = 6 * (nb - 1)
-        for b in range(nl):
-            wx, wy, wz, ax, ay, az, lx, ly, lz = free_flyer_motion(
-                QV[n:2 * n, b], QV[2 * n:3 * n, b], ST[:, b], F.QD | F.QDD)
-            ST[0, b], ST[1, b], ST[2, b], ST[3, b], ST[4, b], ST[5, b] = wx, wy, wz, ax, ay, az
-            ST[6, b], ST[7, b], ST[8, b] = lx, ly, lz
-            nx, ny, nz, fx, fy, fz = body_wrench(P, nb - 1, wx, wy, wz, ax, ay, az, lx, ly, lz)
-            FB[fk, b], FB[fk + 1, b], FB[fk + 2, b] = fx, fy, fz
-            FB[fk + 3, b], FB[fk + 4, b], FB[fk + 5, b] = nx, ny, nz
-    for i in range(nb, n):
+    root(P, QV, RB, PB, FB, ST, TB, nl, False)   # a floating base's root joint: its motion
+    for i in range(first, n):
         ri, pi, fi = 9 * i, 3 * i, 6 * i
         rev = P[i, KIND] == 0.0          # the same in every lane: selects, not branches
         lane_transforms(P, i, QV, RB, PB, nl, small)
@@ -254,16 +245,44 @@ def newton_euler_lanes(P, flags, QV, WB, RB, PB, FB, ST, TB, nl, small, nb):
         mz = FB[fi + 5, b] - ST[14, b] - tpx * ST[10, b] + tpy * ST[9, b]
         ST[0, b], ST[1, b], ST[2, b], ST[3, b], ST[4, b], ST[5, b] = fx, fy, fz, mx, my, mz
         TB[n - 1, b] = (mz if rev else fz) + P[n - 1, ARM] * QV[3 * n - 1, b]   # S_i^T (n; f) + I_a qdd
-    for i in range(n - 2, nb - 1, -1):
+    for i in range(n - 2, first - 1, -1):
         rev = P[i, KIND] == 0.0
         for b in range(nl):
             fx, fy, fz, mx, my, mz = carry_in(RB, PB, FB, ST, i, b)
             ST[0, b], ST[1, b], ST[2, b], ST[3, b], ST[4, b], ST[5, b] = fx, fy, fz, mx, my, mz
             TB[i, b] = (mz if rev else fz) + P[i, ARM] * QV[2 * n + i, b]
-    if nb > 0:                           # the free-flyer's generalized forces: the root's [f; n]
-        for b in range(nl):
+    root(P, QV, RB, PB, FB, ST, TB, nl, True)    # and its generalized forces
+
+
+@njit(cache=True, inline="always")
+def fixed_base(P, QV, RB, PB, FB, ST, TB, nl, end):
+    """``newton_euler_lanes``' root joint on a fixed base: none."""
+    return 0
+
+
+@njit(cache=True, inline="always")
+def free_flyer_root(P, QV, RB, PB, FB, ST, TB, nl, end):
+    """``newton_euler_lanes``' root joint on a floating base's virtual chain, bodies 0-5 as one
+    free-flyer (``rnea.newton_euler``'s nb = 6): before the outward pass (``end`` False) the
+    root body's motion into ST and its wrench into FB (``rnea.free_flyer``); after the
+    inward pass its joint wrench [f; n], the base's generalized forces, into TB[:6]."""
+    n, k = P.shape[0] - 1, 5
+    fk = 6 * k
+    for b in range(nl):
+        if end:
             TB[0, b], TB[1, b], TB[2, b], TB[3, b], TB[4, b], TB[5, b] = carry_in(
-                RB, PB, FB, ST, nb - 1, b)
+                RB, PB, FB, ST, k, b)
+        else:
+            wx, wy, wz, ax, ay, az, lx, ly, lz = free_flyer(
+                QV[n + 3, b], QV[n + 4, b], QV[n + 5, b], QV[2 * n, b], QV[2 * n + 1, b],
+                QV[2 * n + 2, b], QV[2 * n + 3, b], QV[2 * n + 4, b], QV[2 * n + 5, b],
+                ST[6, b], ST[7, b], ST[8, b])
+            ST[0, b], ST[1, b], ST[2, b], ST[3, b], ST[4, b], ST[5, b] = wx, wy, wz, ax, ay, az
+            ST[6, b], ST[7, b], ST[8, b] = lx, ly, lz
+            nx, ny, nz, fx, fy, fz = body_wrench(P, k, wx, wy, wz, ax, ay, az, lx, ly, lz)
+            FB[fk, b], FB[fk + 1, b], FB[fk + 2, b] = fx, fy, fz
+            FB[fk + 3, b], FB[fk + 4, b], FB[fk + 5, b] = nx, ny, nz
+    return 0
 
 
 @njit(cache=True, inline="always")
@@ -291,10 +310,14 @@ def rnea_batch(P, q, qd, qdd, w, flags, out):
     (1, 6), with flag BASE (N or 1, W_ALL) (layout.W_*). Blocks of B samples run in lanes (the last one with the samples left). Returns
     0, or 1 if some input had a NaN/Inf (its rows are then not meaningful)."""
     bad = OK
-    n = P.shape[0] - 1
-    for k0 in range(0, out.shape[0], int(P[n, LANES])):
-        if P[n, ROOT] != 0.0:            # a floating base's virtual chain: a free-flyer root
-            bad |= floating_rnea_block(P, q, qd, qdd, w, flags, out, k0)
-        else:
-            bad |= rnea_block(P, q, qd, qdd, w, flags, out, k0)
+    for k0 in range(0, out.shape[0], int(P[P.shape[0] - 1, LANES])):
+        bad |= rnea_block(P, q, qd, qdd, w, flags, out, k0)
+    return bad
+
+
+def floating_rnea_batch(P, q, qd, qdd, w, flags, out):
+    """``rnea_batch`` on a floating base's virtual chain (``floating_rnea_block``)."""
+    bad = OK
+    for k0 in range(0, out.shape[0], int(P[P.shape[0] - 1, LANES])):
+        bad |= floating_rnea_block(P, q, qd, qdd, w, flags, out, k0)
     return bad

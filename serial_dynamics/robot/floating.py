@@ -440,8 +440,8 @@ def velocity_parents(parent):
 
 
 def _on_chain(P, q, v, a, tau, gw, flags, kind, out):
-    """N floating states through a fixed-base batch kernel of the instantaneous chain
-    (``kind``: "rnea" in SIMD lanes, "fd", "crba"), CHUNK states at a time: their rows
+    """N floating states through a batch kernel of the instantaneous chain or tree (``kind``:
+    "rnea", "fd", "crba": ``floating_rnea_batch``, ..., the free-flyer root's), CHUNK states at a time: their rows
     (core/floating.py floating_rows) in small buffers reused from chunk to chunk (no fresh
     pages to fault in, in cache), then the kernel, then (forward dynamics) the accelerations
     converted back. Every state as in one call (chunks are whole SIMD blocks). Returns the
@@ -459,14 +459,14 @@ def _on_chain(P, q, v, a, tau, gw, flags, kind, out):
         status = max(status, K.floating_rows(rows(q), rows(v), rows(a), rows(gw), flags,
                                              qv[:m], qdd[:m], w[:m]))
         if kind == "rnea":
-            status = max(status, K.rnea_batch(P, qv[:m], rows(v), qdd[:m], w[:m],
-                                              (flags & F.WRENCH) | _QD_QDD | F.BASE, out[k:e]))
+            status = max(status, K.floating_rnea_batch(
+                P, qv[:m], rows(v), qdd[:m], w[:m], (flags & F.WRENCH) | _QD_QDD | F.BASE, out[k:e]))
         elif kind == "fd":
-            status = max(status, K.fd_batch(P, qv[:m], rows(v), rows(tau), w[:m],
-                                            flags | F.QD | F.BASE, out[k:e]))
+            status = max(status, K.floating_fd_batch(P, qv[:m], rows(v), rows(tau), w[:m],
+                                                     flags | F.QD | F.BASE, out[k:e]))
             K.floating_accelerations(rows(v), out[k:e])
         else:
-            status = max(status, K.crba_batch(P, qv[:m], out[k:e]))
+            status = max(status, K.floating_crba_batch(P, qv[:m], out[k:e]))
     return status
 
 

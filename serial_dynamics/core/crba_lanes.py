@@ -139,7 +139,6 @@ def floating_composite_lanes(P, RB, PB, CB, FB, MB, nl):
         for b in range(nl):
             CB[r, b] = v
     for i in range(n - 1, nb - 1, -1):
-        rev, arm = P[i, KIND] == 0.0, P[i, ARM]
         for b in range(nl):              # F = IC_i S_i, M_ii (crba.joint_momentum)
             (FB[0, b], FB[1, b], FB[2, b], FB[3, b], FB[4, b], FB[5, b],
              MB[i * n + i, b]) = joint_momentum(P, i, CB[0, b], CB[1, b], CB[2, b], CB[8, b],

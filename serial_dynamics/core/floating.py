@@ -24,13 +24,13 @@ v, a (n+6); ``gw`` (9,) = [tip wrench [f; m] in the world (read with flag WRENCH
 gravity]; tau (n+6) or joint torques (n) for forward dynamics. Status: 0 ok, 1 a NaN/Inf or
 a quaternion of zero length, 2 a wrong length. Batches: ``floating_rows`` converts N states
 to the instantaneous chain's rows, the batch kernels (Newton-Euler, composite bodies and
-the Cholesky route in SIMD lanes; articulated bodies) run on them, choosing the free-flyer
-versions by ``P[n, ROOT]``, ``floating_accelerations`` converts back:
+the Cholesky route in SIMD lanes; articulated bodies) run on them (the free-flyer ones:
+``floating_rnea_batch``, ``floating_crba_batch``, ``floating_fd_batch``),
+``floating_accelerations`` converts back:
 the same operations, in the same order, as the single-state entry points.
 """
 import math
 
-import numpy as np
 from numba import njit
 
 from . import flags as F

@@ -19,6 +19,7 @@
     tree_derivatives.py  the derivatives on trees
     mimic.py      mimic joints: the reduced system of one state in one call
     regressor.py  the torque regressor                energy.py      dT/dq, the symplectic step
+    kinematics.py frame poses, Jacobians, center of mass, momentum (chains and trees)
 
 Each algorithm is the same as its NumPy reference in ``algorithms/`` (same frames and
 symbols; docs/conventions.md). Entry points, ``K`` and the status codes: ``dispatch.py``.

@@ -26,7 +26,8 @@ import numba
 from numba import njit
 from numba.core.dispatcher import Dispatcher
 
-from . import crba, crba_lanes, derivatives, derivatives_lanes, energy, floating, forward, mimic, planar, planar_lanes
+from . import crba, crba_lanes, derivatives, derivatives_lanes, energy, floating, forward, kinematics
+from . import mimic, planar, planar_lanes
 from . import regressor
 from . import rnea, rnea_lanes, tree, tree_derivatives
 from .signatures import In2, Mat, Out2, Out3, Pm, Vec, compile_internal, i8
@@ -65,6 +66,7 @@ ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core fu
     **tree.ENTRY_POINTS,           # kinematic trees on the parent array
     **tree_derivatives.ENTRY_POINTS,   # and their derivatives
     **mimic.ENTRY_POINTS,          # the reduced system of mimic joints, on any of the above
+    **kinematics.ENTRY_POINTS,     # frames, Jacobians, center of mass, momentum (any robot)
 }
 SINGLE_STATE = ("rnea", "rnea_wrench", "crba", "fd", "planar_rnea", "planar_rnea_wrench",
                 "planar_crba", "regressor", "rnea_derivatives", "fd_derivatives",
@@ -173,6 +175,11 @@ class _Kernels:
     mimic_rnea = _EntryPoint()
     mimic_crba = _EntryPoint()
     mimic_fd = _EntryPoint()
+    # kinematics (kinematics.py): one kernel each for chains and trees, batches of states
+    frame_pose = _EntryPoint()
+    frame_jacobian = _EntryPoint()
+    mass_moment = _EntryPoint()
+    centroidal = _EntryPoint()
 
     def load_all(self, names=None):
         """Compile or load ``names`` (default: every entry point)."""

@@ -4,12 +4,13 @@ It holds the immutable model and the dissipation model, checks inputs, and calls
 algorithm functions. Every state argument accepts ``(n,)`` or a batch ``(N, n)``.
 
 Backends: ``"numba"`` (default) runs inverse dynamics, the mass matrix, bias and gravity
-torques and forward dynamics (Cholesky and articulated-body routes) through the compiled
-core (``serial_dynamics/core/``); ``"numpy"`` runs the readable reference implementations
+torques, forward dynamics (Cholesky and articulated-body routes), frame poses and
+Jacobians, the center of mass and the momentum through the compiled core
+(``serial_dynamics/core/``); ``"numpy"`` runs the readable reference implementations
 of ``algorithms/`` (the tests compare the two). Choose per robot with
 ``Robot(model, backend="numpy")`` or for the process with the environment variable
-``SERIAL_DYNAMICS_BACKEND=numpy``. Everything else (Coriolis matrix, kinematics,
-energies, forward dynamics by QR) always runs the reference code.
+``SERIAL_DYNAMICS_BACKEND=numpy``. The Coriolis matrix and forward dynamics by QR
+always run the reference code.
 
 Paths. A single state given as C-contiguous float64 ``(n,)`` ndarrays goes straight to
 the compiled entry point, which checks lengths and NaN/Inf itself (numba's dispatcher
@@ -96,6 +97,9 @@ class Robot:
         self._compiled = self._k is K
         self._P = _P if _P is not None else layout.pack(model) if self._k is not None else None
         self._rnea_batch, self._crba_batch = ("rnea_batch", self._P), ("crba_batch", self._P)
+        self._frames = {}          # link: (body, placement) for the kinematics kernels
+        self._nv = model.dof       # the Jacobian's columns (every joint, a floating base's 6)
+        self._base = np.zeros(10)  # the base body's inertia (a fixed base's does not move)
         # with_payload's bookkeeping: the model (and P) as loaded, and the payload attached
         self._loaded, self._payload = _loaded or (model, self._P), _payload
 
@@ -397,13 +401,51 @@ class Robot:
         return self._dissipation.torque(qd)
 
     # ------------------------------------------------------------- kinematics, energy
+    # compiled: core/kinematics.py, one kernel each for every kind of robot (a floating
+    # base's q has its pose first), a batch a call; the numpy backend: algorithms/
+    def _frame(self, link):
+        """(body, F): ``link``'s joint frame and its placement there as one vector [R, p]."""
+        f = self._frames.get(link)
+        if f is None:
+            body, R, p = kinematics.frame_of(self.model, link)
+            f = self._frames[link] = (body, np.concatenate((R.ravel(), p)))
+        return f
+
+    def _kinematics(self, run, shape, *named):
+        """``run(rows..., out)`` (a core/kinematics.py kernel) on the states as given, each
+        one state or a batch of them; out (*shape) or (N, *shape). Where the kernel refuses
+        them (a length, a NaN, batch sizes to broadcast) the general path: ``_states``
+        (which names the culprit) and a second run."""
+        rows = [np.asarray(x, dtype=float) for _, x in named]
+        single = all(a.ndim == 1 for a in rows)
+        rows = [a.reshape(1, -1) if a.ndim == 1 else a for a in rows]
+        out = _empty((rows[0].shape[0],) + shape) if rows[0].ndim == 2 else None
+        if any(a.ndim != 2 for a in rows) or run(*rows, out) != OK:
+            single, rows = self._states(*named)
+            out = _empty((rows[0].shape[0],) + shape)
+            if run(*rows, out) != OK:
+                raise RuntimeError("a kinematics kernel refused validated states")
+        return out[0] if single else out
+
+    def _states(self, *named):
+        """(single, [(N, n) arrays]): the states checked (ValueError naming the culprit)."""
+        return as_batch(self.model, *named)
+
     def forward_kinematics(self, q, link=None):
-        """4x4 pose of ``link`` (default: the tip) in the base frame."""
-        return kinematics.forward_kinematics(self.model, q, link)
+        """4x4 pose of ``link`` (default: the tip) in the base frame; (N, 4, 4) for (N, n)."""
+        if self._P is None:
+            return kinematics.forward_kinematics(self.model, q, link)
+        body, F = self._frame(link)
+        return self._kinematics(lambda q, X: K.frame_pose(self._P, q, body, F, X), (4, 4),
+                                ("q", q))
 
     def jacobian(self, q, link=None):
         """6 x n geometric Jacobian of ``link``'s origin, [linear; angular], base frame."""
-        return kinematics.jacobian(self.model, q, link)
+        if self._P is None:
+            return kinematics.jacobian(self.model, q, link)
+        body, F = self._frame(link)
+        return self._kinematics(lambda q, J: K.frame_jacobian(self._P, q, body, F, J),
+                                (6, self._nv), ("q", q))
 
     # task space (task_space.py: every kind, batches; rows as jacobian's)
     def frame_acceleration(self, q, qd, qdd, link=None):
@@ -431,16 +473,30 @@ class Robot:
         return T[0] if single else T
 
     def potential_energy(self, q):
-        return energy.potential_energy(self.model, q)
+        """V = -m g . c (J), zero with the center of mass at the base origin."""
+        if self._P is None:
+            return energy.potential_energy(self.model, q)
+        return -self._mass_moment(q)[..., :3] @ self.model.gravity
 
     def center_of_mass(self, q):
         """(3,): the center of mass of the moving bodies, base frame (m)."""
-        return energy.center_of_mass(self.model, q)
+        if self._P is None:
+            return energy.center_of_mass(self.model, q)
+        mc = self._mass_moment(q)
+        return mc[..., :3] / mc[..., 3:]
+
+    def _mass_moment(self, q):
+        """[sum m c; sum m] (4,) or (N, 4): first moment (kg m) and mass (kg)."""
+        return self._kinematics(lambda q, mc: K.mass_moment(self._P, q, self._base, mc), (4,),
+                                ("q", q))
 
     def centroidal_momentum(self, q, qd):
         """(6,): [linear momentum; angular momentum about the center of mass] of the moving
         bodies, base axes (kg m/s, kg m^2/s)."""
-        return energy.centroidal_momentum(self.model, q, qd)
+        if self._P is None:
+            return energy.centroidal_momentum(self.model, q, qd)
+        return self._kinematics(lambda q, qd, h: K.centroidal(self._P, q, qd, self._base, h),
+                                (6,), ("q", q), ("qd", qd))
 
     def total_energy(self, q, qd):
         return self.kinetic_energy(q, qd) + self.potential_energy(q)

@@ -78,6 +78,9 @@ class Floating:
         self._fd_auto = _FD_FLAGS["aba" if aba_by_default(model, True) else "cholesky"]
         self._chain = layout_pack(virtual_chain(model), root=6) if self._compiled else None
         self._gw = np.concatenate((np.zeros(6), model.gravity))   # core/floating.py's gw
+        I = model.base_I_O       # the base body in core/kinematics.py's layout
+        self._base = np.r_[model.base_mass, model.base_h,
+                           I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]]
 
     nq = property(lambda self: self._nq, doc="n + 7: [x, y, z, qx, qy, qz, qw, joints]")
     nv = property(lambda self: self._nv, doc="n + 6: [v_O, omega (base frame), joints]")
@@ -298,8 +301,19 @@ class Floating:
     compiled_chain = None    # sim/'s whole-step kernels know no floating base (sim/floating.py)
 
     # ------------------------------------------------------------- kinematics, energy, momentum
+    # compiled: Robot's methods, whose kernels take the base pose as the root of q
+    # (core/kinematics.py); the numpy backend: algorithms/floating.py and the fixed
+    # base's kinematics moved by the base pose
+    def _states(self, *named):
+        d = dict(named)
+        single, q, _, s = fb.as_batch(self.model, d["q"], False,
+                                      **({"v": d["qd"]} if "qd" in d else {}))
+        return single, [q] + ([s["v"]] if "qd" in d else [])
+
     def forward_kinematics(self, q, link=None):
         """4x4 pose of ``link`` (default: the tip) in the world."""
+        if self._P is not None:
+            return super().forward_kinematics(q, link)
         single, q, R, _ = fb.as_batch(self.model, q)
         X = kinematics.forward_kinematics(self.model, q[:, 7:], link)
         B = np.zeros_like(X)
@@ -310,6 +324,8 @@ class Floating:
         """6 x (n+6) Jacobian of ``link``'s origin, [linear; angular] velocity in world axes,
         times v: the base's columns [R, -R [r]x; 0, R] (r: the link origin in the base
         frame), the joints' columns R J_fixed."""
+        if self._P is not None:
+            return super().jacobian(q, link)
         single, q, R, _ = fb.as_batch(self.model, q)
         N = q.shape[0]
         r = kinematics.forward_kinematics(self.model, q[:, 7:], link)[:, :3, 3]
@@ -330,15 +346,22 @@ class Floating:
         return 0.5 * np.einsum("...i,...ij,...j->...", v, M, v)
 
     def potential_energy(self, q):
-        return fb.potential_energy(self.model, q)
+        """V = -m g . c (J), zero with the center of mass at the world origin."""
+        if self._P is None:
+            return fb.potential_energy(self.model, q)
+        return super().potential_energy(q)
 
     def center_of_mass(self, q):
         """(3,): the center of mass of the base and the chain, world frame."""
-        return fb.center_of_mass(self.model, q)
+        if self._P is None:
+            return fb.center_of_mass(self.model, q)
+        return super().center_of_mass(q)
 
     def centroidal_momentum(self, q, qd):
         """(6,): [linear momentum; angular momentum about the center of mass], world axes."""
-        return fb.centroidal_momentum(self.model, q, qd)
+        if self._P is None:
+            return fb.centroidal_momentum(self.model, q, qd)
+        return super().centroidal_momentum(q, qd)
 
     def integrate(self, q, qd, dt):
         """q moved by v dt: the base pose on SE(3) (exponential map), the joints by qd dt."""

@@ -1,0 +1,279 @@
+"""Kinematics, center of mass and momentum, compiled: chains and trees, fixed or floating.
+
+The same equations, frames and symbols as the NumPy reference (``algorithms/kinematics.py``,
+``algorithms/energy.py``, ``algorithms/floating.py``): body i's joint frame in the world
+from its parent's, λ = parent(i) (Featherstone 2008, Sec. 4.4; a chain is λ = i - 1),
+
+    R0_i = R0_λ R_i,   o_i = o_λ + R0_λ p_i          (λ = -1: the base, at R_b, p_b)
+
+and what is read off the poses: a frame fixed on a body, the geometric Jacobian of its
+origin, the first moment of mass sum m_i c_i, and the centroidal momentum.
+
+The base is a joint like the others: a state q of n entries is a fixed base (R_b = 1,
+p_b = 0, the world is the base frame); q of n + 7, [x, y, z, qx, qy, qz, qw, joints], is a
+free-flyer root at p_b = (x, y, z), R_b of the quaternion (normalized; its velocity
+v = [v_O; omega] in base axes, the first 6 of n + 6). ``base`` (10,) is the base body's
+[m, h = m c, I_O: xx yy zz xy xz yz] (base frame; zeros for a fixed base, which does not
+move).
+
+Each entry point takes a batch (N, width) -- one state is N = 1 -- and computes row after
+row with nothing carried between rows, so a row's bits are those of the same state alone.
+Status codes (``status.py``): BAD_LENGTH, NOT_FINITE (a NaN or Inf anywhere in the states,
+or a quaternion of zero length), OK.
+"""
+import math
+
+from numba import njit
+
+from .data import stack_empty
+from .layout import H, IO, KIND, MASS, PARENT
+from .signatures import In1, In2, Out2, Out3, Pm, i8, internal
+from .spatial import joint_transforms
+from .status import BAD_LENGTH, NOT_FINITE, OK
+
+
+@internal
+def not_finite(x):
+    """True if some entry of the batch x is NaN or Inf (x * 0.0 is NaN iff x is)."""
+    chk = 0.0
+    for s in range(x.shape[0]):
+        for i in range(x.shape[1]):
+            chk += x[s, i] * 0.0
+    return chk != 0.0
+
+
+@internal
+def root_and_bodies(P, sc, R, p, q, nb, k, Rb, pb, R0, o):
+    """The base pose (Rb, pb) and R0_i, o_i of bodies 0 .. k-1 (a prefix holds each body's
+    ancestors) for the state q (nb = 0: a fixed base; 7: a free-flyer root). Returns False
+    for a quaternion of zero length."""
+    for r in range(3):
+        pb[r] = q[r] if nb else 0.0
+        for c in range(3):
+            Rb[r, c] = 1.0 if r == c else 0.0
+    if nb:        # R of the unit quaternion (x, y, z, w) (Hamilton, ROS order)
+        x, y, z, s = q[3], q[4], q[5], q[6]
+        nrm = math.sqrt(x * x + y * y + z * z + s * s)
+        if not nrm > 1e-12:
+            return False
+        x, y, z, s = x / nrm, y / nrm, z / nrm, s / nrm
+        Rb[0, 0], Rb[0, 1], Rb[0, 2] = 1 - 2 * (y * y + z * z), 2 * (x * y - z * s), 2 * (x * z + y * s)
+        Rb[1, 0], Rb[1, 1], Rb[1, 2] = 2 * (x * y + z * s), 1 - 2 * (x * x + z * z), 2 * (y * z - x * s)
+        Rb[2, 0], Rb[2, 1], Rb[2, 2] = 2 * (x * z - y * s), 2 * (y * z + x * s), 1 - 2 * (x * x + y * y)
+    joint_transforms(P, sc, R, p, q[nb:], k)
+    for i in range(k):
+        l = int(P[i, PARENT])
+        for r in range(3):    # o_i = o_l + R0_l p_i, R0_i = R0_l R_i (l = -1: the base)
+            if l < 0:
+                o[i, r] = pb[r] + Rb[r, 0] * p[i, 0] + Rb[r, 1] * p[i, 1] + Rb[r, 2] * p[i, 2]
+                for c in range(3):
+                    R0[i, r, c] = Rb[r, 0] * R[i, 0, c] + Rb[r, 1] * R[i, 1, c] + Rb[r, 2] * R[i, 2, c]
+            else:
+                o[i, r] = o[l, r] + R0[l, r, 0] * p[i, 0] + R0[l, r, 1] * p[i, 1] + R0[l, r, 2] * p[i, 2]
+                for c in range(3):
+                    R0[i, r, c] = R0[l, r, 0] * R[i, 0, c] + R0[l, r, 1] * R[i, 1, c] + R0[l, r, 2] * R[i, 2, c]
+    return True
+
+
+@njit(cache=True, inline="always")
+def frame_of(Rb, pb, R0, o, body):
+    """(R, o) of joint frame ``body`` (-1: the base)."""
+    return (Rb, pb) if body < 0 else (R0[body], o[body])
+
+
+@njit(cache=True, inline="always")
+def rotate(R, x, y, z):
+    """R (x, y, z)."""
+    return (R[0, 0] * x + R[0, 1] * y + R[0, 2] * z, R[1, 0] * x + R[1, 1] * y + R[1, 2] * z,
+            R[2, 0] * x + R[2, 1] * y + R[2, 2] * z)
+
+
+@njit(cache=True, inline="always")
+def rotate_t(R, x, y, z):
+    """R^T (x, y, z)."""
+    return (R[0, 0] * x + R[1, 0] * y + R[2, 0] * z, R[0, 1] * x + R[1, 1] * y + R[2, 1] * z,
+            R[0, 2] * x + R[1, 2] * y + R[2, 2] * z)
+
+
+@njit(cache=True, inline="always")
+def cross(ax, ay, az, bx, by, bz):
+    """a x b."""
+    return ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+
+
+def frame_pose(P, q, body, F, X):
+    """X[s] (4 x 4): the pose in the world of the frame F = [R_f row-major, p_f] fixed on
+    joint frame ``body`` (-1: the base): R = R0_b R_f, x = o_b + R0_b p_f."""
+    n = P.shape[0] - 1
+    nb = q.shape[1] - n
+    if nb not in (0, 7) or X.shape[0] != q.shape[0] or body >= n:
+        return BAD_LENGTH
+    if not_finite(q):
+        return NOT_FINITE
+    sc, R, p = stack_empty((2, n)), stack_empty((n, 3, 3)), stack_empty((n, 3))
+    R0, o, Rb, pb = stack_empty((n, 3, 3)), stack_empty((n, 3)), stack_empty((3, 3)), stack_empty((3,))
+    for s in range(q.shape[0]):
+        if not root_and_bodies(P, sc, R, p, q[s], nb, body + 1, Rb, pb, R0, o):
+            return NOT_FINITE
+        Ri, oi = frame_of(Rb, pb, R0, o, body)
+        x = rotate(Ri, F[9], F[10], F[11])
+        for r in range(3):
+            for c in range(3):
+                X[s, r, c] = Ri[r, 0] * F[c] + Ri[r, 1] * F[3 + c] + Ri[r, 2] * F[6 + c]
+            X[s, r, 3] = oi[r] + x[r]
+            X[s, 3, r] = 0.0
+        X[s, 3, 3] = 1.0
+    return OK
+
+
+def frame_jacobian(P, q, body, F, J):
+    """J[s] (6 x nv): the geometric Jacobian of frame F's origin x, [linear; angular], world
+    axes. Column j of an ancestor of ``body`` (the joints that move it), z_j = R0_j e_z:
+    revolute [z_j x (x - o_j); z_j], prismatic [z_j; 0]; zero for the others. A free-flyer
+    root's six columns, for v = [v_O; omega] in base axes: [R_b, -[x - p_b]x R_b; 0, R_b]."""
+    n = P.shape[0] - 1
+    nb = q.shape[1] - n
+    nv = n + (6 if nb else 0)
+    if nb not in (0, 7) or J.shape[0] != q.shape[0] or J.shape[2] != nv or body >= n:
+        return BAD_LENGTH
+    if not_finite(q):
+        return NOT_FINITE
+    sc, R, p = stack_empty((2, n)), stack_empty((n, 3, 3)), stack_empty((n, 3))
+    R0, o, Rb, pb = stack_empty((n, 3, 3)), stack_empty((n, 3)), stack_empty((3, 3)), stack_empty((3,))
+    jv = nv - n               # the first joint's column
+    for s in range(q.shape[0]):
+        if not root_and_bodies(P, sc, R, p, q[s], nb, body + 1, Rb, pb, R0, o):
+            return NOT_FINITE
+        Ri, oi = frame_of(Rb, pb, R0, o, body)
+        fx, fy, fz = rotate(Ri, F[9], F[10], F[11])
+        x = (oi[0] + fx, oi[1] + fy, oi[2] + fz)
+        for r in range(6):
+            for j in range(nv):
+                J[s, r, j] = 0.0
+        if nb:
+            dx, dy, dz = x[0] - pb[0], x[1] - pb[1], x[2] - pb[2]
+            for c in range(3):
+                J[s, 0, c], J[s, 1, c], J[s, 2, c] = Rb[0, c], Rb[1, c], Rb[2, c]
+                J[s, 3, 3 + c], J[s, 4, 3 + c], J[s, 5, 3 + c] = Rb[0, c], Rb[1, c], Rb[2, c]
+                J[s, 0, 3 + c], J[s, 1, 3 + c], J[s, 2, 3 + c] = cross(Rb[0, c], Rb[1, c], Rb[2, c], dx, dy, dz)
+        j = body
+        while j >= 0:
+            zx, zy, zz = R0[j, 0, 2], R0[j, 1, 2], R0[j, 2, 2]
+            if P[j, KIND] == 0.0:
+                J[s, 0, jv + j], J[s, 1, jv + j], J[s, 2, jv + j] = cross(
+                    zx, zy, zz, x[0] - o[j, 0], x[1] - o[j, 1], x[2] - o[j, 2])
+                J[s, 3, jv + j], J[s, 4, jv + j], J[s, 5, jv + j] = zx, zy, zz
+            else:
+                J[s, 0, jv + j], J[s, 1, jv + j], J[s, 2, jv + j] = zx, zy, zz
+            j = int(P[j, PARENT])
+    return OK
+
+
+def mass_moment(P, q, base, mc):
+    """mc[s] (4,) = [sum m c; sum m]: the first moment of mass of the base body and the
+    bodies, world frame (m_i c_i = m_i o_i + R0_i h_i, h_i = m_i c_i in frame i), and the
+    mass: their center of mass is mc[:3] / mc[3]."""
+    n = P.shape[0] - 1
+    nb = q.shape[1] - n
+    if nb not in (0, 7) or mc.shape[0] != q.shape[0] or base.shape[0] != 10:
+        return BAD_LENGTH
+    if not_finite(q):
+        return NOT_FINITE
+    sc, R, p = stack_empty((2, n)), stack_empty((n, 3, 3)), stack_empty((n, 3))
+    R0, o, Rb, pb = stack_empty((n, 3, 3)), stack_empty((n, 3)), stack_empty((3, 3)), stack_empty((3,))
+    for s in range(q.shape[0]):
+        if not root_and_bodies(P, sc, R, p, q[s], nb, n, Rb, pb, R0, o):
+            return NOT_FINITE
+        cx, cy, cz = rotate(Rb, base[1], base[2], base[3])
+        m, cx, cy, cz = base[0], base[0] * pb[0] + cx, base[0] * pb[1] + cy, base[0] * pb[2] + cz
+        for i in range(n):
+            hx, hy, hz = rotate(R0[i], P[i, H], P[i, H + 1], P[i, H + 2])
+            mi = P[i, MASS]
+            m, cx, cy, cz = m + mi, cx + mi * o[i, 0] + hx, cy + mi * o[i, 1] + hy, cz + mi * o[i, 2] + hz
+        mc[s, 0], mc[s, 1], mc[s, 2], mc[s, 3] = cx, cy, cz, m
+    return OK
+
+
+@njit(cache=True, inline="always")
+def body_momentum(Ri, ox, oy, oz, vx, vy, vz, wx, wy, wz, m, h, I):
+    """A body's momentum about the world origin, world axes, for the velocity (v; omega) of
+    its origin o: p = m v + omega x h0, L = I0 omega + h0 x v + o x p (h0 = R h,
+    I0 = R I_O R^T; Featherstone 2008, eq. 2.62). h: (hx, hy, hz), I: (xx, yy, zz, xy, xz, yz)."""
+    ax, ay, az = rotate_t(Ri, wx, wy, wz)
+    bx = I[0] * ax + I[3] * ay + I[4] * az
+    by = I[3] * ax + I[1] * ay + I[5] * az
+    bz = I[4] * ax + I[5] * ay + I[2] * az
+    nx, ny, nz = rotate(Ri, bx, by, bz)
+    hx, hy, hz = rotate(Ri, h[0], h[1], h[2])
+    cx, cy, cz = cross(wx, wy, wz, hx, hy, hz)
+    px, py, pz = m * vx + cx, m * vy + cy, m * vz + cz
+    ex, ey, ez = cross(hx, hy, hz, vx, vy, vz)
+    fx, fy, fz = cross(ox, oy, oz, px, py, pz)
+    return px, py, pz, nx + ex + fx, ny + ey + fy, nz + ez + fz
+
+
+def centroidal(P, q, qd, base, out):
+    """out[s] = [p; L]: the linear momentum and the angular momentum about the center of
+    mass of the base body and the bodies, world axes (Orin, Goswami & Lee 2013). Outward,
+    the velocity of each body origin: omega_i = omega_l (+ z_i qd_i), v_i = v_l + omega_l x
+    (o_i - o_l) (+ z_i qd_i); each body's momentum (``body_momentum``) summed about the
+    world origin, then L_c = L_O - c x p. qd (N or 1, nv) broadcasts."""
+    n = P.shape[0] - 1
+    N = q.shape[0]
+    nb = q.shape[1] - n
+    nv = n + (6 if nb else 0)
+    if (nb not in (0, 7) or qd.shape[1] != nv or out.shape[0] != N or qd.shape[0] not in (1, N)
+            or base.shape[0] != 10):
+        return BAD_LENGTH
+    if not_finite(q) or not_finite(qd):
+        return NOT_FINITE
+    sc, R, p = stack_empty((2, n)), stack_empty((n, 3, 3)), stack_empty((n, 3))
+    R0, o, Rb, pb = stack_empty((n, 3, 3)), stack_empty((n, 3)), stack_empty((3, 3)), stack_empty((3,))
+    V = stack_empty((n, 6))
+    jv = nv - n
+    for s in range(N):
+        if not root_and_bodies(P, sc, R, p, q[s], nb, n, Rb, pb, R0, o):
+            return NOT_FINITE
+        u = qd[min(s, qd.shape[0] - 1)]
+        ux, uy, uz = rotate(Rb, u[0], u[1], u[2]) if nb else (0.0, 0.0, 0.0)
+        bx, by, bz = rotate(Rb, u[3], u[4], u[5]) if nb else (0.0, 0.0, 0.0)
+        px, py, pz, lx, ly, lz = body_momentum(Rb, pb[0], pb[1], pb[2], ux, uy, uz, bx, by, bz,
+                                               base[0], base[1:4], base[4:10])
+        m = base[0]
+        cx, cy, cz = rotate(Rb, base[1], base[2], base[3])
+        cx, cy, cz = cx + m * pb[0], cy + m * pb[1], cz + m * pb[2]
+        for i in range(n):
+            l = int(P[i, PARENT])
+            if l < 0:
+                vx, vy, vz, wx, wy, wz = ux, uy, uz, bx, by, bz
+                dx, dy, dz = o[i, 0] - pb[0], o[i, 1] - pb[1], o[i, 2] - pb[2]
+            else:
+                vx, vy, vz, wx, wy, wz = V[l, 0], V[l, 1], V[l, 2], V[l, 3], V[l, 4], V[l, 5]
+                dx, dy, dz = o[i, 0] - o[l, 0], o[i, 1] - o[l, 1], o[i, 2] - o[l, 2]
+            ex, ey, ez = cross(wx, wy, wz, dx, dy, dz)
+            vx, vy, vz = vx + ex, vy + ey, vz + ez
+            zx, zy, zz, a = R0[i, 0, 2], R0[i, 1, 2], R0[i, 2, 2], u[jv + i]
+            if P[i, KIND] == 0.0:
+                wx, wy, wz = wx + zx * a, wy + zy * a, wz + zz * a
+            else:
+                vx, vy, vz = vx + zx * a, vy + zy * a, vz + zz * a
+            V[i, 0], V[i, 1], V[i, 2], V[i, 3], V[i, 4], V[i, 5] = vx, vy, vz, wx, wy, wz
+            fx, fy, fz, nx, ny, nz = body_momentum(R0[i], o[i, 0], o[i, 1], o[i, 2], vx, vy, vz,
+                                                   wx, wy, wz, P[i, MASS], P[i, H:H + 3],
+                                                   P[i, IO:IO + 6])
+            px, py, pz, lx, ly, lz = px + fx, py + fy, pz + fz, lx + nx, ly + ny, lz + nz
+            hx, hy, hz = rotate(R0[i], P[i, H], P[i, H + 1], P[i, H + 2])
+            mi = P[i, MASS]
+            m, cx, cy, cz = m + mi, cx + mi * o[i, 0] + hx, cy + mi * o[i, 1] + hy, cz + mi * o[i, 2] + hz
+        ex, ey, ez = cross(cx / m, cy / m, cz / m, px, py, pz)
+        out[s, 0], out[s, 1], out[s, 2] = px, py, pz
+        out[s, 3], out[s, 4], out[s, 5] = lx - ex, ly - ey, lz - ez
+    return OK
+
+
+ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core functions it calls)
+    "frame_pose": (frame_pose, i8(Pm, In2, i8, In1, Out3), False, ()),
+    "frame_jacobian": (frame_jacobian, i8(Pm, In2, i8, In1, Out3), False, ()),
+    "mass_moment": (mass_moment, i8(Pm, In2, In1, Out2), False, ()),
+    "centroidal": (centroidal, i8(Pm, In2, In2, In1, Out2), False, ()),
+}

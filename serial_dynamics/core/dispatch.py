@@ -180,6 +180,7 @@ class _Kernels:
     frame_jacobian = _EntryPoint()
     mass_moment = _EntryPoint()
     centroidal = _EntryPoint()
+    coriolis = _EntryPoint()
 
     def load_all(self, names=None):
         """Compile or load ``names`` (default: every entry point)."""

@@ -271,9 +271,161 @@ def centroidal(P, q, qd, base, out):
     return OK
 
 
+@njit(cache=True, inline="always")
+def inertia_at_com(R0, m, h, I, Ic):
+    """Ic (9,) = R0 I_c R0^T, row-major: a body's rotational inertia about its center of
+    mass in world axes, I_c = I_O - (|h|^2 1 - h h^T) / m (the parallel-axis theorem,
+    h = m c; I_c = I_O for a massless body, whose h is zero)."""
+    k = 1.0 / m if m > 0.0 else 0.0
+    hh = (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]) * k
+    A = ((I[0] - hh + h[0] * h[0] * k, I[3] + h[0] * h[1] * k, I[4] + h[0] * h[2] * k),
+         (I[3] + h[1] * h[0] * k, I[1] - hh + h[1] * h[1] * k, I[5] + h[1] * h[2] * k),
+         (I[4] + h[2] * h[0] * k, I[5] + h[2] * h[1] * k, I[2] - hh + h[2] * h[2] * k))
+    for r in range(3):
+        for c in range(3):
+            acc = 0.0
+            for a in range(3):
+                for b in range(3):
+                    acc += R0[r, a] * A[a][b] * R0[c, b]
+            Ic[3 * r + c] = acc
+
+
+@internal
+def add_body(cols, nc, Z, O, Od, W, rev, c, cd, w, m, Ic, C, T):
+    """Body i's share of C (Angeles & Lee 1988, the NOC):
+
+        C += T_i^T M_i dT_i/dt + T_i^T W_i M_i T_i,  T_i = [J_omega; J_c], M_i = diag(I_c, m),
+
+    over the columns ``cols[:nc]`` that move it. Column k with axis z_k through o_k on a
+    body turning at omega_k (origin velocity odot_k): revolute J_omega = z_k, J_c = z_k x
+    (c - o_k); prismatic J_c = z_k; dz_k/dt = omega_k x z_k, and d/dt of J_c by the product
+    rule with cdot the velocity of the center of mass c. T holds (J_omega, J_c, I_c dJ_omega/dt
+    + omega x I_c J_omega, m dJ_c/dt) for each column."""
+    for a in range(nc):
+        k = int(cols[a])
+        zx, zy, zz = Z[k, 0], Z[k, 1], Z[k, 2]
+        ex, ey, ez = cross(W[k, 0], W[k, 1], W[k, 2], zx, zy, zz)           # dz/dt
+        if rev[k] != 0.0:
+            rx, ry, rz = c[0] - O[k, 0], c[1] - O[k, 1], c[2] - O[k, 2]
+            ux, uy, uz = cd[0] - Od[k, 0], cd[1] - Od[k, 1], cd[2] - Od[k, 2]
+            jx, jy, jz = cross(zx, zy, zz, rx, ry, rz)
+            ax, ay, az = cross(ex, ey, ez, rx, ry, rz)
+            bx, by, bz = cross(zx, zy, zz, ux, uy, uz)
+            dx, dy, dz = ax + bx, ay + by, az + bz                          # dJ_c/dt
+            gx = Ic[0] * zx + Ic[1] * zy + Ic[2] * zz                       # I_c z
+            gy = Ic[3] * zx + Ic[4] * zy + Ic[5] * zz
+            gz = Ic[6] * zx + Ic[7] * zy + Ic[8] * zz
+            fx, fy, fz = cross(w[0], w[1], w[2], gx, gy, gz)
+            T[a, 0], T[a, 1], T[a, 2] = zx, zy, zz
+            T[a, 6] = Ic[0] * ex + Ic[1] * ey + Ic[2] * ez + fx
+            T[a, 7] = Ic[3] * ex + Ic[4] * ey + Ic[5] * ez + fy
+            T[a, 8] = Ic[6] * ex + Ic[7] * ey + Ic[8] * ez + fz
+        else:
+            jx, jy, jz, dx, dy, dz = zx, zy, zz, ex, ey, ez
+            for r in range(6, 9):
+                T[a, r - 6] = 0.0
+                T[a, r] = 0.0
+        T[a, 3], T[a, 4], T[a, 5] = jx, jy, jz
+        T[a, 9], T[a, 10], T[a, 11] = m * dx, m * dy, m * dz
+    for a in range(nc):
+        for b in range(nc):
+            C[int(cols[a]), int(cols[b])] += (T[a, 0] * T[b, 6] + T[a, 1] * T[b, 7] + T[a, 2] * T[b, 8]
+                                    + T[a, 3] * T[b, 9] + T[a, 4] * T[b, 10] + T[a, 5] * T[b, 11])
+
+
+def coriolis(P, q, qd, base, out):
+    """out[s] (nv x nv): the Coriolis matrix C with C qd = b - g and dM/dt - 2 C skew, of the
+    base body and the bodies (``add_body``), world axes; the same matrix as the NumPy
+    reference's NOC (algorithms/noc.py, and algorithms/floating.py for a floating base,
+    whose six columns are three slides along and three turns about the base's axes through
+    its origin). qd (N or 1, nv) broadcasts."""
+    n = P.shape[0] - 1
+    N = q.shape[0]
+    nb = q.shape[1] - n
+    nv = n + (6 if nb else 0)
+    if (nb not in (0, 7) or qd.shape[1] != nv or out.shape[0] != N or qd.shape[0] not in (1, N)
+            or out.shape[1] != nv or out.shape[2] != nv or base.shape[0] != 10):
+        return BAD_LENGTH
+    if not_finite(q) or not_finite(qd):
+        return NOT_FINITE
+    sc, R, p = stack_empty((2, n)), stack_empty((n, 3, 3)), stack_empty((n, 3))
+    R0, o, Rb, pb = stack_empty((n, 3, 3)), stack_empty((n, 3)), stack_empty((3, 3)), stack_empty((3,))
+    # each column: its axis Z through O on a body turning at W, O moving at Od; revolute?
+    Z, O, W, Od = stack_empty((nv, 3)), stack_empty((nv, 3)), stack_empty((nv, 3)), stack_empty((nv, 3))
+    rev, cols = stack_empty((nv,)), stack_empty((nv,))     # 1.0: revolute; column indices
+    T, Ic = stack_empty((nv, 12)), stack_empty((9,))
+    c, cd = stack_empty((3,)), stack_empty((3,))
+    jv = nv - n
+    for s in range(N):
+        if not root_and_bodies(P, sc, R, p, q[s], nb, n, Rb, pb, R0, o):
+            return NOT_FINITE
+        u = qd[min(s, qd.shape[0] - 1)]
+        C = out[s]
+        for a in range(nv):
+            for b in range(nv):
+                C[a, b] = 0.0
+        vx, vy, vz = rotate(Rb, u[0], u[1], u[2]) if nb else (0.0, 0.0, 0.0)
+        wx, wy, wz = rotate(Rb, u[3], u[4], u[5]) if nb else (0.0, 0.0, 0.0)
+        for k in range(jv):          # the base: slides along, then turns about, its axes
+            Z[k, 0], Z[k, 1], Z[k, 2] = Rb[0, k % 3], Rb[1, k % 3], Rb[2, k % 3]
+            O[k, 0], O[k, 1], O[k, 2] = pb[0], pb[1], pb[2]
+            W[k, 0], W[k, 1], W[k, 2] = wx, wy, wz
+            Od[k, 0], Od[k, 1], Od[k, 2] = vx, vy, vz
+            rev[k] = 1.0 if k >= 3 else 0.0
+            cols[k] = k
+        if nb and base[0] > 0.0:     # the base body
+            hx, hy, hz = rotate(Rb, base[1], base[2], base[3])
+            m = base[0]
+            c[0], c[1], c[2] = pb[0] + hx / m, pb[1] + hy / m, pb[2] + hz / m
+            ex, ey, ez = cross(wx, wy, wz, hx / m, hy / m, hz / m)
+            cd[0], cd[1], cd[2] = vx + ex, vy + ey, vz + ez
+            inertia_at_com(Rb, m, base[1:4], base[4:10], Ic)
+            add_body(cols, jv, Z, O, Od, W, rev, c, cd, (wx, wy, wz), m, Ic, C, T)
+        for i in range(n):           # the joints, outward: their axes and velocities
+            l = int(P[i, PARENT])
+            k = jv + i
+            if l < 0:
+                ox, oy, oz, ax, ay, az = vx, vy, vz, wx, wy, wz
+                dx, dy, dz = o[i, 0] - pb[0], o[i, 1] - pb[1], o[i, 2] - pb[2]
+            else:
+                ox, oy, oz = Od[jv + l, 0], Od[jv + l, 1], Od[jv + l, 2]
+                ax, ay, az = W[jv + l, 0], W[jv + l, 1], W[jv + l, 2]
+                dx, dy, dz = o[i, 0] - o[l, 0], o[i, 1] - o[l, 1], o[i, 2] - o[l, 2]
+            ex, ey, ez = cross(ax, ay, az, dx, dy, dz)
+            ox, oy, oz = ox + ex, oy + ey, oz + ez          # odot_i = odot_l + omega_l x (o_i - o_l)
+            zx, zy, zz, a = R0[i, 0, 2], R0[i, 1, 2], R0[i, 2, 2], u[k]
+            rev[k] = 1.0 if P[i, KIND] == 0.0 else 0.0
+            if rev[k] != 0.0:
+                ax, ay, az = ax + zx * a, ay + zy * a, az + zz * a
+            else:
+                ox, oy, oz = ox + zx * a, oy + zy * a, oz + zz * a
+            Z[k, 0], Z[k, 1], Z[k, 2] = zx, zy, zz
+            O[k, 0], O[k, 1], O[k, 2] = o[i, 0], o[i, 1], o[i, 2]
+            W[k, 0], W[k, 1], W[k, 2] = ax, ay, az
+            Od[k, 0], Od[k, 1], Od[k, 2] = ox, oy, oz
+        for i in range(n):           # each body: the columns that move it
+            m = P[i, MASS]
+            hx, hy, hz = rotate(R0[i], P[i, H], P[i, H + 1], P[i, H + 2])
+            km = 1.0 / m if m > 0.0 else 0.0
+            c[0], c[1], c[2] = o[i, 0] + hx * km, o[i, 1] + hy * km, o[i, 2] + hz * km
+            k = jv + i
+            ex, ey, ez = cross(W[k, 0], W[k, 1], W[k, 2], hx * km, hy * km, hz * km)
+            cd[0], cd[1], cd[2] = Od[k, 0] + ex, Od[k, 1] + ey, Od[k, 2] + ez
+            nc = jv
+            j = i
+            while j >= 0:
+                cols[nc] = jv + j
+                nc += 1
+                j = int(P[j, PARENT])
+            inertia_at_com(R0[i], m, P[i, H:H + 3], P[i, IO:IO + 6], Ic)
+            add_body(cols, nc, Z, O, Od, W, rev, c, cd, (W[k, 0], W[k, 1], W[k, 2]), m, Ic, C, T)
+    return OK
+
+
 ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core functions it calls)
     "frame_pose": (frame_pose, i8(Pm, In2, i8, In1, Out3), False, ()),
     "frame_jacobian": (frame_jacobian, i8(Pm, In2, i8, In1, Out3), False, ()),
     "mass_moment": (mass_moment, i8(Pm, In2, In1, Out2), False, ()),
     "centroidal": (centroidal, i8(Pm, In2, In2, In1, Out2), False, ()),
+    "coriolis": (coriolis, i8(Pm, In2, In2, In1, Out3), False, ()),
 }

@@ -5,12 +5,12 @@ algorithm functions. Every state argument accepts ``(n,)`` or a batch ``(N, n)``
 
 Backends: ``"numba"`` (default) runs inverse dynamics, the mass matrix, bias and gravity
 torques, forward dynamics (Cholesky and articulated-body routes), frame poses and
-Jacobians, the center of mass and the momentum through the compiled core
+Jacobians, the Coriolis matrix, the center of mass and the momentum through the compiled core
 (``serial_dynamics/core/``); ``"numpy"`` runs the readable reference implementations
 of ``algorithms/`` (the tests compare the two). Choose per robot with
 ``Robot(model, backend="numpy")`` or for the process with the environment variable
-``SERIAL_DYNAMICS_BACKEND=numpy``. The Coriolis matrix and forward dynamics by QR
-always run the reference code.
+``SERIAL_DYNAMICS_BACKEND=numpy``. Forward dynamics by QR always runs the reference
+code.
 
 Paths. A single state given as C-contiguous float64 ``(n,)`` ndarrays goes straight to
 the compiled entry point, which checks lengths and NaN/Inf itself (numba's dispatcher
@@ -271,7 +271,10 @@ class Robot:
 
     def coriolis_matrix(self, q, qd):
         """C(q, qd) from the natural orthogonal complement: C qd + g = b, Mdot - 2C skew."""
-        return noc.coriolis_matrix(self.model, q, qd)
+        if self._P is None:
+            return noc.coriolis_matrix(self.model, q, qd)
+        return self._kinematics(lambda q, qd, C: K.coriolis(self._P, q, qd, self._base, C),
+                                (self._nv, self._nv), ("q", q), ("qd", qd))
 
     def forward_dynamics(self, q, qd, tau, wrench=None, method="auto", base_motion=None,
                          out=None, wrenches=None):

@@ -207,8 +207,10 @@ class Floating:
 
     def coriolis_matrix(self, q, qd):
         """C (n+6, n+6) with C v = b - g and dM/dt - 2 C skew-symmetric (the NOC,
-        ``algorithms/floating.coriolis_matrix``; the NumPy reference)."""
-        return fb.coriolis_matrix(self.model, q, qd)
+        ``algorithms/floating.coriolis_matrix``; compiled: core/kinematics.coriolis)."""
+        if self._P is None:
+            return fb.coriolis_matrix(self.model, q, qd)
+        return super().coriolis_matrix(q, qd)
 
     def regressor(self, q, qd, qdd, friction=False, armature=None):
         """Y (n+6, p) or (N, n+6, p) with inverse_dynamics(q, v, a) == Y @

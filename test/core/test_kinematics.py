@@ -1,5 +1,5 @@
 """The compiled kinematics (core/kinematics.py: frame poses, Jacobians, center of mass,
-centroidal momentum, potential energy) against the NumPy reference on every kind of robot
+centroidal momentum, potential energy, the Coriolis matrix) against the NumPy reference on every kind of robot
 -- chain, tree, mimic joints, planar, floating base -- to 1e-12; a batch row is bitwise the
 single-state answer; bad input names the culprit. (Pinocchio agreement of the same methods:
 test/oracles/test_pinocchio*.py, which run the compiled backend.)"""
@@ -50,7 +50,7 @@ def test_the_compiled_kinematics_is_the_reference(pair):
             assert fast.forward_kinematics(q[k], link).tobytes() == X[k].tobytes()
             assert fast.jacobian(q[k], link).tobytes() == J[k].tobytes()
     for name, args in (("center_of_mass", (q,)), ("potential_energy", (q,)),
-                       ("centroidal_momentum", (q, qd))):
+                       ("centroidal_momentum", (q, qd)), ("coriolis_matrix", (q, qd))):
         batch = getattr(fast, name)(*args)
         close(batch, getattr(ref, name)(*args))
         for k in range(4):
@@ -58,6 +58,7 @@ def test_the_compiled_kinematics_is_the_reference(pair):
                 np.asarray(batch[k]).tobytes()
     # one configuration broadcast over a batch of velocities
     close(fast.centroidal_momentum(q[0], qd), ref.centroidal_momentum(q[:1], qd))
+    close(fast.coriolis_matrix(q[0], qd), ref.coriolis_matrix(q[:1], qd))
 
 
 def test_centroidal_momentum_is_the_jacobians_momentum():

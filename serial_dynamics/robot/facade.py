@@ -55,6 +55,7 @@ from .mimic import Mimic
 from .planar import Planar
 
 _empty = np.empty                          # one global lookup on the fast paths
+_F8 = np.dtype(float)
 _NO_WRENCH = np.zeros((1, 6))              # stands in for w in batch calls without one
 _W0 = np.zeros(6)                          # and in single forward-dynamics calls (not read)
 _QD_QDD, _QD, _QD_QDD_W, _QD_W = QD_QDD, QD, QD_QDD_W, QD_W     # module globals: one lookup
@@ -273,6 +274,10 @@ class Robot:
         """C(q, qd) from the natural orthogonal complement: C qd + g = b, Mdot - 2C skew."""
         if self._P is None:
             return noc.coriolis_matrix(self.model, q, qd)
+        if _one(q) and _one(qd):
+            C = _empty((self._nv, self._nv))
+            if K.coriolis(self._P, q[None], qd[None], self._base, C[None]) == OK:
+                return C
         return self._kinematics(lambda q, qd, C: K.coriolis(self._P, q, qd, self._base, C),
                                 (self._nv, self._nv), ("q", q), ("qd", qd))
 
@@ -439,6 +444,10 @@ class Robot:
         if self._P is None:
             return kinematics.forward_kinematics(self.model, q, link)
         body, F = self._frame(link)
+        if _one(q):                                       # one state: straight to the kernel
+            X = _empty((4, 4))
+            if K.frame_pose(self._P, q[None], body, F, X[None]) == OK:
+                return X
         return self._kinematics(lambda q, X: K.frame_pose(self._P, q, body, F, X), (4, 4),
                                 ("q", q))
 
@@ -447,6 +456,10 @@ class Robot:
         if self._P is None:
             return kinematics.jacobian(self.model, q, link)
         body, F = self._frame(link)
+        if _one(q):
+            J = _empty((6, self._nv))
+            if K.frame_jacobian(self._P, q[None], body, F, J[None]) == OK:
+                return J
         return self._kinematics(lambda q, J: K.frame_jacobian(self._P, q, body, F, J),
                                 (6, self._nv), ("q", q))
 
@@ -490,6 +503,10 @@ class Robot:
 
     def _mass_moment(self, q):
         """[sum m c; sum m] (4,) or (N, 4): first moment (kg m) and mass (kg)."""
+        if _one(q):
+            mc = _empty(4)
+            if K.mass_moment(self._P, q[None], self._base, mc[None]) == OK:
+                return mc
         return self._kinematics(lambda q, mc: K.mass_moment(self._P, q, self._base, mc), (4,),
                                 ("q", q))
 
@@ -498,6 +515,10 @@ class Robot:
         bodies, base axes (kg m/s, kg m^2/s)."""
         if self._P is None:
             return energy.centroidal_momentum(self.model, q, qd)
+        if _one(q) and _one(qd):
+            h = _empty(6)
+            if K.centroidal(self._P, q[None], qd[None], self._base, h[None]) == OK:
+                return h
         return self._kinematics(lambda q, qd, h: K.centroidal(self._P, q, qd, self._base, h),
                                 (6,), ("q", q), ("qd", qd))
 
@@ -551,6 +572,12 @@ class Robot:
         lo = np.where(np.isfinite(self.lower), self.lower, -np.pi)
         hi = np.where(np.isfinite(self.upper), self.upper, np.pi)
         return rng.uniform(lo, hi, shape), rng.uniform(-speed, speed, shape)
+
+
+def _one(x):
+    """x is one state as the kinematics kernels take it: a float64 vector (robot.py's fast
+    paths; anything else takes the general path)."""
+    return x.__class__ is np.ndarray and x.ndim == 1 and x.dtype is _F8
 
 
 def _unpickle(kind, model_type, fields, dissipation, backend, payload):

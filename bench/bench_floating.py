@@ -187,8 +187,8 @@ def main():
     cross = crossover(rounds)
     drift = satellite_drift(args.quick)
     out = ["## A free-floating base (`bench/bench_floating.py`)", "", stamp(),
-           "Our `FloatingRobot` (compiled: `core/floating.py`, the fixed-base kernels on the "
-           "instantaneous chain) against Pinocchio's `JointModelFreeFlyer` root, same states, "
+           "Our `FloatingRobot` (compiled: `core/floating.py`'s conversions to the instantaneous "
+           "chain, whose kernels take the base's six coordinates as one free-flyer root joint) against Pinocchio's `JointModelFreeFlyer` root, same states, "
            "in the same run (interleaved, min of rounds); both agree to 1e-9 on each timed "
            "state. Targets (issue 19): single calls no slower than Pinocchio from Python "
            "(ratio <= 1), batches <= 0.3x its Python loop.", "",

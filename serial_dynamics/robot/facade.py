@@ -492,14 +492,15 @@ class Robot:
         """V = -m g . c (J), zero with the center of mass at the base origin."""
         if self._P is None:
             return energy.potential_energy(self.model, q)
-        return -self._mass_moment(q)[..., :3] @ self.model.gravity
+        mc = self._mass_moment(q)
+        return -(mc[:3] if mc.ndim == 1 else mc[:, :3]) @ self.model.gravity
 
     def center_of_mass(self, q):
         """(3,): the center of mass of the moving bodies, base frame (m)."""
         if self._P is None:
             return energy.center_of_mass(self.model, q)
         mc = self._mass_moment(q)
-        return mc[..., :3] / mc[..., 3:]
+        return mc[:3] / mc[3] if mc.ndim == 1 else mc[:, :3] / mc[:, 3:]
 
     def _mass_moment(self, q):
         """[sum m c; sum m] (4,) or (N, 4): first moment (kg m) and mass (kg)."""

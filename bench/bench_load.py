@@ -7,10 +7,10 @@ Synthetic chains of n joints (``serial_dynamics.robots.synthetic.chain_urdf``: r
 cycling z, y, x) loaded from the XML string with ``sd.load_urdf``, default base and tip.
 Columns: the whole load (parse, chain extraction and lumping, ``Model.build`` with its
 validation, the ``Robot``); of it, the parse (lxml, the element checks, yourdfpy) and the
-mass-matrix check (``Model._check_mass_matrix``, O(n): composite and articulated inertias
+mass-matrix check (``urdf/mass_matrix.check_mass_matrix``, O(n): composite and articulated inertias
 at three configurations); and the whole load again with the dense check the loader ran
 before (the NumPy CRBA, O(n^2) Python-level products, and the eigenvalues of M, O(n^3), at
-the same three configurations; ``Model._check_reduced_mass_matrix`` with G = 1). Times are
+the same three configurations; its ``_check_reduced_mass_matrix`` with G = 1). Times are
 the minimum over repeats, wall clock, one process, numba cache warm.
 """
 from __future__ import annotations
@@ -28,7 +28,7 @@ sys.path.insert(0, os.path.dirname(HERE))
 
 import serial_dynamics as sd                                   # noqa: E402
 from serial_dynamics.urdf import loader as urdf_module                # noqa: E402
-from serial_dynamics.model import Model                        # noqa: E402
+from serial_dynamics.urdf import mass_matrix as check_module    # noqa: E402
 from serial_dynamics.robots.synthetic import chain_urdf, mimic_chain_urdf   # noqa: E402
 from _report import REPORT, stamp, write_section               # noqa: E402
 
@@ -50,7 +50,7 @@ def dense_check(model):
     lo = np.where(np.isfinite(model.lower), model.lower, -np.pi)
     hi = np.where(np.isfinite(model.upper), model.upper, np.pi)
     qs = np.vstack([np.clip(np.zeros(model.dof), lo, hi), rng.uniform(lo, hi, (2, model.dof))])
-    model._check_reduced_mass_matrix(qs)
+    check_module._check_reduced_mass_matrix(model, qs)
 
 
 def measure(sizes, dense=True):
@@ -62,17 +62,17 @@ def measure(sizes, dense=True):
         load = best(lambda: sd.load_urdf(xml), repeats)
         parse = best(lambda: urdf_module._parse(xml), repeats)
         model = sd.load_urdf(xml).model
-        check = best(model._check_mass_matrix, repeats)
+        check = best(lambda: check_module.check_mass_matrix(model), repeats)
         mimic_xml = mimic_chain_urdf(n, follower=n // 2 + 1)
         mimic = best(lambda: sd.load_urdf(mimic_xml), repeats)
         old = None
         if dense:
-            fast = Model._check_mass_matrix
-            Model._check_mass_matrix = dense_check
+            fast = urdf_module.check_mass_matrix       # the loader's, replaced for a while
+            urdf_module.check_mass_matrix = dense_check
             try:
                 old = best(lambda: sd.load_urdf(xml), 1 if n >= 400 else repeats)
             finally:
-                Model._check_mass_matrix = fast
+                urdf_module.check_mass_matrix = fast
         rows.append((n, load, parse, check, old, mimic))
         print(f"n = {n:5d}: load {load:.4f} s (parse {parse:.4f} s, mass-matrix check "
               f"{check:.4f} s); with one mimic joint {mimic:.4f} s"

@@ -37,6 +37,7 @@ from . import regressor as _regressor
 from . import task_space as _task_space
 from ..algorithms import aba, crba, energy, forward, kinematics, noc, rnea
 from ..algorithms._batch import as_batch
+from ..algorithms.planar import planar_pack
 from .base_motion import check_base_motion
 from .batches import kernel_rows as _rows
 from .batches import run_split
@@ -674,6 +675,6 @@ def kind_of(model):
                 if model.has_mimic_joints else FloatingRobot)
     if model.has_mimic_joints:           # coordinates are the independent joints; the
         return MimicRobot                # reduction runs the full chain's general algorithms
-    if model.planar_layout is not None:  # every revolute axis parallel, prismatic ones in
+    if planar_pack(model) is not None:   # every revolute axis parallel, prismatic ones in
         return PlanarRobot               # the plane: planar 3-vectors
     return Robot

@@ -431,7 +431,7 @@ def virtual_chain(model) -> Model:
         com=np.concatenate([np.zeros((5, 3)), [model.base_com], model.com]),
         inertia=np.concatenate([np.zeros((5, 3, 3)), [model.base_inertia], model.inertia]),
         gravity=zero, tip_R=model.tip_R, tip_p=model.tip_p, frames=frames,
-        armature=np.r_[np.zeros(6), model.armature], check_mass_matrix=False,
+        armature=np.r_[np.zeros(6), model.armature],
         parent=velocity_parents(model.parent))
 
 

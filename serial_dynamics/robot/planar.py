@@ -4,7 +4,7 @@ fast path.
 A chain whose revolute axes are all parallel and whose prismatic axes are perpendicular
 to them moves in a plane; its joint torques need only planar twists (omega_z; v_x, v_y) and
 wrenches (n_z; f_x, f_y) (Angeles, Sec. 7.6.1): ``algorithms/planar.py`` (reference,
-detection ``planar_pack``, kept as ``Model.planar_layout``) and ``core/planar.py`` (compiled).
+detection ``planar_pack``) and ``core/planar.py`` (compiled).
 ``sd.Robot(model)`` returns a
 ``PlanarRobot`` for such a chain; it answers inverse dynamics, bias and gravity torques and
 the mass matrix there (single states and batches, so that a state's result is bitwise the
@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..algorithms.planar import planar_pack
 from ..core import K, OK
 from .wrenches import generalized_forces
 from .common import QD as _QD
@@ -35,7 +36,7 @@ class Planar:
     def __init__(self, model, dissipation=None, backend=None, **kwargs):
         super().__init__(model, dissipation, backend, **kwargs)
         if self._compiled:          # the batch kernels of Robot's general path, planar
-            self._Q = model.planar_layout
+            self._Q = planar_pack(model)
             self._rnea_batch = ("planar_rnea_batch", self._Q)
             self._crba_batch = ("planar_crba_batch", self._Q)
 

@@ -22,6 +22,7 @@ from ..model.inertia import (MAX_INERTIA, MAX_LENGTH, MAX_MASS, check_inertia, c
                       combine_inertias)
 from ..model.errors import HeldJointsWarning, URDFError
 from ..model.model import Model
+from .mass_matrix import check_mass_matrix
 from .transmissions import reflected_inertias
 from .tree import check_tree, movable_leaves, path_up, single_chain_tip
 from .xml_checks import (MOVABLE, check_elements, check_well_formed, without_harmless_header,
@@ -267,7 +268,7 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
                for i in range(len(bodies))]
     g_root = _finite_or_fail(gravity, "gravity").reshape(3)
     R_base = _pose_in_root(base_link, root, parent_joint)[:3, :3]
-    return Model.build(
+    model = Model.build(
         name=robot.name or "robot",
         joint_names=[b["name"] for b in bodies],
         joint_types=[b["type"] for b in bodies],
@@ -288,6 +289,8 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
             (combine_inertias(parts[-1]) if parts[-1] else (0.0, np.zeros(3), np.zeros((3, 3))))
             if floating_base else None),
     )
+    check_mass_matrix(model)     # positive definite (the check that needs the algorithms)
+    return model
 
 
 def _check_tips(tip_links, links, base_link, parent_joint):

@@ -2,23 +2,20 @@
 mimic joint made the load quadratic, 1,000 joints in 14 s, since the singular-mass-matrix
 check ran the dense NumPy CRBA three times). Load times: bench/bench_load.py."""
 import re
-import sys
 
 import numpy as np
 import pytest
 
 import serial_dynamics as sd
-from serial_dynamics.model import Model
 from serial_dynamics.robots.synthetic import chain_urdf, mimic_chain_urdf
-
-model_module = sys.modules[Model.__module__]     # where Model lives (the layout is moving)
+from serial_dynamics.urdf import mass_matrix as check_module   # the loader's mass-matrix check
 
 
 @pytest.fixture
 def dense_calls(monkeypatch):
     calls = []
-    dense = model_module._mass_matrix
-    monkeypatch.setattr(model_module, "_mass_matrix", lambda *a: calls.append(1) or dense(*a))
+    dense = check_module.mass_matrix
+    monkeypatch.setattr(check_module, "mass_matrix", lambda *a: calls.append(1) or dense(*a))
     return calls
 
 

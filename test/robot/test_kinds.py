@@ -12,6 +12,7 @@ import os
 import pytest
 
 import serial_dynamics as sd
+from serial_dynamics.algorithms.planar import planar_pack
 from serial_dynamics.robot import FloatingMimicRobot, MimicRobot, PlanarRobot, Robot, kind_of
 
 from test_mimic import mimic_chain
@@ -49,7 +50,7 @@ def test_kind_of_chooses_and_every_constructor_builds_it(source, kind):
     assert type(robot.with_payload(0.5).without_payload()) is kind
     assert robot.is_planar == (kind is PlanarRobot)
     if source == "planar+mimic":
-        assert robot.model.planar_layout is not None and robot.model.has_mimic_joints
+        assert planar_pack(robot.model) is not None and robot.model.has_mimic_joints
 
 
 def _private_robot_accesses(path):

@@ -23,7 +23,7 @@ from hypothesis import strategies as st
 from lxml import etree
 
 import serial_dynamics as sd
-from serial_dynamics.model.model import _diagonal_and_pivots
+from serial_dynamics.urdf.mass_matrix import _diagonal_and_pivots
 
 SETTINGS = dict(deadline=None, database=None, derandomize=True,
                 suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])

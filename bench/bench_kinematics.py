@@ -1,5 +1,5 @@
 """Kinematics, momentum and the Coriolis matrix against Pinocchio from Python, one process:
-the pose and Jacobian of a leaf link, the center of mass, the centroidal momentum and the
+the pose, Jacobian and (classical) acceleration of a leaf link, the center of mass, the centroidal momentum and the
 Coriolis matrix, one state a call, on the Panda (fixed and floating), Solo12 and Talos
 (30 joints; floating). Each answer is checked against Pinocchio's before it is timed
 (the Coriolis matrix through C v, which every valid C shares; the center of mass and
@@ -61,13 +61,23 @@ def rows_of(name, robot, path, floating, rounds):
     pin.forwardKinematics(m, d, pq)
     agree(robot.forward_kinematics(q, leaf), pin.updateFramePlacement(m, d, fid).homogeneous, "pose")
     agree(robot.jacobian(q, leaf), pin.computeFrameJacobian(m, d, pq, fid, world)[:, iv], "jacobian")
+    a = np.random.default_rng(1).uniform(-1, 1, robot.nv)
+    pa = np.zeros(m.nv)
+    pa[iv] = a
+    pin.forwardKinematics(m, d, pq, pv, pa)
+    agree(robot.frame_acceleration(q, v, a, leaf),
+          pin.getFrameClassicalAcceleration(m, d, fid, world).vector, "frame acceleration")
     Cv = pin.computeCoriolisMatrix(m, d, pq, pv) @ pv
     agree(robot.coriolis_matrix(q, v) @ v, Cv[iv], "C v")
     calls = [("pose of a leaf link", lambda r: r.forward_kinematics(q, leaf),
               lambda: (pin.forwardKinematics(m, d, pq), pin.updateFramePlacement(m, d, fid)),
               "forwardKinematics + updateFramePlacement"),
              ("Jacobian of a leaf link", lambda r: r.jacobian(q, leaf),
-              lambda: pin.computeFrameJacobian(m, d, pq, fid, world), "computeFrameJacobian")]
+              lambda: pin.computeFrameJacobian(m, d, pq, fid, world), "computeFrameJacobian"),
+             ("acceleration of a leaf link", lambda r: r.frame_acceleration(q, v, a, leaf),
+              lambda: (pin.forwardKinematics(m, d, pq, pv, pa),
+                       pin.getFrameClassicalAcceleration(m, d, fid, world)),
+              "forwardKinematics(q, v, a) + getFrameClassicalAcceleration")]
     if floating:       # both count every body (a fixed base's own link: only Pinocchio)
         agree(robot.center_of_mass(q), pin.centerOfMass(m, d, pq), "center of mass")
         h = pin.computeCentroidalMomentum(m, d, pq, pv)

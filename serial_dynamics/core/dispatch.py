@@ -181,6 +181,7 @@ class _Kernels:
     mass_moment = _EntryPoint()
     centroidal = _EntryPoint()
     coriolis = _EntryPoint()
+    frame_acceleration = _EntryPoint()
 
     def load_all(self, names=None):
         """Compile or load ``names`` (default: every entry point)."""

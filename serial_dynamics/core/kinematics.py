@@ -194,6 +194,70 @@ def mass_moment(P, q, base, mc):
     return OK
 
 
+def frame_acceleration(P, q, qd, qdd, body, F, out):
+    """out[s] = [a; alpha]: the classical acceleration of frame F's origin and the angular
+    acceleration of its body, world axes (J qdd + J-dot qd; ``algorithms/task_space.py``).
+    Outward along the joints from the base to ``body``, with d = o_i - o_l (Featherstone
+    2008, Sec. 2.11): a_i = a_l + alpha_l x d + omega_l x (omega_l x d), then a revolute
+    joint adds omega_i = omega_l + z qd, alpha_i = alpha_l + omega_l x z qd + z qdd, a
+    prismatic one a_i += 2 omega_l x z qd + z qdd. A free-flyer root starts from the base's
+    omega = R w, alpha = R dw/dt, a = R (dv_O/dt + w x v_O) (v = [v_O; w], a = dv/dt in base
+    axes). qd, qdd (N or 1, nv) broadcast."""
+    n = P.shape[0] - 1
+    N = q.shape[0]
+    nb = q.shape[1] - n
+    nv = n + (6 if nb else 0)
+    if (nb not in (0, 7) or qd.shape[1] != nv or qdd.shape[1] != nv or out.shape[0] != N
+            or qd.shape[0] not in (1, N) or qdd.shape[0] not in (1, N) or body >= n):
+        return BAD_LENGTH
+    if not_finite(q) or not_finite(qd) or not_finite(qdd):
+        return NOT_FINITE
+    sc, R, p = stack_empty((2, n)), stack_empty((n, 3, 3)), stack_empty((n, 3))
+    R0, o, Rb, pb = stack_empty((n, 3, 3)), stack_empty((n, 3)), stack_empty((3, 3)), stack_empty((3,))
+    path = stack_empty((n,))              # the ancestors of body, from it to the root
+    jv = nv - n
+    for s in range(N):
+        if not root_and_bodies(P, sc, R, p, q[s], nb, body + 1, Rb, pb, R0, o):
+            return NOT_FINITE
+        u, du = qd[min(s, qd.shape[0] - 1)], qdd[min(s, qdd.shape[0] - 1)]
+        wx = wy = wz = bx = by = bz = ax = ay = az = 0.0
+        if nb:
+            wx, wy, wz = rotate(Rb, u[3], u[4], u[5])
+            bx, by, bz = rotate(Rb, du[3], du[4], du[5])
+            cx, cy, cz = cross(u[3], u[4], u[5], u[0], u[1], u[2])
+            ax, ay, az = rotate(Rb, du[0] + cx, du[1] + cy, du[2] + cz)
+        ox, oy, oz = pb[0], pb[1], pb[2]
+        k = 0
+        j = body
+        while j >= 0:
+            path[k] = j
+            k += 1
+            j = int(P[j, PARENT])
+        for m in range(k - 1, -1, -1):
+            j = int(path[m])
+            dx, dy, dz = o[j, 0] - ox, o[j, 1] - oy, o[j, 2] - oz
+            ex, ey, ez = cross(bx, by, bz, dx, dy, dz)
+            fx, fy, fz = cross(wx, wy, wz, dx, dy, dz)
+            gx, gy, gz = cross(wx, wy, wz, fx, fy, fz)
+            ax, ay, az = ax + ex + gx, ay + ey + gy, az + ez + gz
+            zx, zy, zz, c, dc = R0[j, 0, 2], R0[j, 1, 2], R0[j, 2, 2], u[jv + j], du[jv + j]
+            hx, hy, hz = cross(wx, wy, wz, zx, zy, zz)
+            if P[j, KIND] == 0.0:
+                bx, by, bz = bx + zx * dc + hx * c, by + zy * dc + hy * c, bz + zz * dc + hz * c
+                wx, wy, wz = wx + zx * c, wy + zy * c, wz + zz * c
+            else:
+                ax, ay, az = ax + zx * dc + 2.0 * hx * c, ay + zy * dc + 2.0 * hy * c, az + zz * dc + 2.0 * hz * c
+            ox, oy, oz = o[j, 0], o[j, 1], o[j, 2]
+        Ri = Rb if body < 0 else R0[body]
+        fx, fy, fz = rotate(Ri, F[9], F[10], F[11])     # the frame's origin from its body's
+        ex, ey, ez = cross(bx, by, bz, fx, fy, fz)
+        gx, gy, gz = cross(wx, wy, wz, fx, fy, fz)
+        hx, hy, hz = cross(wx, wy, wz, gx, gy, gz)
+        out[s, 0], out[s, 1], out[s, 2] = ax + ex + hx, ay + ey + hy, az + ez + hz
+        out[s, 3], out[s, 4], out[s, 5] = bx, by, bz
+    return OK
+
+
 @njit(cache=True, inline="always")
 def body_momentum(Ri, ox, oy, oz, vx, vy, vz, wx, wy, wz, m, h, I):
     """A body's momentum about the world origin, world axes, for the velocity (v; omega) of
@@ -428,4 +492,5 @@ ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core fu
     "mass_moment": (mass_moment, i8(Pm, In2, In1, Out2), False, ()),
     "centroidal": (centroidal, i8(Pm, In2, In2, In1, Out2), False, ()),
     "coriolis": (coriolis, i8(Pm, In2, In2, In1, Out3), False, ()),
+    "frame_acceleration": (frame_acceleration, i8(Pm, In2, In2, In2, i8, In1, Out2), False, ()),
 }

@@ -467,11 +467,22 @@ class Robot:
     # task space (task_space.py: every kind, batches; rows as jacobian's)
     def frame_acceleration(self, q, qd, qdd, link=None):
         """[linear; angular] acceleration of ``link``'s origin (classical), = J qdd + J-dot qd."""
-        return _task_space.frame_acceleration(self, q, qd, qdd, link)
+        if self._P is None:
+            return _task_space.frame_acceleration(self, q, qd, qdd, link)
+        if qdd is None:
+            qdd = np.zeros(np.shape(qd))
+        body, F = self._frame(link)
+        if _one(q) and _one(qd) and _one(qdd):
+            A = _empty(6)
+            if K.frame_acceleration(self._P, q[None], qd[None], qdd[None], body, F, A[None]) == OK:
+                return A
+        return self._kinematics(
+            lambda q, qd, qdd, A: K.frame_acceleration(self._P, q, qd, qdd, body, F, A), (6,),
+            ("q", q), ("qd", qd), ("qdd", qdd))
 
     def jacobian_dot_qd(self, q, qd, link=None):
         """J-dot qd (6,), the frame's bias acceleration: frame_acceleration at qdd = 0."""
-        return _task_space.jacobian_dot_qd(self, q, qd, link)
+        return self.frame_acceleration(q, qd, None, link)
 
     def operational_space_inertia(self, q, link=None, damping=0.0):
         """Lambda = (J M^-1 J^T + damping^2 1)^-1, 6 x 6 (undamped: refused where singular)."""

@@ -59,6 +59,7 @@ FLOATING_KERNELS = tuple(k for k in ENTRY_POINTS if k.startswith("floating"))   
 _ZERO_ROW = np.zeros((1, 1))  # an input floating_rows does not read
 CHUNK = 1024                  # states per chunk of a batch (a whole number of SIMD blocks)
 _GW_BAD = np.zeros(0)        # a gw that no entry point accepts (status 2): the general path
+_V_NAMES = {"qd": "v", "qdd": "a"}    # a floating base's names of the rates
 _NO_W = np.zeros((1, W_WRENCH))   # the derivative kernels' w without a wrench (not read)
 
 
@@ -307,10 +308,9 @@ class Floating:
     # (core/kinematics.py); the numpy backend: algorithms/floating.py and the fixed
     # base's kinematics moved by the base pose
     def _states(self, *named):
-        d = dict(named)
-        single, q, _, s = fb.as_batch(self.model, d["q"], False,
-                                      **({"v": d["qd"]} if "qd" in d else {}))
-        return single, [q] + ([s["v"]] if "qd" in d else [])
+        d = {_V_NAMES.get(name, name): x for name, x in named}   # errors say v and a
+        single, q, _, s = fb.as_batch(self.model, d.pop("q"), False, **d)
+        return single, [q] + [s[name] for name in d]
 
     def forward_kinematics(self, q, link=None):
         """4x4 pose of ``link`` (default: the tip) in the world."""

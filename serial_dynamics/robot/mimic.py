@@ -269,6 +269,14 @@ class Mimic:
     def jacobian(self, q, link=None):
         return self._reduce(super().jacobian(self._all(("q", q))[2][0], link))
 
+    def frame_acceleration(self, q, qd, qdd, link=None):
+        """The whole model's at q_all = G q + o, qd_all = G qd, qdd_all = G qdd (with
+        J_r = J_all G: J_r qdd + J-dot_r qd = J_all qdd_all + J-dot_all qd_all)."""
+        if qdd is None:
+            qdd = np.zeros(np.shape(qd))
+        _, _, (q, qd, qdd) = self._all(("q", q), ("qd", qd), ("qdd", qdd))
+        return super().frame_acceleration(q, qd, qdd, link)
+
     def kinetic_energy(self, q, qd):
         """T = 1/2 qd^T (G^T M G) qd (J)."""
         single, (_, qd), (q, _) = self._all(("q", q), ("qd", qd))

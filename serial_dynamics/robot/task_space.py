@@ -1,10 +1,11 @@
-"""The glue behind ``Robot.frame_acceleration``, ``jacobian_dot_qd``,
-``operational_space_inertia`` and ``dynamically_consistent_inverse`` for every kind of robot
-(the algorithms: ``algorithms/task_space.py``).
+"""The glue behind ``Robot.frame_acceleration`` (the NumPy backend's; the compiled one is
+``core/kinematics.frame_acceleration``), ``operational_space_inertia`` and
+``dynamically_consistent_inverse`` for every kind of robot (the algorithms:
+``algorithms/task_space.py``).
 
 - A chain (plain, armature, payload, planar): the recursion on the model; base axes.
 - Mimic joints: the chain's recursion on every joint's state, q_all = G q + o,
-  qd_all = G qd, qdd_all = G qdd (``all_joint_positions`` / ``all_joint_velocities``): with
+  qd_all = G qd, qdd_all = G qdd, which ``Mimic.frame_acceleration`` gives it: with
   J_r = J_all G, J_r qdd + J-dot_r qd = J_all qdd_all + J-dot_all qd_all.
 - A floating base: the recursion starts from the base's motion, v = [v_O; omega] and
   a = dv/dt in the base frame (Pinocchio's free-flyer, whose joint has no bias
@@ -16,13 +17,11 @@ payload included; n + 6 columns on a floating base).
 """
 from __future__ import annotations
 
-from types import SimpleNamespace
-
 import numpy as np
 
 from ..algorithms import floating as fb
 from ..algorithms import task_space
-from ..algorithms._batch import as_batch, mv
+from ..algorithms._batch import mv
 
 
 def frame_acceleration(robot, q, qd, qdd, link=None):
@@ -37,17 +36,7 @@ def frame_acceleration(robot, q, qd, qdd, link=None):
         A = task_space.frame_acceleration(robot.model, q[:, 7:], v[:, 6:], a[:, 6:], link, base)
         A = np.concatenate([mv(R, A[:, :3]), mv(R, A[:, 3:])], axis=1)
         return A[0] if single else A
-    view = SimpleNamespace(dof=robot.dof, joint_names=robot.joint_names)
-    single, (q, qd, qdd) = as_batch(view, ("q", q), ("qd", qd), ("qdd", qdd))
-    A = task_space.frame_acceleration(robot.model, robot.all_joint_positions(q),
-                                      robot.all_joint_velocities(qd),
-                                      robot.all_joint_velocities(qdd), link)
-    return A[0] if single else A
-
-
-def jacobian_dot_qd(robot, q, qd, link=None):
-    """J-dot qd: the frame's acceleration at qdd = 0 (its bias acceleration)."""
-    return frame_acceleration(robot, q, qd, None, link)
+    return task_space.frame_acceleration(robot.model, q, qd, qdd, link)
 
 
 def _M_J(robot, q, link):

@@ -1,5 +1,6 @@
-"""The compiled kinematics (core/kinematics.py: frame poses, Jacobians, center of mass,
-centroidal momentum, potential energy, the Coriolis matrix) against the NumPy reference on every kind of robot
+"""The compiled kinematics (core/kinematics.py: frame poses, Jacobians, frame
+accelerations, center of mass, centroidal momentum, potential energy, the Coriolis matrix)
+against the NumPy reference on every kind of robot
 -- chain, tree, mimic joints, planar, floating base -- to 1e-12; a batch row is bitwise the
 single-state answer; bad input names the culprit. (Pinocchio agreement of the same methods:
 test/oracles/test_pinocchio*.py, which run the compiled backend.)"""
@@ -42,13 +43,18 @@ def test_the_compiled_kinematics_is_the_reference(pair):
     q, qd = fast.random_state(3, batch=4)
     if fast.is_floating:
         q[1, 3:7] *= 2.5                     # any quaternion length means the same rotation
+    qdd = np.random.default_rng(4).uniform(-2, 2, qd.shape)
     for link in [None] + fast.link_names:    # every link, the base's and the tip included
         X, J = fast.forward_kinematics(q, link), fast.jacobian(q, link)
+        A = fast.frame_acceleration(q, qd, qdd, link)
         close(X, ref.forward_kinematics(q, link))
         close(J, ref.jacobian(q, link))
+        close(A, ref.frame_acceleration(q, qd, qdd, link))
         for k in range(4):                   # a batch row is the single call's bits
             assert fast.forward_kinematics(q[k], link).tobytes() == X[k].tobytes()
             assert fast.jacobian(q[k], link).tobytes() == J[k].tobytes()
+            assert fast.frame_acceleration(q[k], qd[k], qdd[k], link).tobytes() == A[k].tobytes()
+        close(fast.jacobian_dot_qd(q[0], qd[0], link), ref.jacobian_dot_qd(q[0], qd[0], link))
     for name, args in (("center_of_mass", (q,)), ("potential_energy", (q,)),
                        ("centroidal_momentum", (q, qd)), ("coriolis_matrix", (q, qd))):
         batch = getattr(fast, name)(*args)

@@ -11,7 +11,9 @@
     batches.py      what every batch call shares (kernel rows, the split over the cores)
     regressor.py    Robot.regressor / inertial_parameters: batching, kernels, column names
     derivatives.py  Robot's dynamics derivatives: batching and kernels
-    task_space.py   frame acceleration, J-dot qd, Lambda, J-bar for every kind
+    kinematics.py   frame poses, Jacobians and accelerations, center of mass, momentum,
+                    the Coriolis matrix: the compiled kernels' calls for every kind
+    task_space.py   Lambda, J-bar (and the NumPy backend's frame acceleration)
 """
 from .base_motion import BaseMotion
 from .facade import FloatingMimicRobot, FloatingRobot, MimicRobot, PlanarRobot, Robot, kind_of

@@ -33,6 +33,7 @@ from types import MappingProxyType
 import numpy as np
 
 from . import derivatives as _derivatives
+from . import kinematics as _kin
 from . import regressor as _regressor
 from . import task_space as _task_space
 from ..algorithms import aba, crba, energy, forward, kinematics, noc, rnea
@@ -56,7 +57,6 @@ from .mimic import Mimic
 from .planar import Planar
 
 _empty = np.empty                          # one global lookup on the fast paths
-_F8 = np.dtype(float)
 _NO_WRENCH = np.zeros((1, 6))              # stands in for w in batch calls without one
 _W0 = np.zeros(6)                          # and in single forward-dynamics calls (not read)
 _QD_QDD, _QD, _QD_QDD_W, _QD_W = QD_QDD, QD, QD_QDD_W, QD_W     # module globals: one lookup
@@ -99,7 +99,7 @@ class Robot:
         self._compiled = self._k is K
         self._P = _P if _P is not None else layout.pack(model) if self._k is not None else None
         self._rnea_batch, self._crba_batch = ("rnea_batch", self._P), ("crba_batch", self._P)
-        self._frames = {}          # link: (body, placement) for the kinematics kernels
+        self._frames = {}          # link: (body, placement): robot/kinematics.frame
         self._nv = model.dof       # the Jacobian's columns (every joint, a floating base's 6)
         self._base = np.zeros(10)  # the base body's inertia (a fixed base's does not move)
         # with_payload's bookkeeping: the model (and P) as loaded, and the payload attached
@@ -275,12 +275,7 @@ class Robot:
         """C(q, qd) from the natural orthogonal complement: C qd + g = b, Mdot - 2C skew."""
         if self._P is None:
             return noc.coriolis_matrix(self.model, q, qd)
-        if _one(q) and _one(qd):
-            C = _empty((self._nv, self._nv))
-            if K.coriolis(self._P, q[None], qd[None], self._base, C[None]) == OK:
-                return C
-        return self._kinematics(lambda q, qd, C: K.coriolis(self._P, q, qd, self._base, C),
-                                (self._nv, self._nv), ("q", q), ("qd", qd))
+        return _kin.coriolis_matrix(self, q, qd)
 
     def forward_dynamics(self, q, qd, tau, wrench=None, method="auto", base_motion=None,
                          out=None, wrenches=None):
@@ -410,32 +405,8 @@ class Robot:
         return self._dissipation.torque(qd)
 
     # ------------------------------------------------------------- kinematics, energy
-    # compiled: core/kinematics.py, one kernel each for every kind of robot (a floating
-    # base's q has its pose first), a batch a call; the numpy backend: algorithms/
-    def _frame(self, link):
-        """(body, F): ``link``'s joint frame and its placement there as one vector [R, p]."""
-        f = self._frames.get(link)
-        if f is None:
-            body, R, p = kinematics.frame_of(self.model, link)
-            f = self._frames[link] = (body, np.concatenate((R.ravel(), p)))
-        return f
-
-    def _kinematics(self, run, shape, *named):
-        """``run(rows..., out)`` (a core/kinematics.py kernel) on the states as given, each
-        one state or a batch of them; out (*shape) or (N, *shape). Where the kernel refuses
-        them (a length, a NaN, batch sizes to broadcast) the general path: ``_states``
-        (which names the culprit) and a second run."""
-        rows = [np.asarray(x, dtype=float) for _, x in named]
-        single = all(a.ndim == 1 for a in rows)
-        rows = [a.reshape(1, -1) if a.ndim == 1 else a for a in rows]
-        out = _empty((rows[0].shape[0],) + shape) if rows[0].ndim == 2 else None
-        if any(a.ndim != 2 for a in rows) or run(*rows, out) != OK:
-            single, rows = self._states(*named)
-            out = _empty((rows[0].shape[0],) + shape)
-            if run(*rows, out) != OK:
-                raise RuntimeError("a kinematics kernel refused validated states")
-        return out[0] if single else out
-
+    # compiled: core/kinematics.py through robot/kinematics.py (every kind of robot: a
+    # floating base's q has its pose first); the numpy backend: algorithms/
     def _states(self, *named):
         """(single, [(N, n) arrays]): the states checked (ValueError naming the culprit)."""
         return as_batch(self.model, *named)
@@ -444,41 +415,20 @@ class Robot:
         """4x4 pose of ``link`` (default: the tip) in the base frame; (N, 4, 4) for (N, n)."""
         if self._P is None:
             return kinematics.forward_kinematics(self.model, q, link)
-        body, F = self._frame(link)
-        if _one(q):                                       # one state: straight to the kernel
-            X = _empty((4, 4))
-            if K.frame_pose(self._P, q[None], body, F, X[None]) == OK:
-                return X
-        return self._kinematics(lambda q, X: K.frame_pose(self._P, q, body, F, X), (4, 4),
-                                ("q", q))
+        return _kin.frame_pose(self, q, link)
 
     def jacobian(self, q, link=None):
         """6 x n geometric Jacobian of ``link``'s origin, [linear; angular], base frame."""
         if self._P is None:
             return kinematics.jacobian(self.model, q, link)
-        body, F = self._frame(link)
-        if _one(q):
-            J = _empty((6, self._nv))
-            if K.frame_jacobian(self._P, q[None], body, F, J[None]) == OK:
-                return J
-        return self._kinematics(lambda q, J: K.frame_jacobian(self._P, q, body, F, J),
-                                (6, self._nv), ("q", q))
+        return _kin.frame_jacobian(self, q, link)
 
     # task space (task_space.py: every kind, batches; rows as jacobian's)
     def frame_acceleration(self, q, qd, qdd, link=None):
         """[linear; angular] acceleration of ``link``'s origin (classical), = J qdd + J-dot qd."""
         if self._P is None:
             return _task_space.frame_acceleration(self, q, qd, qdd, link)
-        if qdd is None:
-            qdd = np.zeros(np.shape(qd))
-        body, F = self._frame(link)
-        if _one(q) and _one(qd) and _one(qdd):
-            A = _empty(6)
-            if K.frame_acceleration(self._P, q[None], qd[None], qdd[None], body, F, A[None]) == OK:
-                return A
-        return self._kinematics(
-            lambda q, qd, qdd, A: K.frame_acceleration(self._P, q, qd, qdd, body, F, A), (6,),
-            ("q", q), ("qd", qd), ("qdd", qdd))
+        return _kin.frame_acceleration(self, q, qd, qdd, link)
 
     def jacobian_dot_qd(self, q, qd, link=None):
         """J-dot qd (6,), the frame's bias acceleration: frame_acceleration at qdd = 0."""
@@ -504,36 +454,22 @@ class Robot:
         """V = -m g . c (J), zero with the center of mass at the base origin."""
         if self._P is None:
             return energy.potential_energy(self.model, q)
-        mc = self._mass_moment(q)
+        mc = _kin.mass_moment(self, q)
         return -(mc[:3] if mc.ndim == 1 else mc[:, :3]) @ self.model.gravity
 
     def center_of_mass(self, q):
         """(3,): the center of mass of the moving bodies, base frame (m)."""
         if self._P is None:
             return energy.center_of_mass(self.model, q)
-        mc = self._mass_moment(q)
+        mc = _kin.mass_moment(self, q)
         return mc[:3] / mc[3] if mc.ndim == 1 else mc[:, :3] / mc[:, 3:]
-
-    def _mass_moment(self, q):
-        """[sum m c; sum m] (4,) or (N, 4): first moment (kg m) and mass (kg)."""
-        if _one(q):
-            mc = _empty(4)
-            if K.mass_moment(self._P, q[None], self._base, mc[None]) == OK:
-                return mc
-        return self._kinematics(lambda q, mc: K.mass_moment(self._P, q, self._base, mc), (4,),
-                                ("q", q))
 
     def centroidal_momentum(self, q, qd):
         """(6,): [linear momentum; angular momentum about the center of mass] of the moving
         bodies, base axes (kg m/s, kg m^2/s)."""
         if self._P is None:
             return energy.centroidal_momentum(self.model, q, qd)
-        if _one(q) and _one(qd):
-            h = _empty(6)
-            if K.centroidal(self._P, q[None], qd[None], self._base, h[None]) == OK:
-                return h
-        return self._kinematics(lambda q, qd, h: K.centroidal(self._P, q, qd, self._base, h),
-                                (6,), ("q", q), ("qd", qd))
+        return _kin.centroidal_momentum(self, q, qd)
 
     def total_energy(self, q, qd):
         return self.kinetic_energy(q, qd) + self.potential_energy(q)
@@ -585,12 +521,6 @@ class Robot:
         lo = np.where(np.isfinite(self.lower), self.lower, -np.pi)
         hi = np.where(np.isfinite(self.upper), self.upper, np.pi)
         return rng.uniform(lo, hi, shape), rng.uniform(-speed, speed, shape)
-
-
-def _one(x):
-    """x is one state as the kinematics kernels take it: a float64 vector (robot.py's fast
-    paths; anything else takes the general path)."""
-    return x.__class__ is np.ndarray and x.ndim == 1 and x.dtype is _F8
 
 
 def _unpickle(kind, model_type, fields, dissipation, backend, payload):

@@ -17,6 +17,9 @@ joints (spatial vectors angular first, as everywhere in the core):
           U   (n, 6)      IA S                                 c  (n, 6)  v x S qd
           Du  (n, 2)      D = S^T U (+ damping), u = tau - S^T pA
           Y   (3, 3)      one 3x3 block of IA rotated into the parent's axes
+    Poses sc, R, p        as Kin's                             } core/kinematics.py
+          R0  (n, 3, 3)   body i's joint frame in the world    o  (n, 3)  its origin
+          Rb  (3, 3)      the base's orientation               pb (3,)    its origin
 
 The ``new_*`` functions must be inlined into the entry point that owns the call (they
 are ``inline="always"``) and must not be called inside a loop: stack memory lives until
@@ -34,6 +37,7 @@ from .signatures import internal
 Kin = namedtuple("Kin", "sc R p f")                  # kinematics + Newton-Euler (+ CRBA)
 Chol = namedtuple("Chol", "M b")                     # Cholesky route of forward dynamics
 Art = namedtuple("Art", "IA pA U c Du Y")            # articulated-body algorithm
+Poses = namedtuple("Poses", "sc R p R0 o Rb pb")     # kinematics: bodies (and base) in the world
 STACK_DOUBLES = 8192    # an array larger than this (64 KiB) goes on the heap: the mass matrix
 # from n = 91 joints on, the articulated inertias from n = 228; Kin, 20 n doubles, always
 # fits a thread's stack (8 MB).
@@ -98,6 +102,12 @@ def square_lanes_fit(n, L):
 @njit(cache=True, inline="always")
 def new_kin(n):
     return Kin(stack_empty((2, n)), stack_empty((n, 3, 3)), stack_empty((n, 3)), stack_empty((n, 6)))
+
+
+@njit(cache=True, inline="always")
+def new_poses(n):
+    return Poses(stack_empty((2, n)), stack_empty((n, 3, 3)), stack_empty((n, 3)),
+                 stack_empty((n, 3, 3)), stack_empty((n, 3)), stack_empty((3, 3)), stack_empty((3,)))
 
 
 @njit(cache=True, inline="always")

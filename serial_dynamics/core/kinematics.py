@@ -25,7 +25,7 @@ import math
 
 from numba import njit
 
-from .data import stack_empty
+from .data import new_poses, stack_empty
 from .layout import H, IO, KIND, MASS, PARENT
 from .signatures import In1, In2, Out2, Out3, Pm, i8, internal
 from .spatial import joint_transforms
@@ -43,10 +43,11 @@ def not_finite(x):
 
 
 @internal
-def root_and_bodies(P, sc, R, p, q, nb, k, Rb, pb, R0, o):
-    """The base pose (Rb, pb) and R0_i, o_i of bodies 0 .. k-1 (a prefix holds each body's
-    ancestors) for the state q (nb = 0: a fixed base; 7: a free-flyer root). Returns False
-    for a quaternion of zero length."""
+def root_and_bodies(P, ps, q, nb, k):
+    """The base pose (ps.Rb, ps.pb) and R0_i, o_i of bodies 0 .. k-1 (a prefix holds each
+    body's ancestors) into ``ps`` (data.Poses) for the state q (nb = 0: a fixed base; 7: a
+    free-flyer root). Returns False for a quaternion of zero length."""
+    sc, R, p, R0, o, Rb, pb = ps.sc, ps.R, ps.p, ps.R0, ps.o, ps.Rb, ps.pb
     for r in range(3):
         pb[r] = q[r] if nb else 0.0
         for c in range(3):
@@ -110,10 +111,10 @@ def frame_pose(P, q, body, F, X):
         return BAD_LENGTH
     if not_finite(q):
         return NOT_FINITE
-    sc, R, p = stack_empty((2, n)), stack_empty((n, 3, 3)), stack_empty((n, 3))
-    R0, o, Rb, pb = stack_empty((n, 3, 3)), stack_empty((n, 3)), stack_empty((3, 3)), stack_empty((3,))
+    ps = new_poses(n)
+    R0, o, Rb, pb = ps.R0, ps.o, ps.Rb, ps.pb
     for s in range(q.shape[0]):
-        if not root_and_bodies(P, sc, R, p, q[s], nb, body + 1, Rb, pb, R0, o):
+        if not root_and_bodies(P, ps, q[s], nb, body + 1):
             return NOT_FINITE
         Ri, oi = frame_of(Rb, pb, R0, o, body)
         x = rotate(Ri, F[9], F[10], F[11])
@@ -138,11 +139,11 @@ def frame_jacobian(P, q, body, F, J):
         return BAD_LENGTH
     if not_finite(q):
         return NOT_FINITE
-    sc, R, p = stack_empty((2, n)), stack_empty((n, 3, 3)), stack_empty((n, 3))
-    R0, o, Rb, pb = stack_empty((n, 3, 3)), stack_empty((n, 3)), stack_empty((3, 3)), stack_empty((3,))
+    ps = new_poses(n)
+    R0, o, Rb, pb = ps.R0, ps.o, ps.Rb, ps.pb
     jv = nv - n               # the first joint's column
     for s in range(q.shape[0]):
-        if not root_and_bodies(P, sc, R, p, q[s], nb, body + 1, Rb, pb, R0, o):
+        if not root_and_bodies(P, ps, q[s], nb, body + 1):
             return NOT_FINITE
         Ri, oi = frame_of(Rb, pb, R0, o, body)
         fx, fy, fz = rotate(Ri, F[9], F[10], F[11])
@@ -179,10 +180,10 @@ def mass_moment(P, q, base, mc):
         return BAD_LENGTH
     if not_finite(q):
         return NOT_FINITE
-    sc, R, p = stack_empty((2, n)), stack_empty((n, 3, 3)), stack_empty((n, 3))
-    R0, o, Rb, pb = stack_empty((n, 3, 3)), stack_empty((n, 3)), stack_empty((3, 3)), stack_empty((3,))
+    ps = new_poses(n)
+    R0, o, Rb, pb = ps.R0, ps.o, ps.Rb, ps.pb
     for s in range(q.shape[0]):
-        if not root_and_bodies(P, sc, R, p, q[s], nb, n, Rb, pb, R0, o):
+        if not root_and_bodies(P, ps, q[s], nb, n):
             return NOT_FINITE
         cx, cy, cz = rotate(Rb, base[1], base[2], base[3])
         m, cx, cy, cz = base[0], base[0] * pb[0] + cx, base[0] * pb[1] + cy, base[0] * pb[2] + cz
@@ -212,12 +213,12 @@ def frame_acceleration(P, q, qd, qdd, body, F, out):
         return BAD_LENGTH
     if not_finite(q) or not_finite(qd) or not_finite(qdd):
         return NOT_FINITE
-    sc, R, p = stack_empty((2, n)), stack_empty((n, 3, 3)), stack_empty((n, 3))
-    R0, o, Rb, pb = stack_empty((n, 3, 3)), stack_empty((n, 3)), stack_empty((3, 3)), stack_empty((3,))
+    ps = new_poses(n)
+    R0, o, Rb, pb = ps.R0, ps.o, ps.Rb, ps.pb
     path = stack_empty((n,))              # the ancestors of body, from it to the root
     jv = nv - n
     for s in range(N):
-        if not root_and_bodies(P, sc, R, p, q[s], nb, body + 1, Rb, pb, R0, o):
+        if not root_and_bodies(P, ps, q[s], nb, body + 1):
             return NOT_FINITE
         u, du = qd[min(s, qd.shape[0] - 1)], qdd[min(s, qdd.shape[0] - 1)]
         wx = wy = wz = bx = by = bz = ax = ay = az = 0.0
@@ -291,12 +292,12 @@ def centroidal(P, q, qd, base, out):
         return BAD_LENGTH
     if not_finite(q) or not_finite(qd):
         return NOT_FINITE
-    sc, R, p = stack_empty((2, n)), stack_empty((n, 3, 3)), stack_empty((n, 3))
-    R0, o, Rb, pb = stack_empty((n, 3, 3)), stack_empty((n, 3)), stack_empty((3, 3)), stack_empty((3,))
+    ps = new_poses(n)
+    R0, o, Rb, pb = ps.R0, ps.o, ps.Rb, ps.pb
     V = stack_empty((n, 6))
     jv = nv - n
     for s in range(N):
-        if not root_and_bodies(P, sc, R, p, q[s], nb, n, Rb, pb, R0, o):
+        if not root_and_bodies(P, ps, q[s], nb, n):
             return NOT_FINITE
         u = qd[min(s, qd.shape[0] - 1)]
         ux, uy, uz = rotate(Rb, u[0], u[1], u[2]) if nb else (0.0, 0.0, 0.0)
@@ -412,8 +413,8 @@ def coriolis(P, q, qd, base, out):
         return BAD_LENGTH
     if not_finite(q) or not_finite(qd):
         return NOT_FINITE
-    sc, R, p = stack_empty((2, n)), stack_empty((n, 3, 3)), stack_empty((n, 3))
-    R0, o, Rb, pb = stack_empty((n, 3, 3)), stack_empty((n, 3)), stack_empty((3, 3)), stack_empty((3,))
+    ps = new_poses(n)
+    R0, o, Rb, pb = ps.R0, ps.o, ps.Rb, ps.pb
     # each column: its axis Z through O on a body turning at W, O moving at Od; revolute?
     Z, O, W, Od = stack_empty((nv, 3)), stack_empty((nv, 3)), stack_empty((nv, 3)), stack_empty((nv, 3))
     rev, cols = stack_empty((nv,)), stack_empty((nv,))     # 1.0: revolute; column indices
@@ -421,7 +422,7 @@ def coriolis(P, q, qd, base, out):
     c, cd = stack_empty((3,)), stack_empty((3,))
     jv = nv - n
     for s in range(N):
-        if not root_and_bodies(P, sc, R, p, q[s], nb, n, Rb, pb, R0, o):
+        if not root_and_bodies(P, ps, q[s], nb, n):
             return NOT_FINITE
         u = qd[min(s, qd.shape[0] - 1)]
         C = out[s]

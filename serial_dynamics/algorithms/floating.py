@@ -78,7 +78,14 @@ def as_batch(model, q=None, rotation=True, **named):
 
 
 def quaternion_matrix(quat):
-    """R (N, 3, 3) of unit quaternions (N, 4) [x, y, z, w] (Hamilton; ROS order)."""
+    """R (N, 3, 3) of unit quaternions (N, 4) [x, y, z, w] (Hamilton; ROS order). One
+    quaternion in Python floats: the same IEEE operations, so the same bits, without the
+    cost of 30 operations on arrays of one element."""
+    if quat.shape[0] == 1:
+        x, y, z, w = quat[0].tolist()
+        return np.array([[[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                          [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                          [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]]])
     x, y, z, w = quat.T
     R = np.empty((quat.shape[0], 3, 3))
     R[:, 0] = np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1)

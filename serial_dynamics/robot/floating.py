@@ -267,7 +267,10 @@ class Floating:
                 DERIVATIVES_PARALLEL_MIN) == OK):
             dq, dv = derivatives_reference.inverse_dynamics_derivatives(
                 virtual_chain(self.model), qv, v, rates)
-        M = Floating.mass_matrix(self, q) if self._compiled else fb.mass_matrix(self.model, q)
+        if not self._compiled:
+            M = fb.mass_matrix(self.model, q)
+        else:       # one state: the single-state kernel (a batch row's bits), no re-validation
+            M = Floating.mass_matrix(self, q[0])[None] if N == 1 else Floating.mass_matrix(self, q)
         dq[:, :, :6] = 0.0
         dq[:, :, 3:6] = -M[:, :, :3] @ skew(g_b)
         dv = dv + M @ _products_jacobian(v)
@@ -440,7 +443,9 @@ def _velocity_products(v):
     core/floating._products): [omega x v_O; -wy wz; wx wz; -wx wy; 0 for the joints]."""
     p = np.zeros_like(v)
     vo, w = v[:, 0:3], v[:, 3:6]
-    p[:, 0:3] = np.cross(w, vo)
+    p[:, 0] = w[:, 1] * vo[:, 2] - w[:, 2] * vo[:, 1]        # omega x v_O
+    p[:, 1] = w[:, 2] * vo[:, 0] - w[:, 0] * vo[:, 2]
+    p[:, 2] = w[:, 0] * vo[:, 1] - w[:, 1] * vo[:, 0]
     p[:, 3], p[:, 4], p[:, 5] = -w[:, 1] * w[:, 2], w[:, 0] * w[:, 2], -w[:, 0] * w[:, 1]
     return p
 

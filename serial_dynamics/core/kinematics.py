@@ -1,4 +1,4 @@
-"""Kinematics, center of mass and momentum, compiled: chains and trees, fixed or floating.
+"""Kinematics, momentum and the Coriolis matrix, compiled: chains and trees, fixed or floating.
 
 The same equations, frames and symbols as the NumPy reference (``algorithms/kinematics.py``,
 ``algorithms/energy.py``, ``algorithms/floating.py``): body i's joint frame in the world
@@ -6,8 +6,9 @@ from its parent's, λ = parent(i) (Featherstone 2008, Sec. 4.4; a chain is λ = 
 
     R0_i = R0_λ R_i,   o_i = o_λ + R0_λ p_i          (λ = -1: the base, at R_b, p_b)
 
-and what is read off the poses: a frame fixed on a body, the geometric Jacobian of its
-origin, the first moment of mass sum m_i c_i, and the centroidal momentum.
+and what is read off the poses and the joint rates: a frame fixed on a body, the geometric
+Jacobian of its origin and its acceleration, the first moment of mass sum m_i c_i, the
+centroidal momentum and the Coriolis matrix (``coriolis``).
 
 The base is a joint like the others: a state q of n entries is a fixed base (R_b = 1,
 p_b = 0, the world is the base frame); q of n + 7, [x, y, z, qx, qy, qz, qw, joints], is a

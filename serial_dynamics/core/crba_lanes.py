@@ -64,49 +64,15 @@ def floating_crba_block(P, q, out, k0):
 
 
 @njit(cache=True, inline="always")
-def last_body_lanes(P, CB, n, nl):
-    """CB = body n-1's inertial parameters (composite n-1) in every lane."""
-    k = n - 1
-    for r in range(10):
-        v = P[k, MASS] if r == 0 else (P[k, H + r - 1] if r < 4 else P[k, IO + r - 4])
-        for b in range(nl):
-            CB[r, b] = v
-
-
-@njit(cache=True, inline="always")
-def climb_lanes(P, RB, PB, FB, MB, i, stop, n, nl):
-    """Joint i's composite momentum F (FB) carried up from body i to body ``stop``:
-    F = Xup_j^T F, M_(j-1)i = S_(j-1)^T F for j = i .. stop + 1 (row (j-1) n + i of MB)."""
-    for j in range(i, stop, -1):
-        rj, pj = 9 * j, 3 * j
-        up = P[j - 1, KIND] == 0.0
-        for b in range(nl):
-            nx, ny, nz, fx, fy, fz = force_to_parent(
-                lane_rotation(RB, rj, b), PB[pj, b], PB[pj + 1, b], PB[pj + 2, b],
-                FB[0, b], FB[1, b], FB[2, b], FB[3, b], FB[4, b], FB[5, b])
-            FB[0, b], FB[1, b], FB[2, b], FB[3, b], FB[4, b], FB[5, b] = nx, ny, nz, fx, fy, fz
-            MB[(j - 1) * n + i, b] = nz if up else fz
-
-
-@njit(cache=True, inline="always")
-def into_parent_lanes(P, RB, PB, CB, i, nl):
-    """Composite i-1 = body i-1 + composite i (CB) carried into frame i-1, in CB."""
-    k, ri, pi = i - 1, 9 * i, 3 * i
-    for b in range(nl):
-        (CB[0, b], CB[1, b], CB[2, b], CB[3, b], CB[4, b], CB[5, b], CB[6, b], CB[7, b],
-         CB[8, b], CB[9, b]) = add_in_parent(
-            P[k, MASS], P[k, H], P[k, H + 1], P[k, H + 2], P[k, IO], P[k, IO + 1],
-            P[k, IO + 2], P[k, IO + 3], P[k, IO + 4], P[k, IO + 5], lane_rotation(RB, ri, b),
-            PB[pi, b], PB[pi + 1, b], PB[pi + 2, b], CB[0, b], CB[1, b], CB[2, b], CB[3, b],
-            CB[4, b], CB[5, b], CB[6, b], CB[7, b], CB[8, b], CB[9, b])
-
-
-@njit(cache=True, inline="always")
 def composite_lanes(P, RB, PB, CB, FB, MB, nl):
     """``crba_core`` on lanes whose joint transforms are in RB, PB: M's upper triangle
     into MB (row i * n + j holds M_ij, j >= i); CB, FB scratch (10, B), (6, B)."""
     n = P.shape[0] - 1
-    last_body_lanes(P, CB, n, nl)       # composite n-1: body n-1
+    k = n - 1                            # composite n-1: body n-1
+    for r in range(10):
+        v = P[k, MASS] if r == 0 else (P[k, H + r - 1] if r < 4 else P[k, IO + r - 4])
+        for b in range(nl):
+            CB[r, b] = v
     for i in range(n - 1, -1, -1):
         rev, arm = P[i, KIND] == 0.0, P[i, ARM]
         # F = IC_i S_i: revolute n = I_O e_z, f = e_z x h; prismatic n = h x e_z, f = m e_z
@@ -119,7 +85,15 @@ def composite_lanes(P, RB, PB, CB, FB, MB, nl):
             FB[4, b] = hx if rev else 0.0
             FB[5, b] = 0.0 if rev else m
             MB[i * n + i, b] = (CB[6, b] if rev else m) + arm      # + the armature I_a,i
-        climb_lanes(P, RB, PB, FB, MB, i, 1, n, nl)    # up to body 1
+        for j in range(i, 1, -1):        # F = Xup_j^T F, M_(j-1)i = S_(j-1)^T F
+            rj, pj = 9 * j, 3 * j
+            up = P[j - 1, KIND] == 0.0
+            for b in range(nl):
+                nx, ny, nz, fx, fy, fz = force_to_parent(
+                    lane_rotation(RB, rj, b), PB[pj, b], PB[pj + 1, b], PB[pj + 2, b],
+                    FB[0, b], FB[1, b], FB[2, b], FB[3, b], FB[4, b], FB[5, b])
+                FB[0, b], FB[1, b], FB[2, b], FB[3, b], FB[4, b], FB[5, b] = nx, ny, nz, fx, fy, fz
+                MB[(j - 1) * n + i, b] = nz if up else fz
         if i == 0:
             break
         rev0 = P[0, KIND] == 0.0         # the last step, into body 0: S_0^T F only
@@ -144,7 +118,14 @@ def composite_lanes(P, RB, PB, CB, FB, MB, nl):
                 MB[0, b] = ((P[0, IO + 2] + t6 * r6 + t7 * r7 + t8 * r8 + d + P[0, ARM]) if rev0
                             else P[0, MASS] + m + P[0, ARM])
             break
-        into_parent_lanes(P, RB, PB, CB, i, nl)       # composite i-1
+        k, ri, pi = i - 1, 9 * i, 3 * i  # composite i-1 = body i-1 + composite i in frame i-1
+        for b in range(nl):
+            (CB[0, b], CB[1, b], CB[2, b], CB[3, b], CB[4, b], CB[5, b], CB[6, b], CB[7, b],
+             CB[8, b], CB[9, b]) = add_in_parent(
+                P[k, MASS], P[k, H], P[k, H + 1], P[k, H + 2], P[k, IO], P[k, IO + 1],
+                P[k, IO + 2], P[k, IO + 3], P[k, IO + 4], P[k, IO + 5], lane_rotation(RB, ri, b),
+                PB[pi, b], PB[pi + 1, b], PB[pi + 2, b], CB[0, b], CB[1, b], CB[2, b], CB[3, b],
+                CB[4, b], CB[5, b], CB[6, b], CB[7, b], CB[8, b], CB[9, b])
 
 
 @njit(cache=True, inline="always")
@@ -152,13 +133,25 @@ def floating_composite_lanes(P, RB, PB, CB, FB, MB, nl):
     """``crba.floating_crba_core`` on lanes (``composite_lanes``' layout and scratch): a
     floating base's virtual chain, its first six bodies one free-flyer root joint."""
     n, nb = P.shape[0] - 1, 6
-    last_body_lanes(P, CB, n, nl)       # composite n-1: body n-1
+    k = n - 1                            # composite n-1: body n-1
+    for r in range(10):
+        v = P[k, MASS] if r == 0 else (P[k, H + r - 1] if r < 4 else P[k, IO + r - 4])
+        for b in range(nl):
+            CB[r, b] = v
     for i in range(n - 1, nb - 1, -1):
         for b in range(nl):              # F = IC_i S_i, M_ii (crba.joint_momentum)
             (FB[0, b], FB[1, b], FB[2, b], FB[3, b], FB[4, b], FB[5, b],
              MB[i * n + i, b]) = joint_momentum(P, i, CB[0, b], CB[1, b], CB[2, b], CB[8, b],
                                                 CB[9, b], CB[6, b])
-        climb_lanes(P, RB, PB, FB, MB, i, nb, n, nl)   # up to the root body's child
+        for j in range(i, nb, -1):       # F = Xup_j^T F, M_(j-1)i = S_(j-1)^T F
+            rj, pj = 9 * j, 3 * j
+            up = P[j - 1, KIND] == 0.0
+            for b in range(nl):
+                nx, ny, nz, fx, fy, fz = force_to_parent(
+                    lane_rotation(RB, rj, b), PB[pj, b], PB[pj + 1, b], PB[pj + 2, b],
+                    FB[0, b], FB[1, b], FB[2, b], FB[3, b], FB[4, b], FB[5, b])
+                FB[0, b], FB[1, b], FB[2, b], FB[3, b], FB[4, b], FB[5, b] = nx, ny, nz, fx, fy, fz
+                MB[(j - 1) * n + i, b] = nz if up else fz
         rj, pj = 9 * nb, 3 * nb          # into the base frame: M_root,i = F
         for b in range(nl):
             nx, ny, nz, fx, fy, fz = force_to_parent(
@@ -166,7 +159,14 @@ def floating_composite_lanes(P, RB, PB, CB, FB, MB, nl):
                 FB[0, b], FB[1, b], FB[2, b], FB[3, b], FB[4, b], FB[5, b])
             MB[i, b], MB[n + i, b], MB[2 * n + i, b] = fx, fy, fz
             MB[3 * n + i, b], MB[4 * n + i, b], MB[5 * n + i, b] = nx, ny, nz
-        into_parent_lanes(P, RB, PB, CB, i, nl)       # composite i-1
+        k, ri, pi = i - 1, 9 * i, 3 * i  # composite i-1 = body i-1 + composite i in frame i-1
+        for b in range(nl):
+            (CB[0, b], CB[1, b], CB[2, b], CB[3, b], CB[4, b], CB[5, b], CB[6, b], CB[7, b],
+             CB[8, b], CB[9, b]) = add_in_parent(
+                P[k, MASS], P[k, H], P[k, H + 1], P[k, H + 2], P[k, IO], P[k, IO + 1],
+                P[k, IO + 2], P[k, IO + 3], P[k, IO + 4], P[k, IO + 5], lane_rotation(RB, ri, b),
+                PB[pi, b], PB[pi + 1, b], PB[pi + 2, b], CB[0, b], CB[1, b], CB[2, b], CB[3, b],
+                CB[4, b], CB[5, b], CB[6, b], CB[7, b], CB[8, b], CB[9, b])
     for r in range(6):                   # composite nb-1, the whole robot: M's root block
         for c in range(r, 6):            # (crba.root_block; M_rc in row r n + c, c >= r)
             for b in range(nl):

@@ -474,24 +474,29 @@ class Robot:
     def total_energy(self, q, qd):
         return self.kinetic_energy(q, qd) + self.potential_energy(q)
 
-    def kernels(self, batch=False):
+    def kernels(self, batch=False, kinematics=False):
         """The compiled kernels of the dynamics methods (what ``warmup`` loads): those of one
-        state a call, and with ``batch`` those of batches too; () on the numpy backend."""
+        state a call, with ``batch`` those of batches too, with ``kinematics`` those of
+        ``forward_kinematics``, ``jacobian`` and ``frame_acceleration``; () on the numpy
+        backend."""
         if self._k is None:
             return ()
         names = SINGLE_KERNELS + (BATCH_KERNELS if batch else ())
         if self._k is TREE:
-            return tuple("tree_" + name for name in names)
-        return names + tuple(k for k in PLANAR_KERNELS if self.is_planar
-                             and (batch or not k.endswith("batch")))
+            names = tuple("tree_" + name for name in names)
+        else:
+            names += tuple(k for k in PLANAR_KERNELS if self.is_planar
+                           and (batch or not k.endswith("batch")))
+        return names + (_kin.KINEMATICS_KERNELS if kinematics else ())
 
-    def warmup(self, batch=False):
+    def warmup(self, batch=False, kinematics=False):
         """Compile or load the fast paths once (numba backend: the kernels of the Robot
-        methods for one state, ``kernels()``; with ``batch`` for batches too; from the numba
-        cache when it is warm), so that the first real call is fast. Nodes call this before
-        they report ready; what else a program calls compiles on its first use (a cold
-        compile of every batch kernel is about half of the whole). Returns self."""
-        K.load_all(self.kernels(batch))
+        methods for one state, ``kernels()``; with ``batch`` for batches too; with
+        ``kinematics`` those of the link poses, Jacobians and frame accelerations; from the
+        numba cache when it is warm), so that the first real call is fast. Nodes call this
+        before they report ready; what else a program calls compiles on its first use (a
+        cold compile of every batch kernel is about half of the whole). Returns self."""
+        K.load_all(self.kernels(batch, kinematics))
         q = np.zeros(self.dof)
         qb = np.zeros((2, self.dof))
         w = np.zeros(6)
@@ -503,7 +508,15 @@ class Robot:
             self.mass_matrix(x)
             for method in ("cholesky", "aba"):
                 self.forward_dynamics(x, x, x, method=method)
+        if kinematics:
+            self._warm_kinematics(self.neutral(), np.zeros(self.nv))
         return self
+
+    def _warm_kinematics(self, q, v):
+        """One call of each kinematics method ``warmup(kinematics=True)`` loads."""
+        self.forward_kinematics(q)
+        self.jacobian(q)
+        self.frame_acceleration(q, v, v)
 
     def neutral(self):
         """q at rest: every joint at zero (a floating base also at the world origin)."""

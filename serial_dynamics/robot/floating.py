@@ -50,6 +50,7 @@ from .common import PARALLEL_MIN
 from .derivatives import PARALLEL_MIN as DERIVATIVES_PARALLEL_MIN
 from .common import aba_by_default
 from .common import into as _into
+from .kinematics import KINEMATICS_KERNELS
 
 FD_METHODS = ("auto", "aba", "cholesky")
 _FD_FLAGS = {"aba": F.ABA, "cholesky": 0}
@@ -401,16 +402,21 @@ class Floating:
         Js = J[:, :, 6:] - J[:, :, :6] @ np.linalg.solve(M[:, :6, :6], M[:, :6, 6:])
         return Js[0] if single else Js
 
-    def warmup(self):
+    def warmup(self, batch=False, kinematics=False):
         """Compile or load the floating-base kernels (core/floating.py) and call each once,
-        single state and batch, so that the first real call is fast. Returns self."""
+        single state and (``batch``) batch, so that the first real call is fast; with
+        ``kinematics`` also the link poses, Jacobians and frame accelerations. Returns self."""
         if self._compiled:
             CHAIN.load_all(k for k in FLOATING_KERNELS if ("tree" in k) != self.model.is_chain)
-        for q, v in (self.random_state(0), self.random_state(0, batch=2)):
+        states = (self.random_state(0), self.random_state(0, batch=2))
+        for q, v in states if batch else states[:1]:
             self.inverse_dynamics(q, v, v)
             self.mass_matrix(q)
             for method in ("aba", "cholesky"):
                 self.forward_dynamics(q, v, v, method=method)
+        if kinematics:
+            CHAIN.load_all(KINEMATICS_KERNELS if self._P is not None else ())
+            self._warm_kinematics(*states[0])
         return self
 
 

@@ -19,6 +19,7 @@ import numpy as np
 from ..algorithms.kinematics import frame_of
 from ..core import K, OK
 
+KINEMATICS_KERNELS = ("frame_pose", "frame_jacobian", "frame_acceleration")   # warmup(kinematics=True)
 _empty = np.empty
 _F8 = np.dtype(float)
 

@@ -259,8 +259,8 @@ class Mimic:
             reduced_fd(self._Gm, Mk, bk, tk, ok)      # G^T M G and G^T b, factored, solved
         return _into(out, o)
 
-    def kernels(self, batch=False):
-        return super().kernels(batch) + (_MIMIC_KERNELS if self._k is not None else ())
+    def kernels(self, batch=False, kinematics=False):
+        return super().kernels(batch, kinematics) + (_MIMIC_KERNELS if self._k is not None else ())
 
     # ------------------------------------------------------------- kinematics, energy
     def forward_kinematics(self, q, link=None):

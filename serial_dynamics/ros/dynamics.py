@@ -67,7 +67,7 @@ class Dynamics(Node):
         self.compensate = p["compensate_dissipation"]
         self.wrench = None            # latest tip wrench: (6,) in base_link, or (6,) in tip_link
         self.wrench_in_tip = False
-        self.robot.warmup(batch=True)      # trajectories are one batched call
+        self.robot.warmup(batch=True, kinematics=True)   # trajectories: one batched call; Jacobians
         self.reject = common.Rejections(self, hardware_id=self.robot.model.name)
         self._latency = {"topic": requests.Latency()}       # the topic pair, each service
         self.reject.watch(self._diagnostics)

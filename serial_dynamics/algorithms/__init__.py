@@ -13,6 +13,7 @@ link-frame fields (``R_parent``, ``axis``, ``com``, ``inertia``, ``tip_*``, ``fr
 never read here. Results at the boundary (joint torques, mass matrix, poses of links,
 Jacobians, the NOC's base-frame twists) do not depend on that choice.
 
+    joint       the joint types, said once: X_J(q), S, S^T f, the rate, world-axes columns
     rnea        inverse dynamics, bias and gravity torques (Newton-Euler in 3-vectors)
     crba        mass matrix (composite rigid bodies, Featherstone Table 6.2)
     aba         forward dynamics (articulated bodies, Featherstone Table 7.1)

@@ -2,7 +2,6 @@
 algebra on stacks of arrays."""
 import numpy as np
 
-from ..joints import PRISMATIC
 
 
 def as_batch(model, *states, finite=True):
@@ -129,8 +128,3 @@ def cross_motion(v):
     out[..., 3:, 3:] = W
     out[..., 3:, :3] = U
     return out
-
-
-def motion_subspaces(model):
-    """S_i (n, 6) in joint frames: e_z angular (revolute), e_z linear (prismatic); Table 4.1."""
-    return np.eye(6)[np.where(model.kind == PRISMATIC, 5, 2)]

@@ -24,8 +24,9 @@ Cholesky route of ``forward.py`` (tests compare them); ABA wins for long chains 
 """
 import numpy as np
 
-from ._batch import (as_batch, cross_motion, motion_subspaces, motion_transform, mtv,
+from ._batch import (as_batch, cross_motion, motion_transform, mtv,
                      rigid_body_inertia, skew, unbatch)
+from .joint import motion_subspaces
 from .kinematics import joint_transforms
 from .rnea import _tip_rotation, _wrench_batch
 

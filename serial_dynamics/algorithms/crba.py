@@ -15,7 +15,8 @@ Xup_0^T IC_0 Xup_0 is its block, F_i carried into the base its column (``crba``)
 """
 import numpy as np
 
-from ._batch import as_batch, motion_subspaces, motion_transform, rigid_body_inertia, unbatch
+from ._batch import as_batch, motion_transform, rigid_body_inertia, unbatch
+from .joint import motion_subspaces
 from .kinematics import joint_transforms
 
 
@@ -47,7 +48,7 @@ def crba(model, q, I_root=None):
             IC_root = (I_root if IC_root is None else IC_root) + (
                 np.swapaxes(Xup[:, i], -1, -2) @ IC[:, i] @ Xup[:, i])
         F = IC[:, i] @ S[i]                                         # F = IC_i S_i
-        M[:, i, i] = F @ S[i] + model.armature[i]                   # M_ii = S_i^T F + I_a,i
+        M[:, i, i] = F @ S[i]                                       # M_ii = S_i^T F
         j = i
         while model.parent[j] >= 0:
             F = np.einsum("nki,nk->ni", Xup[:, j], F)               # F = Xup_j^T F
@@ -55,6 +56,7 @@ def crba(model, q, I_root=None):
             M[:, i, j] = M[:, j, i] = F @ S[j]                      # M_ij = S_j^T F
         if root:                                                    # F = Xup_j^T F, the root's
             F_root[:, :, i] = np.einsum("nki,nk->ni", Xup[:, j], F)
+    M[:, np.arange(n), np.arange(n)] += model.armature              # M_ii += I_a,i, after the pass
     return M, IC_root, F_root
 
 

@@ -35,26 +35,14 @@ d qdd/d qd = -M^-1 d tau/d qd at qdd = FD(q, qd, tau), and d qdd/d tau = M^-1.
 """
 import numpy as np
 
-from ..joints import PRISMATIC
 from ._batch import as_batch, mtv, mv, unbatch
 from .crba import mass_matrix
+from .joint import joint_rate, own_turn, project, rate_tangent, seed_q, seed_qd
 from .forward import forward_dynamics
 from .kinematics import joint_transforms
-from .rnea import _wrench_batch, body_wrench, into_body, joint_rate
+from .rnea import _wrench_batch, body_wrench, into_body
 
 E_Z = np.array([0.0, 0.0, 1.0])
-
-
-def _cz(v):
-    """v x e_z = (v_y, -v_x, 0) over a stack."""
-    out = np.zeros_like(v)
-    out[..., 0], out[..., 1] = v[..., 1], -v[..., 0]
-    return out
-
-
-def _zc(v):
-    """e_z x v = (-v_y, v_x, 0) over a stack."""
-    return -_cz(v)
 
 
 def inverse_dynamics_derivatives(model, q, qd, qdd, wrench=None, base_motion=None):
@@ -101,7 +89,7 @@ def _forward(model, q, qd, qdd, w, base):
         omega, alpha, acc = into_body(R, p, i, omega, alpha, acc)
         ef, em = mtv(R[:, i], ef), mtv(R[:, i], em)
         s["omp"][:, i], s["alp"][:, i] = omega, alpha
-        omega, alpha, acc = joint_rate(model, i, omega, alpha, acc, qd[:, i], qdd[:, i])
+        omega, alpha, acc = joint_rate(model.kind[i], omega, alpha, acc, qd[:, i], qdd[:, i])
         s["omega"][:, i], s["alpha"][:, i], s["acc"][:, i] = omega, alpha, acc
         s["ef"][:, i], s["em"][:, i] = ef, em
         fB[:, i], nB[:, i] = body_wrench(model, i, omega, alpha, acc)
@@ -135,23 +123,13 @@ def _derivatives(model, q, qd, qdd, w, base):
     N, n = q.shape
     R, p, s = _forward(model, q, qd, qdd, w, base)
     dq, dqd = np.empty((N, n, n)), np.empty((N, n, n))
-    prismatic = model.kind == PRISMATIC
     for j in range(n):
-        z = np.zeros((N, 3))
-        omp, alp = s["omp"][:, j], s["alp"][:, j]
-        # d/dq_j: the seeds of the module docstring
-        if prismatic[j]:
-            seed = (z, z, np.cross(alp, E_Z) + np.cross(omp, np.cross(omp, E_Z)), z, z)
-        else:
-            seed = (_cz(s["omega"][:, j]), _cz(alp) + qd[:, j, None] * _cz(_cz(omp)),
-                    _cz(s["acc"][:, j]), _cz(s["ef"][:, j]), _cz(s["em"][:, j]))
+        kind, omp = model.kind[j], s["omp"][:, j]
+        # d/dq_j and d/dqd_j: the seeds of the module docstring
+        seed = seed_q(kind, s["omega"][:, j], s["alp"][:, j], omp, s["acc"][:, j], s["ef"][:, j],
+                      s["em"][:, j], qd[:, j])
         dq[:, :, j] = _sweep(model, R, p, s, qd, j, seed, True, w is not None)
-        # d/dqd_j
-        if prismatic[j]:
-            seed = (z, z, 2.0 * _cz(omp), z, z)
-        else:
-            seed = (np.broadcast_to(E_Z, (N, 3)), _cz(omp), z, z, z)
-        dqd[:, :, j] = _sweep(model, R, p, s, qd, j, seed, False, False)
+        dqd[:, :, j] = _sweep(model, R, p, s, qd, j, seed_qd(kind, omp), False, False)
     return dq, dqd
 
 
@@ -174,11 +152,7 @@ def _sweep(model, R, p, s, qd, j, seed, turn, wrench):
                 + np.cross(w0, np.cross(dw, p[:, i]))
             dl, dw, da = mtv(R[:, i], dl), mtv(R[:, i], dw), mtv(R[:, i], da)
             def_, dem = mtv(R[:, i], def_), mtv(R[:, i], dem)
-            qd_z = qd[:, i, None] * E_Z
-            if model.kind[i] == PRISMATIC:                # acc += 2 d omega' x qd e_z
-                dl = dl + 2.0 * np.cross(dw, qd_z)
-            else:                                         # alpha += d omega' x qd e_z
-                da = da + np.cross(dw, qd_z)
+            da, dl = rate_tangent(model.kind[i], da, dl, dw, qd[:, i])   # + d omega' x qd S
         else:
             continue
         moved[i] = True
@@ -191,19 +165,14 @@ def _sweep(model, R, p, s, qd, j, seed, turn, wrench):
     dtau = np.empty((N, n))
     for i in range(n - 1, -1, -1):                        # rnea.py inward, linearized
         df, dn = dfB[:, i], dnB[:, i]                     # with the children's, below
-        dtau[:, i] = df[:, 2] if model.kind[i] == PRISMATIC else dn[:, 2]
+        dtau[:, i] = project(model.kind[i], dn, df)
         l = model.parent[i]
         if l < 0:
             continue
         df = mv(R[:, i], df)
         dn = mv(R[:, i], dn) + np.cross(p[:, i], df)
         if turn and i == j:                               # joint j's own turn (docstring)
-            g = mv(R[:, j], _zc(s["f"][:, j]))            # R_j (e_z x f_j)
-            if model.kind[j] == PRISMATIC:
-                dn = dn + g
-            else:
-                df = df + g
-                dn = dn + mv(R[:, j], _zc(s["n"][:, j])) + np.cross(p[:, j], g)
+            df, dn = own_turn(model.kind[j], R[:, j], p[:, j], s["f"][:, j], s["n"][:, j], df, dn)
         dfB[:, l] += df
         dnB[:, l] += dn
     return dtau

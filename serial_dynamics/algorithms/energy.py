@@ -2,12 +2,11 @@
 (joint frames; see serial_dynamics/model/model.py and docs/conventions.md)."""
 import numpy as np
 
-from ..joints import PRISMATIC
 from ._batch import as_batch, mtv, mv, unbatch
 from .crba import mass_matrix
 from .kinematics import body_poses, joint_transforms
 from .noc import body_velocities
-from .rnea import E_Z
+from .joint import E_Z, add_rate, project
 
 
 def kinetic_energy(model, q, qd):
@@ -74,10 +73,7 @@ def kinetic_energy_gradient(model, q, qd):
         omega, v = (zero, zero) if l < 0 else (W[:, l], U[:, l])
         v = mtv(R[:, i], v + np.cross(omega, p[:, i]))
         omega = mtv(R[:, i], omega)
-        if model.kind[i] == PRISMATIC:
-            v = v + qd[:, i, None] * E_Z
-        else:
-            omega = omega + qd[:, i, None] * E_Z
+        omega, v = add_rate(model.kind[i], omega, v, E_Z, qd[:, i])       # + S_i qd_i
         m, h, I_O = model.mass[i], model.h[i], model.I_O[i]
         hf[:, i] = m * v + np.cross(omega, h)                # momentum, linear
         hn[:, i] = omega @ I_O.T + np.cross(h, v)            # angular, about the origin
@@ -90,7 +86,7 @@ def kinetic_energy_gradient(model, q, qd):
         # -V_k x* H_k = -(omega x Hn + v x Hf; omega x Hf), projected on the joint axis S_k
         yn = -np.cross(W[:, k], Hn) - np.cross(U[:, k], Hf)
         yf = -np.cross(W[:, k], Hf)
-        grad[:, k] = yf[:, 2] if model.kind[k] == PRISMATIC else yn[:, 2]
+        grad[:, k] = project(model.kind[k], yn, yf)
         l = model.parent[k]
         if l >= 0:         # H_k into the parent's frame: f' = R f, n' = R n + p x f'
             Hf = mv(R[:, k], Hf)

@@ -5,20 +5,16 @@ named links and Jacobians are returned in the base frame and do not depend on th
 """
 import numpy as np
 
-from ..joints import PRISMATIC
-from ._batch import as_batch, mv, rot_z, unbatch
+from ._batch import as_batch, mv, unbatch
+from .joint import transform, world_column
 
 
 def joint_transforms(model, q):
     """Body i in its parent body (N, n, 3, 3), (N, n, 3) for q (N, n) (Featherstone Table 4.1)."""
     N, n = q.shape
-    R = np.repeat(model.Xtree_R[None], N, axis=0)
-    p = np.repeat(model.Xtree_p[None], N, axis=0)
+    R, p = np.empty((N, n, 3, 3)), np.empty((N, n, 3))
     for i in range(n):
-        if model.kind[i] == PRISMATIC:   # p = Xtree_p + q Xtree_R e_z
-            p[:, i] += q[:, i, None] * model.Xtree_R[i, :, 2]
-        else:                            # R = Xtree_R Rz(q)
-            R[:, i] = model.Xtree_R[i] @ rot_z(q[:, i])
+        R[:, i], p[:, i] = transform(model.kind[i], model.Xtree_R[i], model.Xtree_p[i], q[:, i])
     return R, p
 
 
@@ -79,10 +75,5 @@ def jacobian(model, q, link=None):
     if body >= 0:
         R0, o_j = body_poses(model, q[:, : body + 1])
         for j in model.ancestors(body):                  # the joints that move it
-            z = R0[:, j, :, 2]
-            if model.kind[j] == PRISMATIC:
-                J[:, :3, j] = z
-            else:
-                J[:, :3, j] = np.cross(z, o - o_j[:, j])
-                J[:, 3:, j] = z
+            J[:, :3, j], J[:, 3:, j] = world_column(model.kind[j], R0[:, j, :, 2], o - o_j[:, j])
     return unbatch(single, J)

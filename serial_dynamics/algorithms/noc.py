@@ -19,6 +19,7 @@ import numpy as np
 
 from ..joints import PRISMATIC
 from ._batch import as_batch, mv, skew, require_chain, unbatch
+from .joint import add_rate, world_column, world_column_rate
 from .kinematics import body_poses
 
 
@@ -37,10 +38,7 @@ def body_velocities(model, o, z, qd):
         l = model.parent[i]                                   # the parent (the base: at rest)
         w, v, o_prev = (zero, zero, zero) if l < 0 else (omega[:, l], odot[:, l], o[:, l])
         v = v + np.cross(w, o[:, i] - o_prev)                 # transport along the parent
-        if model.kind[i] == PRISMATIC:
-            v = v + z[:, i] * qd[:, i, None]
-        else:
-            w = w + z[:, i] * qd[:, i, None]
+        w, v = add_rate(model.kind[i], w, v, z[:, i], qd[:, i])      # + S_i qd_i
         omega[:, i], odot[:, i] = w, v
     return omega, odot
 
@@ -65,11 +63,7 @@ def _T(model, o, z, c):
     T = np.zeros((N, n, 6, n))
     for j in range(n):
         s, Tj = _subtree(model, j), T[..., j]                 # Tj: column j, a view
-        if model.kind[j] == PRISMATIC:
-            Tj[:, s, 3:] = z[:, None, j]
-        else:
-            Tj[:, s, :3] = z[:, None, j]
-            Tj[:, s, 3:] = np.cross(z[:, None, j], c[:, s] - o[:, None, j])
+        Tj[:, s, 3:], Tj[:, s, :3] = world_column(model.kind[j], z[:, None, j], c[:, s] - o[:, None, j])
     return T.reshape(N, 6 * n, n)
 
 
@@ -84,12 +78,8 @@ def twist_shaping_dot(model, q, qd):
     Td = np.zeros((N, n, 6, n))
     for j in range(n):
         s, Tj = _subtree(model, j), Td[..., j]
-        if model.kind[j] == PRISMATIC:
-            Tj[:, s, 3:] = zdot[:, None, j]
-        else:
-            Tj[:, s, :3] = zdot[:, None, j]
-            Tj[:, s, 3:] = (np.cross(zdot[:, None, j], c[:, s] - o[:, None, j])
-                            + np.cross(z[:, None, j], cdot[:, s] - odot[:, None, j]))
+        Tj[:, s, 3:], Tj[:, s, :3] = world_column_rate(model.kind[j], z[:, None, j], zdot[:, None, j],
+                                                       c[:, s] - o[:, None, j], cdot[:, s] - odot[:, None, j])
     return unbatch(single, Td.reshape(N, 6 * n, n))
 
 

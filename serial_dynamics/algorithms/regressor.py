@@ -28,10 +28,10 @@ The armature (reflected rotor inertia I_a, tau_i += I_a qdd_i) has the column qd
 """
 import numpy as np
 
-from ..joints import PRISMATIC
 from ._batch import as_batch, mv, skew, unbatch
+from .joint import axes, joint_rate
 from .kinematics import joint_transforms
-from .rnea import into_body, joint_rate
+from .rnea import into_body
 
 PARAMETERS = ("m", "mx", "my", "mz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz")
 _SYM = ((0, 0), (0, 1), (1, 1), (0, 2), (1, 2), (2, 2))   # Ixx Ixy Iyy Ixz Iyz Izz
@@ -124,11 +124,11 @@ def _regressor_joint_frames(model, q, qd, qdd, base=None):
     for i in range(n):                                   # outward, as rnea.py
         l = model.parent[i]
         omega, alpha, acc = into_body(R, p, i, *(base if l < 0 else motion[l]))
-        motion.append(joint_rate(model, i, omega, alpha, acc, qd[:, i], qdd[:, i]))
+        motion.append(joint_rate(model.kind[i], omega, alpha, acc, qd[:, i], qdd[:, i]))
         blocks.append(body_block(*motion[i]))
     b = 6 if root else 0                                 # the base's rows first
     Y = np.zeros((N, b + n, 10 * n))
-    row = np.where(model.kind == PRISMATIC, 5, 2)        # tau_j = S_j^T (n; f): n_z or f_z
+    row = axes(model.kind)                               # tau_j = S_j^T (n; f): n_z or f_z
     for i in range(n):                                   # inward: body i's block to joints j
         B = blocks[i]
         for j in model.ancestors(i)[::-1]:               # i, its parent, ..., up to the base

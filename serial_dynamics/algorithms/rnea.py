@@ -15,11 +15,10 @@ Returns what the actuators must supply:  tau = M(q) qdd + b(q, qd) - J^T w.
 """
 import numpy as np
 
-from ..joints import PRISMATIC
 from ._batch import as_batch, mtv, mv, unbatch
+from .joint import joint_rate, project
 from .kinematics import joint_transforms
 
-E_Z = np.array([0.0, 0.0, 1.0])   # every joint's axis, in its joint frame
 
 
 def inverse_dynamics(model, q, qd, qdd, wrench=None, gravity=None, base_motion=None):
@@ -65,7 +64,7 @@ def _rnea(model, q, qd, qdd, g, w, base=None, root=False):
     for i in range(n):
         l = model.parent[i]
         m = into_body(R, p, i, *((omega, alpha, acc) if l < 0 else motion[l]))
-        motion[i] = joint_rate(model, i, *m, qd[:, i], qdd[:, i])
+        motion[i] = joint_rate(model.kind[i], *m, qd[:, i], qdd[:, i])
         fB[:, i], nB[:, i] = body_wrench(model, i, *motion[i])
     # --- inward: joint forces; the tip load -w acts on the environment
     carried = [None] * n                 # what the children (and the tip load) pass to body i
@@ -78,8 +77,7 @@ def _rnea(model, q, qd, qdd, g, w, base=None, root=False):
     for i in range(n - 1, -1, -1):
         f, nm = carried[i] or (0.0, 0.0)
         f, nm = f + fB[:, i], nm + nB[:, i]
-        # tau_i = S_i^T (n; f) + I_a,i qdd_i (the rotor's inertia, reflected through the gear)
-        tau[:, i] = (f[:, 2] if model.kind[i] == PRISMATIC else nm[:, 2]) + model.armature[i] * qdd[:, i]
+        tau[:, i] = project(model.kind[i], nm, f)                   # tau_i = S_i^T (n; f)
         f = mv(R[:, i], f)               # into the parent's frame: f' = R f, n' = R n + p x f'
         nm = mv(R[:, i], nm) + np.cross(p[:, i], f)
         l = model.parent[i]
@@ -87,6 +85,7 @@ def _rnea(model, q, qd, qdd, g, w, base=None, root=False):
             carried[l] = (f, nm) if carried[l] is None else (carried[l][0] + f, carried[l][1] + nm)
         elif root:
             into_base = (f, nm) if into_base is None else (into_base[0] + f, into_base[1] + nm)
+    tau += model.armature * qdd        # + I_a qdd (the rotors' inertia, reflected), after the passes
     return (tau, into_base) if root else tau
 
 
@@ -95,15 +94,6 @@ def into_body(R, p, i, omega, alpha, acc):
     i (acc + alpha x p + omega x (omega x p), then R_i^T)."""
     acc = acc + np.cross(alpha, p[:, i]) + np.cross(omega, np.cross(omega, p[:, i]))
     return mtv(R[:, i], omega), mtv(R[:, i], alpha), mtv(R[:, i], acc)
-
-
-def joint_rate(model, i, omega, alpha, acc, qd_i, qdd_i):
-    """Outward recursion: joint i's rate added to the motion carried into frame i."""
-    qd_z, qdd_z = qd_i[:, None] * E_Z, qdd_i[:, None] * E_Z
-    if model.kind[i] == PRISMATIC:   # sliding along e_z: acc += 2 w x qd e_z + qdd e_z
-        return omega, alpha, acc + 2.0 * np.cross(omega, qd_z) + qdd_z
-    # spin about e_z: alpha += w x qd e_z + qdd e_z, omega += qd e_z
-    return omega + qd_z, alpha + np.cross(omega, qd_z) + qdd_z, acc
 
 
 def body_wrench(model, i, omega, alpha, acc):

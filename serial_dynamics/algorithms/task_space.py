@@ -27,8 +27,8 @@ square root (1/sqrt(kg) for the linear rows).
 """
 import numpy as np
 
-from ..joints import PRISMATIC
 from ._batch import as_batch, mv, unbatch
+from .joint import world_joint_rate
 from .kinematics import body_poses, frame_of
 
 # an undamped J M^-1 J^T whose reciprocal condition number is below this is refused
@@ -52,13 +52,7 @@ def frame_acceleration(model, q, qd, qdd, link=None, base=None):
             z, r = R0[:, j, :, 2], o[:, j] - o_prev
             a = a + np.cross(dw, r) + np.cross(w, np.cross(w, r))
             v = v + np.cross(w, r)
-            wz = np.cross(w, z) * qd[:, j, None]
-            if model.kind[j] == PRISMATIC:
-                a = a + z * qdd[:, j, None] + 2.0 * wz
-                v = v + z * qd[:, j, None]
-            else:
-                dw = dw + z * qdd[:, j, None] + wz
-                w = w + z * qd[:, j, None]
+            w, dw, v, a = world_joint_rate(model.kind[j], w, dw, v, a, z, qd[:, j], qdd[:, j])
             o_prev = o[:, j]
         p = o[:, body] + mv(R0[:, body], pf)
     r = p - o_prev

@@ -3,7 +3,8 @@
     layout.py     the model as one array P (``pack``), its named columns
     data.py       Data: the named scratch arrays of one evaluation (on the call's stack)
     signatures.py the argument types, named; ``internal`` (one signature per algorithm)
-    spatial.py    small helpers: sincos, joint transforms, frame changes of vectors/forces
+    joint.py      the joint types, said once: X_J(q), S, S^T f, the rate, I S, the armature
+    spatial.py    small helpers: sincos, frame changes of vectors/forces
     rnea.py       inverse dynamics (Newton-Euler)     rnea_lanes.py  the same, B samples in SIMD lanes
     crba.py       mass matrix (composite rigid bodies)  crba_lanes.py, forward_lanes.py  in lanes
     cholesky.py   M x = b                             aba.py         articulated bodies

@@ -32,12 +32,13 @@ Ia and pa overwrite IA_i and pA_i once U_i, D_i, u_i are taken from them.
 """
 
 from . import flags as F
+from .joint import add_rate, axis, joint_transforms, velocity_product
 from .layout import ARM, G, H, IO, KIND, MASS, PARENT, TIPP, TIPPATH, W_ACC, W_ALPHA, W_OMEGA
 from numba import njit
 
 from .signatures import D2, D3, In1, Out1, Pm, f8, i8, internal
 from .cholesky import cholesky_factor, cholesky_solve_factored
-from .spatial import finite, joint_transforms, to_child, to_parent
+from .spatial import finite, to_child, to_parent
 
 @internal
 def rot_block(R, i, X, a0, b0, Y):
@@ -125,12 +126,9 @@ def articulated_bodies(P, sc, R, p, IA, pA, U, c, Du, Y, va, q, qd, tau, w, damp
         sx, sy, sz = ux - (py * vz - pz * vy), uy - (pz * vx - px * vz), uz - (px * vy - py * vx)
         wx, wy, wz = to_child(R, i, vx, vy, vz)
         ux, uy, uz = to_child(R, i, sx, sy, sz)
-        if P[i, KIND] == 0.0:            # c = v x (S qd), then v += S qd
-            c[i, 0], c[i, 1], c[i, 2], c[i, 3], c[i, 4], c[i, 5] = wy * dq, -wx * dq, 0.0, uy * dq, -ux * dq, 0.0
-            wz += dq
-        else:
-            c[i, 0], c[i, 1], c[i, 2], c[i, 3], c[i, 4], c[i, 5] = 0.0, 0.0, 0.0, wy * dq, -wx * dq, 0.0
-            uz += dq
+        kind = P[i, KIND]
+        c[i, 0], c[i, 1], c[i, 2], c[i, 3], c[i, 4], c[i, 5] = velocity_product(kind, wx, wy, ux, uy, dq)
+        wz, uz = add_rate(kind, wz, uz, dq)          # c = v x (S qd), then v += S qd
         vx, vy, vz = wx, wy, wz
         if tree:
             va[i, 0], va[i, 1], va[i, 2], va[i, 3], va[i, 4], va[i, 5] = wx, wy, wz, ux, uy, uz
@@ -153,7 +151,7 @@ def articulated_bodies(P, sc, R, p, IA, pA, U, c, Du, Y, va, q, qd, tau, w, damp
     # --- pass 2, inward: articulated inertias and bias forces
     for i in range(n - 1, nb - 1, -1):
         I6 = IA[i]
-        s = 2 if P[i, KIND] == 0.0 else 5
+        s = axis(P[i, KIND])                                # S = e_s
         D = I6[s, s] + P[i, ARM]                            # D = S^T IA S + I_a (+ damping)
         if (flags & F.DAMPING) != 0:
             D += damping[i]
@@ -297,10 +295,7 @@ def articulated_bodies(P, sc, R, p, IA, pA, U, c, Du, Y, va, q, qd, tau, w, damp
         Ua = U[i, 0] * ax + U[i, 1] * ay + U[i, 2] * az + U[i, 3] * lx + U[i, 4] * ly + U[i, 5] * lz
         qdd = (Du[i, 1] - Ua) / Du[i, 0]
         out[i] = qdd
-        if P[i, KIND] == 0.0:
-            az += qdd
-        else:
-            lz += qdd
+        az, lz = add_rate(P[i, KIND], az, lz, qdd)
         if tree:
             va[i, 0], va[i, 1], va[i, 2], va[i, 3], va[i, 4], va[i, 5] = ax, ay, az, lx, ly, lz
     return chk

@@ -5,24 +5,16 @@ the composite inertia of bodies i..n-1 about body i's origin, IC_i = I_i + Xup_{
 IC_{i+1} Xup_{i+1}; F = IC_i S_i, carried to the base with F = Xup_j^T F; M_ji = S_j^T F.
 In a chain the composite is carried in registers from the tip to the base as its ten
 inertial parameters (m, h = m c, I_O), not as a 6x6 matrix. The armature (reflected
-rotor inertia) adds to the diagonal: M_ii += I_a,i.
+rotor inertia) adds to the diagonal after the pass: M_ii += I_a,i.
 """
 from numba import njit, types
 
 from .data import new_kin
 from .status import BAD_LENGTH, status
 from .signatures import D2, D3, Out2, Pm, internal
-from .layout import ARM, H, IO, KIND, MASS
-from .spatial import joint_transforms, rotation, to_parent
-
-
-@njit(cache=True, inline="always")
-def joint_momentum(P, i, m, hx, hy, Ixz, Iyz, Izz):
-    """F = IC_i S_i, the momentum (n; f) of composite i moving with a unit rate of joint i,
-    and M_ii = S_i^T F + I_a,i (the armature), from the composite's m, h, I_O: 7 numbers."""
-    if P[i, KIND] == 0.0:       # unit spin about z: n = I_O e_z, f = e_z x h
-        return Ixz, Iyz, Izz, -hy, hx, 0.0, Izz + P[i, ARM]
-    return hy, -hx, 0.0, 0.0, 0.0, m, m + P[i, ARM]       # unit slide along z: n = h x e_z, f = m e_z
+from .joint import armature_diagonal, joint_momentum, joint_transforms, project
+from .layout import H, IO, KIND, MASS
+from .spatial import rotation, to_parent
 
 
 @njit(cache=True, inline="always")
@@ -60,39 +52,35 @@ def composite_bodies(P, R, p, M, nb):
                                     P[k, IO + 4], P[k, IO + 5])
     for i in range(n - 1, nb - 1, -1):
         # F = IC_i S_i: the momentum of composite i.. moving with a unit joint rate
-        nx, ny, nz, fx, fy, fz, M[i, i] = joint_momentum(P, i, m, hx, hy, Ixz, Iyz, Izz)
+        nx, ny, nz, fx, fy, fz, M[i, i] = joint_momentum(P[i, KIND], m, hx, hy, Ixz, Iyz, Izz)
         j = i
         while j > (nb if nb > 0 else 1):    # carry F into the parent frame: F = Xup_j^T F
             nx, ny, nz, fx, fy, fz = to_parent(R, p, j, nx, ny, nz, fx, fy, fz)
             j -= 1
-            M[j, i] = nz if P[j, KIND] == 0.0 else fz     # M_ji = S_j^T F
+            M[j, i] = project(P[j, KIND], nz, fz)         # M_ji = S_j^T F
             M[i, j] = M[j, i]
         if nb > 0:                  # into the base frame: M_root,i = F (v = [v_O, omega])
             nx, ny, nz, fx, fy, fz = to_parent(R, p, nb, nx, ny, nz, fx, fy, fz)
             M[0, i], M[1, i], M[2, i], M[3, i], M[4, i], M[5, i] = fx, fy, fz, nx, ny, nz
             M[i, 0], M[i, 1], M[i, 2], M[i, 3], M[i, 4], M[i, 5] = fx, fy, fz, nx, ny, nz
         elif i > 0:
-            if j == 1:              # last step, into body 0: only S_0^T F is needed
-                if P[0, KIND] == 0.0:
-                    gx = R[1, 0, 0] * fx + R[1, 0, 1] * fy + R[1, 0, 2] * fz
-                    gy = R[1, 1, 0] * fx + R[1, 1, 1] * fy + R[1, 1, 2] * fz
-                    M[0, i] = (R[1, 2, 0] * nx + R[1, 2, 1] * ny + R[1, 2, 2] * nz
-                               + p[1, 0] * gy - p[1, 1] * gx)
-                else:
-                    M[0, i] = R[1, 2, 0] * fx + R[1, 2, 1] * fy + R[1, 2, 2] * fz
+            if j == 1:              # last step, into body 0: only the z rows of Xup_1^T F
+                gx = R[1, 0, 0] * fx + R[1, 0, 1] * fy + R[1, 0, 2] * fz
+                gy = R[1, 1, 0] * fx + R[1, 1, 1] * fy + R[1, 1, 2] * fz
+                M[0, i] = project(P[0, KIND], R[1, 2, 0] * nx + R[1, 2, 1] * ny + R[1, 2, 2] * nz
+                                  + p[1, 0] * gy - p[1, 1] * gx,
+                                  R[1, 2, 0] * fx + R[1, 2, 1] * fy + R[1, 2, 2] * fz)
                 M[i, 0] = M[0, i]
             # composite i-1 = body i-1 + composite i carried into frame i-1
-            if i == 1:              # of composite 0 only S_0^T IC_0 S_0 is needed
+            if i == 1:              # of composite 0 only S_0^T IC_0 S_0 is needed: its I_zz or m
                 r6, r7, r8 = R[1, 2, 0], R[1, 2, 1], R[1, 2, 2]
-                if P[0, KIND] == 0.0:
-                    px, py = p[1, 0], p[1, 1]
-                    gx = R[1, 0, 0] * hx + R[1, 0, 1] * hy + R[1, 0, 2] * hz
-                    gy = R[1, 1, 0] * hx + R[1, 1, 1] * hy + R[1, 1, 2] * hz
-                    t6, t7, t8 = r6 * Ixx + r7 * Ixy + r8 * Ixz, r6 * Ixy + r7 * Iyy + r8 * Iyz, r6 * Ixz + r7 * Iyz + r8 * Izz
-                    d = 2.0 * (gx * px + gy * py) + m * (px * px + py * py)
-                    M[0, 0] = P[0, IO + 2] + t6 * r6 + t7 * r7 + t8 * r8 + d + P[0, ARM]
-                else:
-                    M[0, 0] = P[0, MASS] + m + P[0, ARM]
+                px, py = p[1, 0], p[1, 1]
+                gx = R[1, 0, 0] * hx + R[1, 0, 1] * hy + R[1, 0, 2] * hz
+                gy = R[1, 1, 0] * hx + R[1, 1, 1] * hy + R[1, 1, 2] * hz
+                t6, t7, t8 = r6 * Ixx + r7 * Ixy + r8 * Ixz, r6 * Ixy + r7 * Iyy + r8 * Iyz, r6 * Ixz + r7 * Iyz + r8 * Izz
+                d = 2.0 * (gx * px + gy * py) + m * (px * px + py * py)
+                M[0, 0] = project(P[0, KIND], P[0, IO + 2] + t6 * r6 + t7 * r7 + t8 * r8 + d,
+                                  P[0, MASS] + m)
                 return
         if i > 0:
             k = i - 1
@@ -105,13 +93,16 @@ def composite_bodies(P, R, p, M, nb):
 
 
 def crba_core(P, R, p, M):
-    """M into ``M`` (n, n) on a fixed base (``composite_bodies``)."""
+    """M into ``M`` (n, n) on a fixed base (``composite_bodies``), then the armature."""
     composite_bodies(P, R, p, M, 0)
+    armature_diagonal(P, M, 0)          # M_ii += I_a,i
 
 
 def floating_crba_core(P, R, p, M):
-    """M into ``M`` (n, n) of a floating base's virtual chain (``composite_bodies``)."""
+    """M into ``M`` (n, n) of a floating base's virtual chain (``composite_bodies``), then
+    the armature."""
     composite_bodies(P, R, p, M, 6)
+    armature_diagonal(P, M, 6)
 
 
 @njit(cache=True, inline="always")

@@ -10,12 +10,13 @@ a sample's M is bitwise the same alone or in any batch.
 """
 from numba import njit
 
+from .crba import add_in_parent, crba_core, floating_crba_core
+from .joint import joint_momentum, joint_transforms, lane_transforms, project
 from .layout import ARM, H, IO, KIND, LANES, MASS, W_ALL
-from .crba import add_in_parent, crba_core, floating_crba_core, joint_momentum
 from .data import new_kin, square_lanes_fit, stack_empty
-from .rnea_lanes import gather, lane_transforms
+from .rnea_lanes import gather
 from .signatures import In2, Out3, Pm, i8, internal
-from .spatial import force_to_parent, joint_transforms
+from .spatial import force_to_parent
 from .status import NOT_FINITE, OK
 
 
@@ -74,35 +75,29 @@ def composite_lanes(P, RB, PB, CB, FB, MB, nl):
         for b in range(nl):
             CB[r, b] = v
     for i in range(n - 1, -1, -1):
-        rev, arm = P[i, KIND] == 0.0, P[i, ARM]
-        # F = IC_i S_i: revolute n = I_O e_z, f = e_z x h; prismatic n = h x e_z, f = m e_z
-        for b in range(nl):
-            m, hx, hy = CB[0, b], CB[1, b], CB[2, b]
-            FB[0, b] = CB[8, b] if rev else hy
-            FB[1, b] = CB[9, b] if rev else -hx
-            FB[2, b] = CB[6, b] if rev else 0.0
-            FB[3, b] = -hy if rev else 0.0
-            FB[4, b] = hx if rev else 0.0
-            FB[5, b] = 0.0 if rev else m
-            MB[i * n + i, b] = (CB[6, b] if rev else m) + arm      # + the armature I_a,i
+        kind = P[i, KIND]                # (the same in every lane: selects, joint.py)
+        for b in range(nl):              # F = IC_i S_i, M_ii = S_i^T F
+            (FB[0, b], FB[1, b], FB[2, b], FB[3, b], FB[4, b], FB[5, b],
+             MB[i * n + i, b]) = joint_momentum(kind, CB[0, b], CB[1, b], CB[2, b], CB[8, b],
+                                                CB[9, b], CB[6, b])
         for j in range(i, 1, -1):        # F = Xup_j^T F, M_(j-1)i = S_(j-1)^T F
             rj, pj = 9 * j, 3 * j
-            up = P[j - 1, KIND] == 0.0
+            up = P[j - 1, KIND]
             for b in range(nl):
                 nx, ny, nz, fx, fy, fz = force_to_parent(
                     lane_rotation(RB, rj, b), PB[pj, b], PB[pj + 1, b], PB[pj + 2, b],
                     FB[0, b], FB[1, b], FB[2, b], FB[3, b], FB[4, b], FB[5, b])
                 FB[0, b], FB[1, b], FB[2, b], FB[3, b], FB[4, b], FB[5, b] = nx, ny, nz, fx, fy, fz
-                MB[(j - 1) * n + i, b] = nz if up else fz
+                MB[(j - 1) * n + i, b] = project(up, nz, fz)
         if i == 0:
             break
-        rev0 = P[0, KIND] == 0.0         # the last step, into body 0: S_0^T F only
+        kind0 = P[0, KIND]               # the last step, into body 0: the z rows of Xup_1^T F
         for b in range(nl):
             nx, ny, nz, fx, fy, fz = FB[0, b], FB[1, b], FB[2, b], FB[3, b], FB[4, b], FB[5, b]
             gx = RB[9, b] * fx + RB[10, b] * fy + RB[11, b] * fz
             gy = RB[12, b] * fx + RB[13, b] * fy + RB[14, b] * fz
-            MB[i, b] = ((RB[15, b] * nx + RB[16, b] * ny + RB[17, b] * nz + PB[3, b] * gy
-                         - PB[4, b] * gx) if rev0 else RB[15, b] * fx + RB[16, b] * fy + RB[17, b] * fz)
+            MB[i, b] = project(kind0, RB[15, b] * nx + RB[16, b] * ny + RB[17, b] * nz + PB[3, b] * gy
+                               - PB[4, b] * gx, RB[15, b] * fx + RB[16, b] * fy + RB[17, b] * fz)
         if i == 1:                       # of composite 0 only S_0^T IC_0 S_0
             for b in range(nl):
                 m, hx, hy, hz = CB[0, b], CB[1, b], CB[2, b], CB[3, b]
@@ -115,8 +110,8 @@ def composite_lanes(P, RB, PB, CB, FB, MB, nl):
                 t7 = r6 * Ixy + r7 * Iyy + r8 * Iyz
                 t8 = r6 * Ixz + r7 * Iyz + r8 * Izz
                 d = 2.0 * (gx * px + gy * py) + m * (px * px + py * py)
-                MB[0, b] = ((P[0, IO + 2] + t6 * r6 + t7 * r7 + t8 * r8 + d + P[0, ARM]) if rev0
-                            else P[0, MASS] + m + P[0, ARM])
+                MB[0, b] = project(kind0, P[0, IO + 2] + t6 * r6 + t7 * r7 + t8 * r8 + d,
+                                   P[0, MASS] + m)
             break
         k, ri, pi = i - 1, 9 * i, 3 * i  # composite i-1 = body i-1 + composite i in frame i-1
         for b in range(nl):
@@ -126,6 +121,7 @@ def composite_lanes(P, RB, PB, CB, FB, MB, nl):
                 P[k, IO + 2], P[k, IO + 3], P[k, IO + 4], P[k, IO + 5], lane_rotation(RB, ri, b),
                 PB[pi, b], PB[pi + 1, b], PB[pi + 2, b], CB[0, b], CB[1, b], CB[2, b], CB[3, b],
                 CB[4, b], CB[5, b], CB[6, b], CB[7, b], CB[8, b], CB[9, b])
+    armature_lanes(P, MB, nl, 0)         # M_ii += I_a,i
 
 
 @njit(cache=True, inline="always")
@@ -139,19 +135,20 @@ def floating_composite_lanes(P, RB, PB, CB, FB, MB, nl):
         for b in range(nl):
             CB[r, b] = v
     for i in range(n - 1, nb - 1, -1):
-        for b in range(nl):              # F = IC_i S_i, M_ii (crba.joint_momentum)
+        kind = P[i, KIND]
+        for b in range(nl):              # F = IC_i S_i, M_ii = S_i^T F
             (FB[0, b], FB[1, b], FB[2, b], FB[3, b], FB[4, b], FB[5, b],
-             MB[i * n + i, b]) = joint_momentum(P, i, CB[0, b], CB[1, b], CB[2, b], CB[8, b],
+             MB[i * n + i, b]) = joint_momentum(kind, CB[0, b], CB[1, b], CB[2, b], CB[8, b],
                                                 CB[9, b], CB[6, b])
         for j in range(i, nb, -1):       # F = Xup_j^T F, M_(j-1)i = S_(j-1)^T F
             rj, pj = 9 * j, 3 * j
-            up = P[j - 1, KIND] == 0.0
+            up = P[j - 1, KIND]
             for b in range(nl):
                 nx, ny, nz, fx, fy, fz = force_to_parent(
                     lane_rotation(RB, rj, b), PB[pj, b], PB[pj + 1, b], PB[pj + 2, b],
                     FB[0, b], FB[1, b], FB[2, b], FB[3, b], FB[4, b], FB[5, b])
                 FB[0, b], FB[1, b], FB[2, b], FB[3, b], FB[4, b], FB[5, b] = nx, ny, nz, fx, fy, fz
-                MB[(j - 1) * n + i, b] = nz if up else fz
+                MB[(j - 1) * n + i, b] = project(up, nz, fz)
         rj, pj = 9 * nb, 3 * nb          # into the base frame: M_root,i = F
         for b in range(nl):
             nx, ny, nz, fx, fy, fz = force_to_parent(
@@ -179,6 +176,17 @@ def floating_composite_lanes(P, RB, PB, CB, FB, MB, nl):
         MB[2 * n + 3, b], MB[2 * n + 4, b] = hy, -hx
         MB[3 * n + 3, b], MB[4 * n + 4, b], MB[5 * n + 5, b] = CB[4, b], CB[5, b], CB[6, b]
         MB[3 * n + 4, b], MB[3 * n + 5, b], MB[4 * n + 5, b] = CB[7, b], CB[8, b], CB[9, b]
+    armature_lanes(P, MB, nl, nb)
+
+
+@njit(cache=True, inline="always")
+def armature_lanes(P, MB, nl, first):
+    """``joint.armature_diagonal`` in every lane: M_ii += I_a,i after the pass (MB row i n + i)."""
+    n = P.shape[0] - 1
+    for i in range(first, n):
+        arm = P[i, ARM]
+        for b in range(nl):
+            MB[i * n + i, b] += arm
 
 
 @njit(cache=True, inline="always")

@@ -22,12 +22,12 @@ from . import flags as F
 from .cholesky import cholesky_solve_matrix
 from .data import new_chol, new_kin, scratch, stack_empty
 from .forward import cholesky_core
+from .joint import axis, joint_rate, joint_transforms, own_turn, rate_terms, seeds
 from .layout import H, IO, KIND, MASS, TIPP
-from .rnea import (base_state, body_wrench, inward_step, into_body, joint_rate, joint_rates, tip_load,
-                   w_length)
+from .rnea import base_state, body_wrench, inward_step, into_body, joint_rates, tip_load, w_length
 from .status import BAD_LENGTH, status
 from .signatures import D1, D2, D3, In1, Out2, Pm, Vec, f8, i8, internal
-from .spatial import force_to_parent, joint_transforms, rotate_t, rotation
+from .spatial import force_to_parent, rotate_t, rotation
 
 HAVE_TRANSFORMS = 1 << 16    # flag of derivatives_core: R, p already hold the transforms of q
 
@@ -78,27 +78,6 @@ def tangent_through(r, px, py, pz, w0x, w0y, w0z, wp, ca, cl, dwx, dwy, dwz, t3,
 
 
 @njit(cache=True, inline="always")
-def seeds(T, k, rev, dqk, wz, wpx, wpy, apx, apy, lpx, lpy, ex, ey, mx, my):
-    """The seeds of directions q_k (column 2k of T) and qd_k (2k + 1), algorithms/derivatives.py:
-    omega', alpha', acc' before joint k moves, wz after, the tip wrench (e; m) in frame k."""
-    a, b = 2 * k, 2 * k + 1
-    for i in range(15):
-        T[i, a] = 0.0
-        T[i, b] = 0.0
-    if rev:
-        T[0, a], T[1, a] = wpy, -wpx                  # d omega = omega x e_z
-        T[3, a], T[4, a] = apy - dqk * wpx, -apx - dqk * wpy   # alpha' x e_z + qd (omega' x e_z) x e_z
-        T[6, a], T[7, a] = lpy, -lpx                  # d acc = acc x e_z
-        T[9, a], T[10, a], T[12, a], T[13, a] = ey, -ex, my, -mx   # d e = e x e_z
-        T[2, b] = 1.0                                 # d omega = e_z
-        T[3, b], T[4, b] = wpy, -wpx                  # d alpha = omega' x e_z
-    else:
-        # d acc = alpha' x e_z + omega' x (omega' x e_z)
-        T[6, a], T[7, a], T[8, a] = apy + wz * wpx, -apx + wz * wpy, -(wpx * wpx + wpy * wpy)
-        T[6, b], T[7, b] = 2.0 * wpy, -2.0 * wpx      # d acc = 2 omega' x e_z
-
-
-@njit(cache=True, inline="always")
 def tip_tangents(P, T, Tf):
     """The tip load's tangents on the last body's joint wrench: d(-e), d(-m + Xtip_p x -e)."""
     n = P.shape[0] - 1
@@ -111,20 +90,6 @@ def tip_tangents(P, T, Tf):
         Tf[0, d] -= T[12, d] + tpy * gz - tpz * gy
         Tf[1, d] -= T[13, d] + tpz * gx - tpx * gz
         Tf[2, d] -= T[14, d] + tpx * gy - tpy * gx
-
-
-@njit(cache=True, inline="always")
-def own_turn(r, px, py, pz, rev, nx, ny, nz, fx, fy):
-    """Joint j's own turn on the joint wrench (n; f) of body j carried to body j-1, along
-    direction q_j: g = R_j (e_z x f); revolute: d f = g, d n = R_j (e_z x n) + p_j x g;
-    prismatic: d n = g  (algorithms/derivatives.py). Returns (d n, d f)."""
-    gx = -r[0] * fy + r[1] * fx
-    gy = -r[3] * fy + r[4] * fx
-    gz = -r[6] * fy + r[7] * fx
-    if rev:
-        return (-r[0] * ny + r[1] * nx + py * gz - pz * gy, -r[3] * ny + r[4] * nx + pz * gx - px * gz,
-                -r[6] * ny + r[7] * nx + px * gy - py * gx, gx, gy, gz)
-    return gx, gy, gz, 0.0, 0.0, 0.0
 
 
 def derivatives_core(P, sc, R, p, f, T, Tf, dB, q, qd, qdd, w, flags, dq, dqd):
@@ -140,7 +105,7 @@ def derivatives_core(P, sc, R, p, f, T, Tf, dB, q, qd, qdd, w, flags, dq, dqd):
         dqk, ddqk, c = joint_rates(qd, qdd, k, flags)
         chk += c
         px, py, pz = p[k, 0], p[k, 1], p[k, 2]
-        rev = P[k, KIND] == 0.0
+        kind = P[k, KIND]
         r = rotation(R, k)
         w0x, w0y, w0z = wx, wy, wz                        # the parent's omega (frame k-1)
         # rnea outward: omega', alpha', acc' in body k before its joint moves, then after
@@ -150,7 +115,7 @@ def derivatives_core(P, sc, R, p, f, T, Tf, dB, q, qd, qdd, w, flags, dq, dqd):
         if use_w:
             ex, ey, ez = rotate_t(r, ex, ey, ez)
             mx, my, mz = rotate_t(r, mx, my, mz)
-        wx, wy, wz, ax, ay, az, lx, ly, lz = joint_rate(P, k, wx, wy, wz, ax, ay, az, lx, ly, lz,
+        wx, wy, wz, ax, ay, az, lx, ly, lz = joint_rate(P[k, KIND], wx, wy, wz, ax, ay, az, lx, ly, lz,
                                                         dqk, ddqk)
         f[k, 0], f[k, 1], f[k, 2], f[k, 3], f[k, 4], f[k, 5] = body_wrench(
             P, k, wx, wy, wz, ax, ay, az, lx, ly, lz)
@@ -163,7 +128,7 @@ def derivatives_core(P, sc, R, p, f, T, Tf, dB, q, qd, qdd, w, flags, dq, dqd):
         # + d w x (w x p) + w x (d w x p) = ... + w (d w.p) + d w (w.p) - 2 p (w.d w), into
         # frame k; then the joint's rate term on d alpha (revolute) or d acc (prismatic,
         # twice): d omega' x qd e_z = qd (d w_y, -d w_x, 0)
-        ca, cl = (dqk, 0.0) if rev else (0.0, 2.0 * dqk)
+        ca, cl = rate_terms(kind, dqk)
         wp = w0x * px + w0y * py + w0z * pz
         for d in range(2 * k):
             (T[0, d], T[1, d], T[2, d], T[3, d], T[4, d], T[5, d], T[6, d], T[7, d],
@@ -174,7 +139,7 @@ def derivatives_core(P, sc, R, p, f, T, Tf, dB, q, qd, qdd, w, flags, dq, dqd):
             for d in range(2 * k):
                 T[9, d], T[10, d], T[11, d] = rotate_t(r, T[9, d], T[10, d], T[11, d])
                 T[12, d], T[13, d], T[14, d] = rotate_t(r, T[12, d], T[13, d], T[14, d])
-        seeds(T, k, rev, dqk, wz, wpx, wpy, apx, apy, lpx, lpy, ex, ey, mx, my)
+        seeds(T, k, kind, dqk, wz, wpx, wpy, apx, apy, lpx, lpy, ex, ey, mx, my)
         for d in range(2 * k + 2):       # (its own loop: the compiler runs it in SIMD lanes)
             (dB[k, 0, d], dB[k, 1, d], dB[k, 2, d], dB[k, 3, d], dB[k, 4, d],
              dB[k, 5, d]) = _body_tangent(body, T[0, d], T[1, d], T[2, d], T[3, d], T[4, d],
@@ -195,7 +160,7 @@ def derivatives_core(P, sc, R, p, f, T, Tf, dB, q, qd, qdd, w, flags, dq, dqd):
         # d n += R_j (e_z x n_j) + p_j x g; prismatic: d n += g  (algorithms/derivatives.py)
         r = rotation(R, j)
         px, py, pz = p[j, 0], p[j, 1], p[j, 2]
-        sx, sy, sz, gx, gy, gz = own_turn(r, px, py, pz, P[j, KIND] == 0.0, nx, ny, nz, fx, fy)
+        sx, sy, sz, gx, gy, gz = own_turn(P[j, KIND], r, px, py, pz, nx, ny, nz, fx, fy)
         # rnea inward: f_i = body wrench + Xup_j^T f_j, for the joint wrench and its tangents
         nx, ny, nz, fx, fy, fz = inward_step(R, p, f, i, nx, ny, nz, fx, fy, fz)
         for d in range(2 * i + 2):    # Xup_j^T: f' = R f, n' = R n + p x f', + body i's
@@ -217,7 +182,7 @@ def derivatives_core(P, sc, R, p, f, T, Tf, dB, q, qd, qdd, w, flags, dq, dqd):
 @njit(cache=True, inline="always")
 def _torques(P, Tf, i, dq, dqd):
     """d tau_i = S_i^T (d n; d f) of every direction (the armature term has none)."""
-    r = 2 if P[i, KIND] == 0.0 else 5
+    r = axis(P[i, KIND])
     for j in range(dq.shape[1]):
         dq[i, j] = Tf[r, 2 * j]
         dqd[i, j] = Tf[r, 2 * j + 1]

@@ -16,13 +16,13 @@ from numba import njit
 from . import flags as F
 from .data import LANE_STACK_DOUBLES, heap_empty, new_chol, new_kin, scratch, stack_empty
 from .derivatives import (_body_tangent, _inertia_times, _torques, derivatives_core,
-                          fd_derivatives_core, own_turn, seeds, solve_minus, tangent_through,
-                          tip_tangents)
+                          fd_derivatives_core, solve_minus, tangent_through, tip_tangents)
+from .joint import joint_rate, lane_transforms, own_turn, rate_terms, seeds
 from .layout import H, IO, KIND, LANES, MASS, W_ALL
-from .rnea import base_state, body_wrench, into_body, joint_rate, tip_load
+from .rnea import base_state, body_wrench, into_body, tip_load
 from .crba_lanes import composite_lanes
 from .forward_lanes import fd_lanes_core, fd_scratch
-from .rnea_lanes import fixed_base, gather, lane_transforms, scatter
+from .rnea_lanes import fixed_base, gather, scatter
 from .signatures import In2, Out3, Pm, i8, internal
 from .spatial import force_to_parent, rotate_t
 from .status import NOT_FINITE, OK
@@ -75,7 +75,7 @@ def derivatives_block(P, q, qd, qdd, w, flags, dq, dqd, k0):
     # --- outward
     for k in range(n):
         lane_transforms(P, k, QV, RB, PB, nl, small)
-        rev = P[k, KIND] == 0.0
+        kind = P[k, KIND]
         m = P[k, MASS]
         hx, hy, hz = P[k, H], P[k, H + 1], P[k, H + 2]
         I6 = (P[k, IO], P[k, IO + 1], P[k, IO + 2], P[k, IO + 3], P[k, IO + 4], P[k, IO + 5])
@@ -95,17 +95,17 @@ def derivatives_block(P, q, qd, qdd, w, flags, dq, dqd, k0):
                 mx, my, mz = rotate_t(r, mx, my, mz)
                 ST[9, b], ST[10, b], ST[11, b], ST[12, b], ST[13, b], ST[14, b] = ex, ey, ez, mx, my, mz
             dqk = QV[n + k, b]
-            wx, wy, wz, ax, ay, az, lx, ly, lz = joint_rate(P, k, wx, wy, wz, ax, ay, az, lx, ly, lz,
+            wx, wy, wz, ax, ay, az, lx, ly, lz = joint_rate(P[k, KIND], wx, wy, wz, ax, ay, az, lx, ly, lz,
                                                             dqk, QV[2 * n + k, b])
             ST[0, b], ST[1, b], ST[2, b], ST[3, b], ST[4, b], ST[5, b] = wx, wy, wz, ax, ay, az
             ST[6, b], ST[7, b], ST[8, b] = lx, ly, lz
             (FB[6 * k, b], FB[6 * k + 1, b], FB[6 * k + 2, b], FB[6 * k + 3, b], FB[6 * k + 4, b],
              FB[6 * k + 5, b]) = body_wrench(P, k, wx, wy, wz, ax, ay, az, lx, ly, lz)
-            AUX[4, b], AUX[5, b] = (dqk, 0.0) if rev else (0.0, 2.0 * dqk)
+            AUX[4, b], AUX[5, b] = rate_terms(kind, dqk)
             AUX[6, b], AUX[7, b], AUX[8, b] = wx, wy, wz
             AUX[9, b], AUX[10, b], AUX[11, b] = _inertia_times(I6, wx, wy, wz)
             AUX[12, b] = wx * hx + wy * hy + wz * hz
-            seeds(T[:, :, b], k, rev, dqk, wz, wpx, wpy, apx, apy, lpx, lpy, ex, ey, mx, my)
+            seeds(T[:, :, b], k, kind, dqk, wz, wpx, wpy, apx, apy, lpx, lpy, ex, ey, mx, my)
         for d in range(2 * k):           # the live tangents through body k
             for b in range(nl):
                 (T[0, d, b], T[1, d, b], T[2, d, b], T[3, d, b], T[4, d, b], T[5, d, b], T[6, d, b],
@@ -143,13 +143,13 @@ def derivatives_block(P, q, qd, qdd, w, flags, dq, dqd, k0):
         _torques(P, Tf[:, :, b], k, dq[k0 + b], dqd[k0 + b])
     for i in range(n - 2, -1, -1):
         j = i + 1
-        rev = P[j, KIND] == 0.0
+        kind = P[j, KIND]
         for b in range(nl):              # joint j's own turn; the joint wrench into body i
             r = _r(RB, j, b)
             px, py, pz = PB[3 * j, b], PB[3 * j + 1, b], PB[3 * j + 2, b]
             nx, ny, nz, fx, fy, fz = JW[0, b], JW[1, b], JW[2, b], JW[3, b], JW[4, b], JW[5, b]
             (OT[0, b], OT[1, b], OT[2, b], OT[3, b], OT[4, b],
-             OT[5, b]) = own_turn(r, px, py, pz, rev, nx, ny, nz, fx, fy)
+             OT[5, b]) = own_turn(kind, r, px, py, pz, nx, ny, nz, fx, fy)
             nx, ny, nz, fx, fy, fz = force_to_parent(r, px, py, pz, nx, ny, nz, fx, fy, fz)
             JW[0, b], JW[1, b], JW[2, b] = nx + FB[6 * i, b], ny + FB[6 * i + 1, b], nz + FB[6 * i + 2, b]
             JW[3, b], JW[4, b], JW[5, b] = fx + FB[6 * i + 3, b], fy + FB[6 * i + 4, b], fz + FB[6 * i + 5, b]

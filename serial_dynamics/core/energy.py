@@ -27,11 +27,12 @@ from . import flags as F
 from .cholesky import cholesky_factor, cholesky_solve_factored
 from .crba import crba_core
 from .data import new_kin, scratch, stack_empty
+from .joint import add_rate, joint_transforms, project
 from .layout import H, IO, KIND, MASS, W_WRENCH
 from .rnea import rnea_core
 from .status import BAD_LENGTH, NOT_CONVERGED, NOT_FINITE, status
 from .signatures import D2, D3, In1, Out1, Pm, f8, i8, internal
-from .spatial import finite, joint_transforms, to_child, to_parent
+from .spatial import finite, to_child, to_parent
 
 ROUNDOFF = 1e-10        # a correction below this (relative) that stops shrinking is round-off
 
@@ -45,10 +46,7 @@ def body_velocity(P, R, p, i, wx, wy, wz, vx, vy, vz, qdi):
     vx, vy, vz = to_child(R, i, vx + wy * pz - wz * py, vy + wz * px - wx * pz,
                           vz + wx * py - wy * px)
     wx, wy, wz = to_child(R, i, wx, wy, wz)
-    if P[i, KIND] == 0.0:
-        wz = wz + qdi
-    else:
-        vz = vz + qdi
+    wz, vz = add_rate(P[i, KIND], wz, vz, qdi)     # v_i += S_i qd_i
     return wx, wy, wz, vx, vy, vz
 
 
@@ -67,9 +65,7 @@ def body_momentum(P, i, wx, wy, wz, vx, vy, vz):
 @internal
 def axis_gradient(P, k, wx, wy, wz, vx, vy, vz, nx, ny, nz, fx, fy, fz):
     """dT/dq_k = -S_k . (V_k x* H_k): -(omega x Hn + v x Hf)_z or -(omega x Hf)_z."""
-    if P[k, KIND] == 0.0:
-        return -(wx * ny - wy * nx + vx * fy - vy * fx)
-    return -(wx * fy - wy * fx)
+    return project(P[k, KIND], -(wx * ny - wy * nx + vx * fy - vy * fx), -(wx * fy - wy * fx))
 
 
 @internal(types.void(Pm, D3, D2, In1, D2, Out1), calls=())

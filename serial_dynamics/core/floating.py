@@ -38,10 +38,10 @@ from .aba import floating_aba_core
 from .crba import floating_crba_inline
 from .data import new_art, new_chol, new_kin, stack_empty
 from .forward import floating_cholesky_core
+from .joint import joint_transforms
 from .layout import W_ACC, W_ALL
 from .rnea import floating_rnea_core
 from .signatures import In2, Mat, Out2, Pm, Vec, i8
-from .spatial import joint_transforms
 from .status import BAD_LENGTH, status
 
 GW = 9            # length of gw: the tip wrench [f; m] (world), then the world's gravity

@@ -27,9 +27,10 @@ import math
 from numba import njit
 
 from .data import new_poses, stack_empty
+from .joint import (PRISMATIC, REVOLUTE, cross, joint_transforms, world_column, world_column_rate,
+                    world_joint_rate, world_rate)
 from .layout import H, IO, KIND, MASS, PARENT
 from .signatures import In1, In2, Out2, Out3, Pm, i8, internal
-from .spatial import joint_transforms
 from .status import BAD_LENGTH, NOT_FINITE, OK
 
 
@@ -97,12 +98,6 @@ def rotate_t(R, x, y, z):
             R[0, 2] * x + R[1, 2] * y + R[2, 2] * z)
 
 
-@njit(cache=True, inline="always")
-def cross(ax, ay, az, bx, by, bz):
-    """a x b."""
-    return ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
-
-
 def frame_pose(P, q, body, F, X):
     """X[s] (4 x 4): the pose in the world of the frame F = [R_f row-major, p_f] fixed on
     joint frame ``body`` (-1: the base): R = R0_b R_f, x = o_b + R0_b p_f."""
@@ -160,13 +155,9 @@ def frame_jacobian(P, q, body, F, J):
                 J[s, 0, 3 + c], J[s, 1, 3 + c], J[s, 2, 3 + c] = cross(Rb[0, c], Rb[1, c], Rb[2, c], dx, dy, dz)
         j = body
         while j >= 0:
-            zx, zy, zz = R0[j, 0, 2], R0[j, 1, 2], R0[j, 2, 2]
-            if P[j, KIND] == 0.0:
-                J[s, 0, jv + j], J[s, 1, jv + j], J[s, 2, jv + j] = cross(
-                    zx, zy, zz, x[0] - o[j, 0], x[1] - o[j, 1], x[2] - o[j, 2])
-                J[s, 3, jv + j], J[s, 4, jv + j], J[s, 5, jv + j] = zx, zy, zz
-            else:
-                J[s, 0, jv + j], J[s, 1, jv + j], J[s, 2, jv + j] = zx, zy, zz
+            (J[s, 0, jv + j], J[s, 1, jv + j], J[s, 2, jv + j], J[s, 3, jv + j], J[s, 4, jv + j],
+             J[s, 5, jv + j]) = world_column(P[j, KIND], R0[j, 0, 2], R0[j, 1, 2], R0[j, 2, 2],
+                                             x[0] - o[j, 0], x[1] - o[j, 1], x[2] - o[j, 2])
             j = int(P[j, PARENT])
     return OK
 
@@ -244,11 +235,8 @@ def frame_acceleration(P, q, qd, qdd, body, F, out):
             ax, ay, az = ax + ex + gx, ay + ey + gy, az + ez + gz
             zx, zy, zz, c, dc = R0[j, 0, 2], R0[j, 1, 2], R0[j, 2, 2], u[jv + j], du[jv + j]
             hx, hy, hz = cross(wx, wy, wz, zx, zy, zz)
-            if P[j, KIND] == 0.0:
-                bx, by, bz = bx + zx * dc + hx * c, by + zy * dc + hy * c, bz + zz * dc + hz * c
-                wx, wy, wz = wx + zx * c, wy + zy * c, wz + zz * c
-            else:
-                ax, ay, az = ax + zx * dc + 2.0 * hx * c, ay + zy * dc + 2.0 * hy * c, az + zz * dc + 2.0 * hz * c
+            wx, wy, wz, bx, by, bz, ax, ay, az = world_joint_rate(
+                P[j, KIND], wx, wy, wz, bx, by, bz, ax, ay, az, zx, zy, zz, hx, hy, hz, c, dc)
             ox, oy, oz = o[j, 0], o[j, 1], o[j, 2]
         Ri = Rb if body < 0 else R0[body]
         fx, fy, fz = rotate(Ri, F[9], F[10], F[11])     # the frame's origin from its body's
@@ -318,11 +306,8 @@ def centroidal(P, q, qd, base, out):
                 dx, dy, dz = o[i, 0] - o[l, 0], o[i, 1] - o[l, 1], o[i, 2] - o[l, 2]
             ex, ey, ez = cross(wx, wy, wz, dx, dy, dz)
             vx, vy, vz = vx + ex, vy + ey, vz + ez
-            zx, zy, zz, a = R0[i, 0, 2], R0[i, 1, 2], R0[i, 2, 2], u[jv + i]
-            if P[i, KIND] == 0.0:
-                wx, wy, wz = wx + zx * a, wy + zy * a, wz + zz * a
-            else:
-                vx, vy, vz = vx + zx * a, vy + zy * a, vz + zz * a
+            wx, wy, wz, vx, vy, vz = world_rate(P[i, KIND], wx, wy, wz, vx, vy, vz, R0[i, 0, 2],
+                                                R0[i, 1, 2], R0[i, 2, 2], u[jv + i])
             V[i, 0], V[i, 1], V[i, 2], V[i, 3], V[i, 4], V[i, 5] = vx, vy, vz, wx, wy, wz
             fx, fy, fz, nx, ny, nz = body_momentum(R0[i], o[i, 0], o[i, 1], o[i, 2], vx, vy, vz,
                                                    wx, wy, wz, P[i, MASS], P[i, H:H + 3],
@@ -357,7 +342,7 @@ def inertia_at_com(R0, m, h, I, Ic):
 
 
 @internal
-def add_body(cols, nc, Z, O, Od, W, rev, c, cd, w, m, Ic, C, T):
+def add_body(cols, nc, Z, O, Od, W, kinds, c, cd, w, m, Ic, C, T):
     """Body i's share of C (Angeles & Lee 1988, the NOC):
 
         C += T_i^T M_i dT_i/dt + T_i^T W_i M_i T_i,  T_i = [J_omega; J_c], M_i = diag(I_c, m),
@@ -371,27 +356,10 @@ def add_body(cols, nc, Z, O, Od, W, rev, c, cd, w, m, Ic, C, T):
         k = int(cols[a])
         zx, zy, zz = Z[k, 0], Z[k, 1], Z[k, 2]
         ex, ey, ez = cross(W[k, 0], W[k, 1], W[k, 2], zx, zy, zz)           # dz/dt
-        if rev[k] != 0.0:
-            rx, ry, rz = c[0] - O[k, 0], c[1] - O[k, 1], c[2] - O[k, 2]
-            ux, uy, uz = cd[0] - Od[k, 0], cd[1] - Od[k, 1], cd[2] - Od[k, 2]
-            jx, jy, jz = cross(zx, zy, zz, rx, ry, rz)
-            ax, ay, az = cross(ex, ey, ez, rx, ry, rz)
-            bx, by, bz = cross(zx, zy, zz, ux, uy, uz)
-            dx, dy, dz = ax + bx, ay + by, az + bz                          # dJ_c/dt
-            gx = Ic[0] * zx + Ic[1] * zy + Ic[2] * zz                       # I_c z
-            gy = Ic[3] * zx + Ic[4] * zy + Ic[5] * zz
-            gz = Ic[6] * zx + Ic[7] * zy + Ic[8] * zz
-            fx, fy, fz = cross(w[0], w[1], w[2], gx, gy, gz)
-            T[a, 0], T[a, 1], T[a, 2] = zx, zy, zz
-            T[a, 6] = Ic[0] * ex + Ic[1] * ey + Ic[2] * ez + fx
-            T[a, 7] = Ic[3] * ex + Ic[4] * ey + Ic[5] * ez + fy
-            T[a, 8] = Ic[6] * ex + Ic[7] * ey + Ic[8] * ez + fz
-        else:
-            jx, jy, jz, dx, dy, dz = zx, zy, zz, ex, ey, ez
-            for r in range(6, 9):
-                T[a, r - 6] = 0.0
-                T[a, r] = 0.0
-        T[a, 3], T[a, 4], T[a, 5] = jx, jy, jz
+        (T[a, 0], T[a, 1], T[a, 2], T[a, 3], T[a, 4], T[a, 5], T[a, 6], T[a, 7], T[a, 8],
+         dx, dy, dz) = world_column_rate(kinds[k], zx, zy, zz, ex, ey, ez, c[0] - O[k, 0],
+                                         c[1] - O[k, 1], c[2] - O[k, 2], cd[0] - Od[k, 0],
+                                         cd[1] - Od[k, 1], cd[2] - Od[k, 2], Ic, w[0], w[1], w[2])
         T[a, 9], T[a, 10], T[a, 11] = m * dx, m * dy, m * dz
     for a in range(nc):
         for b in range(nc):
@@ -418,7 +386,7 @@ def coriolis(P, q, qd, base, out):
     R0, o, Rb, pb = ps.R0, ps.o, ps.Rb, ps.pb
     # each column: its axis Z through O on a body turning at W, O moving at Od; revolute?
     Z, O, W, Od = stack_empty((nv, 3)), stack_empty((nv, 3)), stack_empty((nv, 3)), stack_empty((nv, 3))
-    rev, cols = stack_empty((nv,)), stack_empty((nv,))     # 1.0: revolute; column indices
+    kinds, cols = stack_empty((nv,)), stack_empty((nv,))   # each column's joint type; indices
     T, Ic = stack_empty((nv, 12)), stack_empty((9,))
     c, cd = stack_empty((3,)), stack_empty((3,))
     jv = nv - n
@@ -437,7 +405,7 @@ def coriolis(P, q, qd, base, out):
             O[k, 0], O[k, 1], O[k, 2] = pb[0], pb[1], pb[2]
             W[k, 0], W[k, 1], W[k, 2] = wx, wy, wz
             Od[k, 0], Od[k, 1], Od[k, 2] = vx, vy, vz
-            rev[k] = 1.0 if k >= 3 else 0.0
+            kinds[k] = REVOLUTE if k >= 3 else PRISMATIC
             cols[k] = k
         if nb and base[0] > 0.0:     # the base body
             hx, hy, hz = rotate(Rb, base[1], base[2], base[3])
@@ -446,7 +414,7 @@ def coriolis(P, q, qd, base, out):
             ex, ey, ez = cross(wx, wy, wz, hx / m, hy / m, hz / m)
             cd[0], cd[1], cd[2] = vx + ex, vy + ey, vz + ez
             inertia_at_com(Rb, m, base[1:4], base[4:10], Ic)
-            add_body(cols, jv, Z, O, Od, W, rev, c, cd, (wx, wy, wz), m, Ic, C, T)
+            add_body(cols, jv, Z, O, Od, W, kinds, c, cd, (wx, wy, wz), m, Ic, C, T)
         for i in range(n):           # the joints, outward: their axes and velocities
             l = int(P[i, PARENT])
             k = jv + i
@@ -459,12 +427,9 @@ def coriolis(P, q, qd, base, out):
                 dx, dy, dz = o[i, 0] - o[l, 0], o[i, 1] - o[l, 1], o[i, 2] - o[l, 2]
             ex, ey, ez = cross(ax, ay, az, dx, dy, dz)
             ox, oy, oz = ox + ex, oy + ey, oz + ez          # odot_i = odot_l + omega_l x (o_i - o_l)
-            zx, zy, zz, a = R0[i, 0, 2], R0[i, 1, 2], R0[i, 2, 2], u[k]
-            rev[k] = 1.0 if P[i, KIND] == 0.0 else 0.0
-            if rev[k] != 0.0:
-                ax, ay, az = ax + zx * a, ay + zy * a, az + zz * a
-            else:
-                ox, oy, oz = ox + zx * a, oy + zy * a, oz + zz * a
+            zx, zy, zz = R0[i, 0, 2], R0[i, 1, 2], R0[i, 2, 2]
+            kinds[k] = P[i, KIND]
+            ax, ay, az, ox, oy, oz = world_rate(kinds[k], ax, ay, az, ox, oy, oz, zx, zy, zz, u[k])
             Z[k, 0], Z[k, 1], Z[k, 2] = zx, zy, zz
             O[k, 0], O[k, 1], O[k, 2] = o[i, 0], o[i, 1], o[i, 2]
             W[k, 0], W[k, 1], W[k, 2] = ax, ay, az
@@ -484,7 +449,7 @@ def coriolis(P, q, qd, base, out):
                 nc += 1
                 j = int(P[j, PARENT])
             inertia_at_com(R0[i], m, P[i, H:H + 3], P[i, IO:IO + 6], Ic)
-            add_body(cols, nc, Z, O, Od, W, rev, c, cd, (W[k, 0], W[k, 1], W[k, 2]), m, Ic, C, T)
+            add_body(cols, nc, Z, O, Od, W, kinds, c, cd, (W[k, 0], W[k, 1], W[k, 2]), m, Ic, C, T)
     return OK
 
 

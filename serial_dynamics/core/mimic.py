@@ -45,10 +45,10 @@ from .cholesky import cholesky_factor, cholesky_solve_factored, ltdl_factor, ltd
 from .crba import crba_core, floating_crba_core
 from .data import new_kin, scratch, stack_empty
 from .floating import GW, _chain_inputs, rnea_inputs
+from .joint import joint_transforms
 from .layout import ROOT, TREE, W_ALL
 from .rnea import floating_rnea_core, rnea_core
 from .signatures import Mat, Pm, Vec, i8
-from .spatial import joint_transforms
 from .status import BAD_LENGTH, status
 from .tree import tree_crba_core, tree_rnea_core
 

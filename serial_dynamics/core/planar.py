@@ -28,9 +28,10 @@ import math
 from numba import njit
 
 from . import flags as F
-from ..algorithms.planar import (ANG, ARM, DX, DY, E1, E2, GX, GY, HX, HY, IZ, KIND, MASS,
+from ..algorithms.planar import (ANG, ARM, E1, E2, GX, GY, HX, HY, IZ, MASS,
                                  NRM, RX, RY, SGN, TX, TY)
 from .data import stack_empty
+from .joint import planar_joint, planar_momentum, planar_origin, planar_project, planar_rate
 from .signatures import Mat, Pm, Vec, i8
 from .status import BAD_LENGTH, status
 from .spatial import SMALL_ANGLE, sincos
@@ -63,12 +64,7 @@ def planar_transforms(Q, S, q, n):
             chk += th * 0.0
             S[i, 0], S[i, 1] = math.cos(th), math.sin(th)
     for i in range(n):
-        px, py = Q[i, RX], Q[i, RY]
-        if Q[i, KIND] != 0.0:            # p = r + q Rot(theta) d
-            c, s, x = S[i, 0], S[i, 1], q[i]
-            dx, dy = Q[i, DX], Q[i, DY]
-            px, py = px + x * (c * dx - s * dy), py + x * (s * dx + c * dy)
-        S[i, 2], S[i, 3] = px, py
+        S[i, 2], S[i, 3] = planar_origin(planar_joint(Q, i), Q[i, RX], Q[i, RY], S[i, 0], S[i, 1], q[i])
     return chk
 
 
@@ -96,14 +92,7 @@ def planar_rnea_core(Q, S, q, qd, qdd, w, flags, tau):
         tx = lx - az * py - w2 * px
         ty = ly + az * px - w2 * py
         lx, ly = c * tx + s * ty, -s * tx + c * ty
-        if Q[i, KIND] == 0.0:       # spin about SGN N: alpha += SGN qdd, omega += SGN qd
-            sg = Q[i, SGN]
-            az = az + sg * ddq
-            wz = wz + sg * dq
-        else:                       # slide along d: acc += 2 omega x (qd d) + qdd d
-            dx, dy = Q[i, DX], Q[i, DY]
-            lx = lx - 2.0 * wz * dq * dy + ddq * dx
-            ly = ly + 2.0 * wz * dq * dx + ddq * dy
+        wz, az, lx, ly = planar_rate(planar_joint(Q, i), wz, az, lx, ly, dq, ddq)
         # body wrench about its origin: f = m acc + alpha x h + omega x (omega x h),
         #                                n = I_nn alpha + h x acc
         m, hx, hy = Q[i, MASS], Q[i, HX], Q[i, HY]
@@ -113,22 +102,20 @@ def planar_rnea_core(Q, S, q, qd, qdd, w, flags, tau):
         S[i, 6] = Q[i, IZ] * az + (hx * ly - hy * lx)
         if use_w:
             ex, ey = c * ex + s * ey, -s * ex + c * ey
-    # inward: f_i = body wrench + Xup_{i+1}^T f_{i+1}, tau_i = S_i^T f_i + armature qdd_i;
+    # inward: f_i = body wrench + Xup_{i+1}^T f_{i+1}, tau_i = S_i^T f_i;
     # the last body carries the load -w (moment about its origin: -m + t x (-f))
     k = n - 1
     fx, fy = S[k, 4] - ex, S[k, 5] - ey
     nz = S[k, 6] + (-mn + (Q[n, TX] * -ey - Q[n, TY] * -ex))
-    ddq = qdd[k] if use_qdd else 0.0
-    t = Q[k, DX] * fx + Q[k, DY] * fy if Q[k, KIND] != 0.0 else Q[k, SGN] * nz
-    tau[k] = t + Q[k, ARM] * ddq
+    tau[k] = planar_project(planar_joint(Q, k), nz, fx, fy)
     for i in range(n - 2, -1, -1):
         c, s, px, py = S[i + 1, 0], S[i + 1, 1], S[i + 1, 2], S[i + 1, 3]
         gx, gy = c * fx - s * fy, s * fx + c * fy       # f' = Rot f, n' = n + p x f'
         nz = nz + (px * gy - py * gx)
         fx, fy, nz = gx + S[i, 4], gy + S[i, 5], nz + S[i, 6]
-        ddq = qdd[i] if use_qdd else 0.0
-        t = Q[i, DX] * fx + Q[i, DY] * fy if Q[i, KIND] != 0.0 else Q[i, SGN] * nz
-        tau[i] = t + Q[i, ARM] * ddq
+        tau[i] = planar_project(planar_joint(Q, i), nz, fx, fy)
+    for i in range(n):              # tau_i += I_a,i qdd_i, after the passes (joint.armature_torques)
+        tau[i] += Q[i, ARM] * (qdd[i] if use_qdd else 0.0)
     return chk
 
 
@@ -142,21 +129,13 @@ def planar_crba_core(Q, S, M):
     k = n - 1
     m, hx, hy, Izz = Q[k, MASS], Q[k, HX], Q[k, HY], Q[k, IZ]
     for i in range(n - 1, -1, -1):
-        # F = IC_i S_i: revolute (SGN I_nn; SGN N x h), prismatic (h x d; m d)
-        if Q[i, KIND] == 0.0:
-            sg = Q[i, SGN]
-            nz, fx, fy = sg * Izz, -sg * hy, sg * hx
-            M[i, i] = sg * nz + Q[i, ARM]                 # M_ii = S_i^T F + armature
-        else:
-            dx, dy = Q[i, DX], Q[i, DY]
-            nz, fx, fy = hx * dy - hy * dx, m * dx, m * dy
-            M[i, i] = (dx * fx + dy * fy) + Q[i, ARM]
+        nz, fx, fy, M[i, i] = planar_momentum(planar_joint(Q, i), m, hx, hy, Izz)  # F = IC_i S_i
         for j in range(i, 0, -1):   # F = Xup_j^T F: f' = Rot f, n' = n + p x f'; M_{j-1,i} = S^T F
             c, s, px, py = S[j, 0], S[j, 1], S[j, 2], S[j, 3]
             gx, gy = c * fx - s * fy, s * fx + c * fy
             nz = nz + (px * gy - py * gx)
             fx, fy = gx, gy
-            v = Q[j - 1, DX] * fx + Q[j - 1, DY] * fy if Q[j - 1, KIND] != 0.0 else Q[j - 1, SGN] * nz
+            v = planar_project(planar_joint(Q, j - 1), nz, fx, fy)
             M[j - 1, i] = v
             M[i, j - 1] = v
         if i > 0:   # IC_{i-1} = I_{i-1} + IC_i carried into body i-1 (parallel axes, eq. 2.63)
@@ -165,6 +144,8 @@ def planar_crba_core(Q, S, M):
             Izz = Q[i - 1, IZ] + Izz + 2.0 * (px * gx + py * gy) + m * (px * px + py * py)
             hx, hy = Q[i - 1, HX] + gx + m * px, Q[i - 1, HY] + gy + m * py
             m = Q[i - 1, MASS] + m
+    for i in range(n):              # M_ii += I_a,i, after the pass (joint.armature_diagonal)
+        M[i, i] += Q[i, ARM]
 
 
 planar_crba_core = njit(cache=True, inline="always")(planar_crba_core)

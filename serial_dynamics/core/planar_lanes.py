@@ -9,9 +9,10 @@ The same equations, frames and symbols as ``planar.py`` (single states) and
 import math
 
 from . import flags as F
-from ..algorithms.planar import (ANG, ARM, DX, DY, E1, E2, GX, GY, HX, HY, IZ, KIND, MASS,
+from ..algorithms.planar import (ANG, ARM, E1, E2, GX, GY, HX, HY, IZ, MASS,
                                  NRM, RX, RY, SGN, TX, TY)
 from .data import scratch, stack_empty
+from .joint import planar_joint, planar_momentum, planar_origin, planar_project, planar_rate
 from .planar import UNSUPPORTED, Qm
 from .status import BAD_LENGTH, NOT_FINITE, OK
 from .signatures import In2, Out2, Out3, i8, internal
@@ -104,20 +105,13 @@ def planar_rnea_block(Q, q, qd, qdd, w, flags, out, k0, L):
                 fin &= th * 0.0 == 0.0
                 s, c = sincos(th) if QV[3 * n, b] == 1.0 else (math.sin(th), math.cos(th))
                 TH[i, b], SN[i, b] = c, s
-        rx, ry = Q[i, RX], Q[i, RY]
-        if Q[i, KIND] != 0.0:            # p = r + q Rot(theta) d
-            dx, dy = Q[i, DX], Q[i, DY]
-            for b in range(nl):
-                c, s, x = TH[i, b], SN[i, b], QV[i, b]
-                PX[i, b], PY[i, b] = rx + x * (c * dx - s * dy), ry + x * (s * dx + c * dy)
-        else:
-            for b in range(nl):
-                PX[i, b], PY[i, b] = rx, ry
+        rx, ry, jt = Q[i, RX], Q[i, RY], planar_joint(Q, i)
+        for b in range(nl):              # p = r (+ q Rot(theta) d)
+            PX[i, b], PY[i, b] = planar_origin(jt, rx, ry, TH[i, b], SN[i, b], QV[i, b])
     # --- outward: velocities, accelerations, body wrenches
     for i in range(n):
         m, hx, hy, Izz = Q[i, MASS], Q[i, HX], Q[i, HY], Q[i, IZ]
-        rev = Q[i, KIND] == 0.0
-        sg, dx, dy = Q[i, SGN], Q[i, DX], Q[i, DY]
+        jt = planar_joint(Q, i)          # the same in every lane: selects
         for b in range(nl):
             c, s, px, py = TH[i, b], SN[i, b], PX[i, b], PY[i, b]
             wz, az, lx, ly = ST[0, b], ST[1, b], ST[2, b], ST[3, b]
@@ -127,15 +121,7 @@ def planar_rnea_block(Q, q, qd, qdd, w, flags, out, k0, L):
             tx = lx - az * py - w2 * px
             ty = ly + az * px - w2 * py
             lx, ly = c * tx + s * ty, -s * tx + c * ty
-            # spin: alpha += SGN qdd, omega += SGN qd; slide: acc += 2 omega x (qd d) + qdd d
-            az2 = az + sg * ddq
-            wz2 = wz + sg * dq
-            lx2 = lx - 2.0 * wz * dq * dy + ddq * dx
-            ly2 = ly + 2.0 * wz * dq * dx + ddq * dy
-            az = az2 if rev else az
-            wz = wz2 if rev else wz
-            lx = lx if rev else lx2
-            ly = ly if rev else ly2
+            wz, az, lx, ly = planar_rate(jt, wz, az, lx, ly, dq, ddq)     # spin or slide
             # body wrench about its origin
             w2 = wz * wz
             FX[i, b] = m * lx - az * hy - w2 * hx
@@ -149,25 +135,27 @@ def planar_rnea_block(Q, q, qd, qdd, w, flags, out, k0, L):
     # --- inward (ST rows 0..2: f x, y, n); the last body carries the load -w
     k = n - 1
     tpx, tpy = Q[n, TX], Q[n, TY]
-    rev, sg, dx, dy, arm = Q[k, KIND] == 0.0, Q[k, SGN], Q[k, DX], Q[k, DY], Q[k, ARM]
+    jt = planar_joint(Q, k)
     for b in range(nl):
         ex, ey, mn = ST[4, b], ST[5, b], ST[6, b]
         fx, fy = FX[k, b] - ex, FY[k, b] - ey
         nz = NZ[k, b] + (-mn + (tpx * -ey - tpy * -ex))
-        t = sg * nz if rev else dx * fx + dy * fy
-        TB[k, b] = t + arm * QV[2 * n + k, b]
+        TB[k, b] = planar_project(jt, nz, fx, fy)
         ST[0, b], ST[1, b], ST[2, b] = fx, fy, nz
     for i in range(n - 2, -1, -1):
-        rev, sg, dx, dy, arm = Q[i, KIND] == 0.0, Q[i, SGN], Q[i, DX], Q[i, DY], Q[i, ARM]
+        jt = planar_joint(Q, i)
         for b in range(nl):              # f' = Rot f, n' = n + p x f', plus the body wrench
             c, s, px, py = TH[i + 1, b], SN[i + 1, b], PX[i + 1, b], PY[i + 1, b]
             fx, fy, nz = ST[0, b], ST[1, b], ST[2, b]
             gx, gy = c * fx - s * fy, s * fx + c * fy
             nz = nz + (px * gy - py * gx)
             fx, fy, nz = gx + FX[i, b], gy + FY[i, b], nz + NZ[i, b]
-            t = sg * nz if rev else dx * fx + dy * fy
-            TB[i, b] = t + arm * QV[2 * n + i, b]
+            TB[i, b] = planar_project(jt, nz, fx, fy)
             ST[0, b], ST[1, b], ST[2, b] = fx, fy, nz
+    for i in range(n):                   # tau_i += I_a,i qdd_i, after the passes
+        arm = Q[i, ARM]
+        for b in range(nl):
+            TB[i, b] += arm * QV[2 * n + i, b]
     # --- scatter
     for b in range(nl):
         for i in range(n):
@@ -213,35 +201,25 @@ def planar_crba_block(Q, q, out, k0, L):
                 fin &= th * 0.0 == 0.0
                 s, c = sincos(th) if QV[n, b] == 1.0 else (math.sin(th), math.cos(th))
                 TH[i, b], SN[i, b] = c, s
-        rx, ry = Q[i, RX], Q[i, RY]
-        if Q[i, KIND] != 0.0:
-            dx, dy = Q[i, DX], Q[i, DY]
-            for b in range(nl):
-                c, s, x = TH[i, b], SN[i, b], QV[i, b]
-                PX[i, b], PY[i, b] = rx + x * (c * dx - s * dy), ry + x * (s * dx + c * dy)
-        else:
-            for b in range(nl):
-                PX[i, b], PY[i, b] = rx, ry
+        rx, ry, jt = Q[i, RX], Q[i, RY], planar_joint(Q, i)
+        for b in range(nl):
+            PX[i, b], PY[i, b] = planar_origin(jt, rx, ry, TH[i, b], SN[i, b], QV[i, b])
     k = n - 1
     for b in range(nl):
         CB[0, b], CB[1, b], CB[2, b], CB[3, b] = Q[k, MASS], Q[k, HX], Q[k, HY], Q[k, IZ]
     for i in range(n - 1, -1, -1):
-        rev, sg, dx, dy, arm = Q[i, KIND] == 0.0, Q[i, SGN], Q[i, DX], Q[i, DY], Q[i, ARM]
-        for b in range(nl):              # F = IC_i S_i, M_ii = S_i^T F + armature
-            m, hx, hy, Izz = CB[0, b], CB[1, b], CB[2, b], CB[3, b]
-            nz = sg * Izz if rev else hx * dy - hy * dx
-            fx = -sg * hy if rev else m * dx
-            fy = sg * hx if rev else m * dy
-            MB[i * n + i, b] = (sg * nz if rev else dx * fx + dy * fy) + arm
-            CB[4, b], CB[5, b], CB[6, b] = nz, fx, fy
+        jt = planar_joint(Q, i)
+        for b in range(nl):              # F = IC_i S_i, M_ii = S_i^T F
+            (CB[4, b], CB[5, b], CB[6, b], MB[i * n + i, b]) = planar_momentum(
+                jt, CB[0, b], CB[1, b], CB[2, b], CB[3, b])
         for j in range(i, 0, -1):        # F = Xup_j^T F, M_{j-1,i} = S_{j-1}^T F
-            rev, sg, dx, dy = Q[j - 1, KIND] == 0.0, Q[j - 1, SGN], Q[j - 1, DX], Q[j - 1, DY]
+            jt = planar_joint(Q, j - 1)
             for b in range(nl):
                 c, s, px, py = TH[j, b], SN[j, b], PX[j, b], PY[j, b]
                 nz, fx, fy = CB[4, b], CB[5, b], CB[6, b]
                 gx, gy = c * fx - s * fy, s * fx + c * fy
                 nz = nz + (px * gy - py * gx)
-                MB[(j - 1) * n + i, b] = sg * nz if rev else dx * gx + dy * gy
+                MB[(j - 1) * n + i, b] = planar_project(jt, nz, gx, gy)
                 CB[4, b], CB[5, b], CB[6, b] = nz, gx, gy
         if i > 0:                        # IC_{i-1} = I_{i-1} + IC_i carried into body i-1
             m0, hx0, hy0, I0 = Q[i - 1, MASS], Q[i - 1, HX], Q[i - 1, HY], Q[i - 1, IZ]
@@ -252,6 +230,10 @@ def planar_crba_block(Q, q, out, k0, L):
                 CB[3, b] = I0 + Izz + 2.0 * (px * gx + py * gy) + m * (px * px + py * py)
                 CB[1, b], CB[2, b] = hx0 + gx + m * px, hy0 + gy + m * py
                 CB[0, b] = m0 + m
+    for i in range(n):                   # M_ii += I_a,i, after the pass
+        arm = Q[i, ARM]
+        for b in range(nl):
+            MB[i * n + i, b] += arm
     # --- scatter: the upper triangle, mirrored
     for b in range(nl):
         M = out[k0 + b]

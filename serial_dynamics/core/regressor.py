@@ -31,11 +31,12 @@ import numpy as np
 from numba import njit
 
 from .data import new_kin, stack_empty
+from .joint import add_rate, joint_transforms
 from .layout import G, KIND, PARENT, WIDTH
 from .rnea import outward_step
 from .status import BAD_LENGTH, status
 from .signatures import D2, D3, In1, In2, Mat, Out2, Out3, Pm, Vec, f8, i8, internal
-from .spatial import finite, joint_transforms, to_child
+from .spatial import finite, to_child
 
 AR, AID = WIDTH, WIDTH + 9
 ARMATURE_COLUMNS, FRICTION_COLUMNS = 1, 2
@@ -93,13 +94,13 @@ def regressor_core(L, sc, R, p, V, S, q, qd, qdd, flags, Y):
             Y[j, c] = 0.0
         for c in range(10 * n, cols):
             Y[j, c] = 0.0
-        rev = L[j, KIND] == 0.0     # S_j = e_z angular (revolute) or linear (prismatic)
+        kind = L[j, KIND]
         for i in range(j, n):
             c = 10 * i
             l = int(L[i, PARENT])
             if i == j:
-                swx, swy, swz = 0.0, 0.0, (1.0 if rev else 0.0)
-                svx, svy, svz = 0.0, 0.0, (0.0 if rev else 1.0)
+                swx, swy, svx, svy = 0.0, 0.0, 0.0, 0.0
+                swz, svz = add_rate(kind, 0.0, 0.0, 1.0)     # S_j: e_z angular or linear
             elif l >= j and S[l, 6] == 1.0:   # into body i: s_w' = R^T s_w, s_v' = R^T (s_v + s_w x p)
                 px, py, pz = p[i, 0], p[i, 1], p[i, 2]
                 swx, swy, swz = S[l, 0], S[l, 1], S[l, 2]

@@ -8,7 +8,8 @@ wrenches and tau_i = S_i^T f_i (Featherstone 2008, Sec. 5.3). The tip wrench w (
 order [f; m], base frame, exerted on the tip) enters as the load -w on the last body. A
 base with known motion (flag BASE; Angeles, Sec. 7.5.2) starts the outward recursion with
 its angular velocity and acceleration and the acceleration of its origin minus gravity;
-the armature adds I_a qdd to each joint's torque.
+the armature adds I_a qdd to each joint's torque, after the passes. What a joint's type
+changes (S, its rate, S^T f) is ``joint.py``'s.
 """
 from numba import njit
 
@@ -16,8 +17,9 @@ from . import flags as F
 from .data import new_kin
 from .status import BAD_LENGTH, status
 from .signatures import D2, D3, In1, Out1, Pm, f8, i8, internal
-from .layout import ARM, G, H, IO, KIND, MASS, TIPP, W_ACC, W_ALL, W_ALPHA, W_OMEGA, W_WRENCH
-from .spatial import finite, joint_transforms, rotate_t, rotation, to_child, to_parent
+from .joint import armature_torques, free_flyer, joint_rate, joint_transforms, project
+from .layout import G, H, IO, KIND, MASS, TIPP, W_ACC, W_ALL, W_ALPHA, W_OMEGA, W_WRENCH
+from .spatial import finite, rotate_t, rotation, to_child, to_parent
 
 
 @njit(cache=True, inline="always")
@@ -72,24 +74,13 @@ def into_body(r, px, py, pz, wx, wy, wz, ax, ay, az, lx, ly, lz):
     return wx, wy, wz, ax, ay, az, lx, ly, lz
 
 
-@njit(cache=True, inline="always")
-def joint_rate(P, i, wx, wy, wz, ax, ay, az, lx, ly, lz, dq, ddq):
-    """Joint i's rate qd, qdd added to omega, alpha, acc of body i (in its frame)."""
-    if P[i, KIND] == 0.0:       # spin about z: alpha += omega x (qd e_z) + qdd e_z
-        ax, ay, az = ax + wy * dq, ay - wx * dq, az + ddq
-        wz = wz + dq
-    else:                       # slide along z: acc += 2 omega x (qd e_z) + qdd e_z
-        lx, ly, lz = lx + 2.0 * wy * dq, ly - 2.0 * wx * dq, lz + ddq
-    return wx, wy, wz, ax, ay, az, lx, ly, lz
-
-
 @internal
 def outward_step(P, R, p, i, wx, wy, wz, ax, ay, az, lx, ly, lz, dq, ddq):
     """Newton-Euler outward recursion, one body: ``into_body`` then ``joint_rate``.
     Returns (omega, alpha, acc) of body i, 9 numbers."""
     wx, wy, wz, ax, ay, az, lx, ly, lz = into_body(rotation(R, i), p[i, 0], p[i, 1], p[i, 2],
                                                    wx, wy, wz, ax, ay, az, lx, ly, lz)
-    return joint_rate(P, i, wx, wy, wz, ax, ay, az, lx, ly, lz, dq, ddq)
+    return joint_rate(P[i, KIND], wx, wy, wz, ax, ay, az, lx, ly, lz, dq, ddq)
 
 
 @njit(cache=True, inline="always")
@@ -147,12 +138,6 @@ def free_flyer_motion(qd, qdd, base, flags):
 
 
 @njit(cache=True, inline="always")
-def free_flyer(wx, wy, wz, a0, a1, a2, a3, a4, a5, bx, by, bz):
-    """``free_flyer_motion`` of omega, qdd[:6] and the base acceleration, 9 numbers."""
-    return wx, wy, wz, a3 + wy * wz, a4 - wx * wz, a5 + wx * wy, bx + a0, by + a1, bz + a2
-
-
-@njit(cache=True, inline="always")
 def newton_euler(P, sc, R, p, f, q, qd, qdd, w, flags, tau, nb):
     """tau = M(q) qdd + b(q, qd) - J^T w of a chain into ``tau``; fills the Data arrays sc,
     R, p, f. ``w``: the external inputs (layout.W_*): the tip wrench (flag WRENCH), the base
@@ -183,17 +168,18 @@ def newton_euler(P, sc, R, p, f, q, qd, qdd, w, flags, tau, nb):
         if use_w:
             ex, ey, ez = to_child(R, i, ex, ey, ez)
             mx, my, mz = to_child(R, i, mx, my, mz)
-    # inward: tau_i = S_i^T (n; f) + I_a,i qdd_i  (the rotor's inertia, reflected through the gear)
+    # inward: tau_i = S_i^T (n; f)
     k = n - 1
     nx, ny, nz, fx, fy, fz = tip_load(P, n, f[k, 0], f[k, 1], f[k, 2], f[k, 3], f[k, 4], f[k, 5],
                                       ex, ey, ez, mx, my, mz)
-    tau[k] = (nz if P[k, KIND] == 0.0 else fz) + P[k, ARM] * (qdd[k] if use_qdd else 0.0)
+    tau[k] = project(P[k, KIND], nz, fz)
     for i in range(n - 2, nb - 1, -1):
         nx, ny, nz, fx, fy, fz = inward_step(R, p, f, i, nx, ny, nz, fx, fy, fz)
-        tau[i] = (nz if P[i, KIND] == 0.0 else fz) + P[i, ARM] * (qdd[i] if use_qdd else 0.0)
+        tau[i] = project(P[i, KIND], nz, fz)
     if nb > 0:                  # the free-flyer's generalized forces: the root's [f; n]
         nx, ny, nz, fx, fy, fz = inward_step(R, p, f, nb - 1, nx, ny, nz, fx, fy, fz)
         tau[0], tau[1], tau[2], tau[3], tau[4], tau[5] = fx, fy, fz, nx, ny, nz
+    armature_torques(P, qdd, use_qdd, tau, nb)      # tau_i += I_a,i qdd_i
     return chk
 
 

@@ -10,17 +10,16 @@ exactly what ``rnea_core`` computes for its sample (same operations in the same 
 libm's sine and cosine for a sample with an angle beyond SMALL_ANGLE, as there), so a
 sample's torques are bitwise the same alone or in any batch, at any place in it.
 """
-import math
-
 from numba import njit
 
 from . import flags as F
 from .data import stack_empty
-from .layout import ARM, G, H, IO, KIND, LANES, MASS, TIPP, W_ACC, W_ALL, XP, XR
-from .rnea import body_wrench, free_flyer, w_length
+from .joint import free_flyer, joint_rate, lane_transforms, project
+from .layout import ARM, G, H, IO, KIND, LANES, MASS, TIPP, W_ACC, W_ALL
+from .rnea import body_wrench, w_length
 from .status import NOT_FINITE, OK
 from .signatures import In2, Out2, Pm, i8, internal
-from .spatial import SMALL_ANGLE, sincos
+from .spatial import SMALL_ANGLE
 
 
 @njit(cache=True, inline="always")
@@ -55,43 +54,6 @@ def gather(P, q, qd, qdd, w, flags, QV, WB, k0, nl):
             for i in range(n):
                 fin &= QV[i, b] * 0.0 == 0.0
     return small, fin
-
-
-@njit(cache=True, inline="always")
-def lane_transforms(P, i, QV, RB, PB, nl, small):
-    """Joint i's transform in every lane (``spatial.joint_transforms``' operations): R_i into
-    RB rows 9i..9i+8 (row-major), p_i into PB rows 3i..3i+2."""
-    n = P.shape[0] - 1
-    rp0, rp1, rp2, rp3, rp4, rp5, rp6, rp7, rp8 = (P[i, XR], P[i, XR + 1], P[i, XR + 2],
-                                                   P[i, XR + 3], P[i, XR + 4], P[i, XR + 5],
-                                                   P[i, XR + 6], P[i, XR + 7], P[i, XR + 8])
-    pp0, pp1, pp2 = P[i, XP], P[i, XP + 1], P[i, XP + 2]
-    ri, pi = 9 * i, 3 * i
-    kp = P[i, KIND]
-    # joint transform R = Rp' Rz(q) | Rp',  p = p' | p' + q Rp' e_z
-    if kp == 0.0:
-        # sin q, cos q of every lane into PB's rows of p_i (written last): the polynomial
-        # in one packed loop, then libm's for a lane with a huge angle. (In one loop with a
-        # select, LLVM called libm's sincos in every lane and threw the result away.)
-        for b in range(nl):
-            PB[pi, b], PB[pi + 1, b] = sincos(QV[i, b])
-        if not small:
-            for b in range(nl):
-                if QV[3 * n, b] != 1.0:
-                    PB[pi, b], PB[pi + 1, b] = math.sin(QV[i, b]), math.cos(QV[i, b])
-        for b in range(nl):
-            s, c = PB[pi, b], PB[pi + 1, b]
-            RB[ri, b], RB[ri + 1, b], RB[ri + 2, b] = c * rp0 + s * rp1, c * rp1 - s * rp0, rp2
-            RB[ri + 3, b], RB[ri + 4, b], RB[ri + 5, b] = c * rp3 + s * rp4, c * rp4 - s * rp3, rp5
-            RB[ri + 6, b], RB[ri + 7, b], RB[ri + 8, b] = c * rp6 + s * rp7, c * rp7 - s * rp6, rp8
-            PB[pi, b], PB[pi + 1, b], PB[pi + 2, b] = pp0, pp1, pp2
-    else:
-        for b in range(nl):
-            qi = QV[i, b]
-            RB[ri, b], RB[ri + 1, b], RB[ri + 2, b] = rp0, rp1, rp2
-            RB[ri + 3, b], RB[ri + 4, b], RB[ri + 5, b] = rp3, rp4, rp5
-            RB[ri + 6, b], RB[ri + 7, b], RB[ri + 8, b] = rp6, rp7, rp8
-            PB[pi, b], PB[pi + 1, b], PB[pi + 2, b] = pp0 + qi * rp2, pp1 + qi * rp5, pp2 + qi * rp8
 
 
 @njit(cache=True, inline="always")
@@ -176,7 +138,7 @@ def newton_euler_lanes(P, flags, QV, WB, RB, PB, FB, ST, TB, nl, small, first, r
     root(P, QV, RB, PB, FB, ST, TB, nl, False)   # a floating base's root joint: its motion
     for i in range(first, n):
         ri, pi, fi = 9 * i, 3 * i, 6 * i
-        rev = P[i, KIND] == 0.0          # the same in every lane: selects, not branches
+        kind = P[i, KIND]                # the same in every lane: selects, not branches
         lane_transforms(P, i, QV, RB, PB, nl, small)
         # carry omega, alpha, a into body i, add the joint rates
         for b in range(nl):
@@ -194,15 +156,10 @@ def newton_euler_lanes(P, flags, QV, WB, RB, PB, FB, ST, TB, nl, small, first, r
             lx, ly, lz = r0 * tx + r3 * ty + r6 * tz, r1 * tx + r4 * ty + r7 * tz, r2 * tx + r5 * ty + r8 * tz
             wx, wy, wz = r0 * wx + r3 * wy + r6 * wz, r1 * wx + r4 * wy + r7 * wz, r2 * wx + r5 * wy + r8 * wz
             ax, ay, az = r0 * ax + r3 * ay + r6 * az, r1 * ax + r4 * ay + r7 * az, r2 * ax + r5 * ay + r8 * az
-            # spin: alpha += w x (qd e_z) + qdd e_z, w += qd e_z; slide: a += 2 w x (qd e_z) + qdd e_z
-            dq, ddq = QV[n + i, b], QV[2 * n + i, b]
-            ST[3, b] = ax + wy * dq if rev else ax
-            ST[4, b] = ay - wx * dq if rev else ay
-            ST[5, b] = az + ddq if rev else az
-            ST[6, b] = lx if rev else lx + 2.0 * wy * dq
-            ST[7, b] = ly if rev else ly - 2.0 * wx * dq
-            ST[8, b] = lz if rev else lz + ddq
-            ST[0, b], ST[1, b], ST[2, b] = wx, wy, (wz + dq if rev else wz)
+            # the joint's rate: spin or slide (joint.joint_rate)
+            (ST[0, b], ST[1, b], ST[2, b], ST[3, b], ST[4, b], ST[5, b], ST[6, b], ST[7, b],
+             ST[8, b]) = joint_rate(kind, wx, wy, wz, ax, ay, az, lx, ly, lz, QV[n + i, b],
+                                    QV[2 * n + i, b])
         # body wrench about its origin: f = m a + alpha x h + w x (w x h),
         #                                n = I_o alpha + w x (I_o w) + h x a
         m = P[i, MASS]
@@ -237,20 +194,24 @@ def newton_euler_lanes(P, flags, QV, WB, RB, PB, FB, ST, TB, nl, small, first, r
     # inward recursion (ST rows 0..5: f, m); the tip load -w acts on the environment
     tpx, tpy, tpz = P[n, TIPP], P[n, TIPP + 1], P[n, TIPP + 2]
     fi = 6 * (n - 1)
-    rev = P[n - 1, KIND] == 0.0
+    kind = P[n - 1, KIND]
     for b in range(nl):
         fx, fy, fz = FB[fi, b] - ST[9, b], FB[fi + 1, b] - ST[10, b], FB[fi + 2, b] - ST[11, b]
         mx = FB[fi + 3, b] - ST[12, b] - tpy * ST[11, b] + tpz * ST[10, b]
         my = FB[fi + 4, b] - ST[13, b] - tpz * ST[9, b] + tpx * ST[11, b]
         mz = FB[fi + 5, b] - ST[14, b] - tpx * ST[10, b] + tpy * ST[9, b]
         ST[0, b], ST[1, b], ST[2, b], ST[3, b], ST[4, b], ST[5, b] = fx, fy, fz, mx, my, mz
-        TB[n - 1, b] = (mz if rev else fz) + P[n - 1, ARM] * QV[3 * n - 1, b]   # S_i^T (n; f) + I_a qdd
+        TB[n - 1, b] = project(kind, mz, fz)                   # S_i^T (n; f)
     for i in range(n - 2, first - 1, -1):
-        rev = P[i, KIND] == 0.0
+        kind = P[i, KIND]
         for b in range(nl):
             fx, fy, fz, mx, my, mz = carry_in(RB, PB, FB, ST, i, b)
             ST[0, b], ST[1, b], ST[2, b], ST[3, b], ST[4, b], ST[5, b] = fx, fy, fz, mx, my, mz
-            TB[i, b] = (mz if rev else fz) + P[i, ARM] * QV[2 * n + i, b]
+            TB[i, b] = project(kind, mz, fz)
+    for i in range(first, n):            # tau_i += I_a,i qdd_i (joint.armature_torques)
+        arm = P[i, ARM]
+        for b in range(nl):
+            TB[i, b] += arm * QV[2 * n + i, b]
     root(P, QV, RB, PB, FB, ST, TB, nl, True)    # and its generalized forces
 
 
@@ -264,7 +225,7 @@ def fixed_base(P, QV, RB, PB, FB, ST, TB, nl, end):
 def free_flyer_root(P, QV, RB, PB, FB, ST, TB, nl, end):
     """``newton_euler_lanes``' root joint on a floating base's virtual chain, bodies 0-5 as one
     free-flyer (``rnea.newton_euler``'s nb = 6): before the outward pass (``end`` False) the
-    root body's motion into ST and its wrench into FB (``rnea.free_flyer``); after the
+    root body's motion into ST and its wrench into FB (``joint.free_flyer``); after the
     inward pass its joint wrench [f; n], the base's generalized forces, into TB[:6]."""
     n, k = P.shape[0] - 1, 5
     fk = 6 * k

@@ -1,4 +1,4 @@
-"""Small inline helpers of the compiled core: sine and cosine, the joint transform, and
+"""Small inline helpers of the compiled core: sine and cosine, and
 carrying 3-vectors and spatial forces between body frames (joint frames; spatial vectors
 angular first, docs/conventions.md). Plain IEEE arithmetic, no fast-math: the same inputs
 give the same bits whatever was compiled or inlined where."""
@@ -6,8 +6,6 @@ import math
 
 from numba import njit
 
-from .data import stack_empty
-from .layout import KIND, XP, XR
 from .signatures import internal
 
 
@@ -54,47 +52,6 @@ def sincos(x):
     ss = c if odd else s                 # sin(r + k pi/2): s, c, -s, -c for k = 0, 1, 2, 3
     cc = s if odd else c                 # cos(r + k pi/2): c, -s, -c, s
     return (-ss if j >= 2.0 else ss), (-cc if abs(j - 1.5) < 1.0 else cc)
-
-
-@internal
-def joint_transforms(P, sc, R, p, q, n, first=0):
-    """R_i = Xtree_R Rz(q_i) (revolute) or Xtree_R (prismatic) and p_i = Xtree_p
-    (+ q_i Xtree_R e_z): body i in body i-1, into R, p; sin q, cos q into sc (2, n)
-    (Featherstone 2008, Sec. 4.2), for i = first .. n-1 (6: past a free-flyer root's virtual
-    joints, whose transforms its recursions do not read). Returns 0.0, or NaN when some
-    q_i is NaN or Inf (x * 0.0 is NaN iff x is)."""
-    small = True
-    for i in range(first, n):
-        small &= abs(q[i]) < SMALL_ANGLE
-    chk = 0.0
-    if small:                            # 8 at a time in loops of their own, so that they
-        x, z = stack_empty((8,)), stack_empty((2, 8))   # vectorize (a loop of n < 8 would not)
-        for i0 in range(first, n, 8):
-            for j in range(8):
-                x[j] = q[i0 + j] if i0 + j < n else 0.0
-            for j in range(8):
-                z[0, j], z[1, j] = sincos(x[j])
-            for j in range(min(8, n - i0)):
-                sc[0, i0 + j], sc[1, i0 + j] = z[0, j], z[1, j]
-    else:                                # huge, NaN or Inf angles: libm's argument reduction
-        for i in range(first, n):
-            chk += q[i] * 0.0
-            sc[0, i], sc[1, i] = math.sin(q[i]), math.cos(q[i])
-    for i in range(first, n):
-        if P[i, KIND] == 0.0:
-            s, c = sc[0, i], sc[1, i]
-            for r in range(3):
-                a, b = P[i, XR + 3 * r], P[i, XR + 3 * r + 1]
-                R[i, r, 0] = c * a + s * b               # column 0: c Xtree_R e_x + s Xtree_R e_y
-                R[i, r, 1] = c * b - s * a               # column 1: c Xtree_R e_y - s Xtree_R e_x
-                R[i, r, 2] = P[i, XR + 3 * r + 2]
-                p[i, r] = P[i, XP + r]
-        else:
-            for r in range(3):
-                for k in range(3):
-                    R[i, r, k] = P[i, XR + 3 * r + k]
-                p[i, r] = P[i, XP + r] + q[i] * P[i, XR + 3 * r + 2]
-    return chk
 
 
 @njit(cache=True, inline="always")

@@ -17,14 +17,15 @@ from numba import types
 from . import flags as F
 from .aba import floating_tree_aba_core, tree_aba_core
 from .cholesky import ltdl_factor, ltdl_solve_factored
-from .crba import add_in_parent, joint_momentum, root_block
+from .crba import add_in_parent, root_block
 from .floating import GW, _chain_inputs, _products, fd_inputs, rnea_inputs
 from .data import new_art, new_chol, new_kin, scratch, square_lanes_fit, stack_empty
 from .energy import axis_gradient, body_momentum, body_velocity
-from .layout import ARM, H, IO, KIND, LANES, MASS, PARENT, ROOT, TIPPATH, W_ALL, W_WRENCH
+from .joint import armature_diagonal, armature_torques, joint_momentum, joint_transforms, project
+from .layout import H, IO, KIND, LANES, MASS, PARENT, ROOT, TIPPATH, W_ALL, W_WRENCH
 from .rnea import base_state, body_wrench, free_flyer_motion, joint_rates, outward_step, tip_load
 from .signatures import D2, D3, In1, In2, Mat, Out1, Out2, Out3, Pm, Vec, f8, i8, internal
-from .spatial import finite, joint_transforms, rotation, to_child, to_parent
+from .spatial import finite, rotation, to_child, to_parent
 from .status import BAD_LENGTH, NOT_FINITE, OK, status
 from .tree_lanes import tree_crba_block, tree_fd_block, tree_rnea_block
 
@@ -68,10 +69,10 @@ def tree_rnea_core(P, sc, R, p, f, mo, q, qd, qdd, w, flags, tau):
         k = n - 1
         f[k, 0], f[k, 1], f[k, 2], f[k, 3], f[k, 4], f[k, 5] = tip_load(
             P, n, f[k, 0], f[k, 1], f[k, 2], f[k, 3], f[k, 4], f[k, 5], ex, ey, ez, mx, my, mz)
-    # inward: tau_i = S_i^T f_i + I_a,i qdd_i;  f_lambda(i) += Xup_i^T f_i
+    # inward: tau_i = S_i^T f_i;  f_lambda(i) += Xup_i^T f_i
     for i in range(n - 1, nb - 1, -1):
         nx, ny, nz, fx, fy, fz = f[i, 0], f[i, 1], f[i, 2], f[i, 3], f[i, 4], f[i, 5]
-        tau[i] = (nz if P[i, KIND] == 0.0 else fz) + P[i, ARM] * (qdd[i] if use_qdd else 0.0)
+        tau[i] = project(P[i, KIND], nz, fz)
         l = int(P[i, PARENT])
         if l >= 0:
             nx, ny, nz, fx, fy, fz = to_parent(R, p, i, nx, ny, nz, fx, fy, fz)
@@ -81,6 +82,7 @@ def tree_rnea_core(P, sc, R, p, f, mo, q, qd, qdd, w, flags, tau):
         k = nb - 1
         tau[0], tau[1], tau[2], tau[3], tau[4], tau[5] = (f[k, 3], f[k, 4], f[k, 5],
                                                           f[k, 0], f[k, 1], f[k, 2])
+    armature_torques(P, qdd, use_qdd, tau, nb)      # tau_i += I_a,i qdd_i
     return chk
 
 
@@ -105,13 +107,13 @@ def tree_crba_core(P, R, p, IC, M):
     for i in range(n - 1, nb - 1, -1):
         m, hx, hy, hz = IC[i, 0], IC[i, 1], IC[i, 2], IC[i, 3]
         Ixx, Iyy, Izz, Ixy, Ixz, Iyz = IC[i, 4], IC[i, 5], IC[i, 6], IC[i, 7], IC[i, 8], IC[i, 9]
-        # F = IC_i S_i; M_ii = S_i^T F + I_a,i
-        nx, ny, nz, fx, fy, fz, M[i, i] = joint_momentum(P, i, m, hx, hy, Ixz, Iyz, Izz)
+        # F = IC_i S_i; M_ii = S_i^T F
+        nx, ny, nz, fx, fy, fz, M[i, i] = joint_momentum(P[i, KIND], m, hx, hy, Ixz, Iyz, Izz)
         j = i
         while P[j, PARENT] >= nb:   # up the ancestors: F = Xup_j^T F, M_ji = S_j^T F
             nx, ny, nz, fx, fy, fz = to_parent(R, p, j, nx, ny, nz, fx, fy, fz)
             j = int(P[j, PARENT])
-            M[j, i] = nz if P[j, KIND] == 0.0 else fz
+            M[j, i] = project(P[j, KIND], nz, fz)
             M[i, j] = M[j, i]
         if nb > 0:                  # into the base frame: M_root,i = F (v = [v_O, omega])
             nx, ny, nz, fx, fy, fz = to_parent(R, p, j, nx, ny, nz, fx, fy, fz)
@@ -128,6 +130,7 @@ def tree_crba_core(P, R, p, IC, M):
         r = nb - 1
         root_block(M, IC[r, 0], IC[r, 1], IC[r, 2], IC[r, 3], IC[r, 4], IC[r, 5], IC[r, 6],
                    IC[r, 7], IC[r, 8], IC[r, 9])
+    armature_diagonal(P, M, nb)     # M_ii += I_a,i
 
 
 tree_crba_core = internal(types.void(Pm, D3, D2, D2, Out2))(tree_crba_core)

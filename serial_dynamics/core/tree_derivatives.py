@@ -22,11 +22,12 @@ from . import flags as F
 from .cholesky import ltdl_solve_factored
 from .data import new_chol, new_kin, scratch, stack_empty
 from .derivatives import (HAVE_TRANSFORMS, _bad_shapes, _body_tangent, _inertia_times, _torques,
-                          own_turn, seeds, tangent_through, tip_tangents)
+                          tangent_through, tip_tangents)
+from .joint import joint_rate, joint_transforms, own_turn, rate_terms, seeds
 from .layout import H, IO, KIND, MASS, PARENT, TIPPATH
-from .rnea import base_state, body_wrench, into_body, joint_rate, joint_rates, tip_load
+from .rnea import base_state, body_wrench, into_body, joint_rates, tip_load
 from .signatures import D1, D2, D3, In1, In2, Out2, Out3, Pm, Vec, f8, i8, internal
-from .spatial import force_to_parent, joint_transforms, rotate_t, rotation, to_parent
+from .spatial import force_to_parent, rotate_t, rotation, to_parent
 from .status import BAD_LENGTH, NOT_FINITE, OK, status
 from .tree import tree_fd_core
 
@@ -55,7 +56,7 @@ def tree_derivatives_core(P, sc, R, p, f, mo, TM, TE, TF, last, q, qd, qdd, w, f
         chk += c
         l = int(P[k, PARENT])
         px, py, pz = p[k, 0], p[k, 1], p[k, 2]
-        rev = P[k, KIND] == 0.0
+        kind = P[k, KIND]
         r = rotation(R, k)
         wx, wy, wz, ax, ay, az, lx, ly, lz = base if l < 0 else (
             mo[l, 0], mo[l, 1], mo[l, 2], mo[l, 3], mo[l, 4], mo[l, 5], mo[l, 6], mo[l, 7], mo[l, 8])
@@ -66,7 +67,7 @@ def tree_derivatives_core(P, sc, R, p, f, mo, TM, TE, TF, last, q, qd, qdd, w, f
         if on_path:
             ex, ey, ez = rotate_t(r, ex, ey, ez)
             mx, my, mz = rotate_t(r, mx, my, mz)
-        wx, wy, wz, ax, ay, az, lx, ly, lz = joint_rate(P, k, wx, wy, wz, ax, ay, az, lx, ly, lz,
+        wx, wy, wz, ax, ay, az, lx, ly, lz = joint_rate(P[k, KIND], wx, wy, wz, ax, ay, az, lx, ly, lz,
                                                         dqk, ddqk)
         mo[k, 0], mo[k, 1], mo[k, 2], mo[k, 3], mo[k, 4] = wx, wy, wz, ax, ay
         mo[k, 5], mo[k, 6], mo[k, 7], mo[k, 8] = az, lx, ly, lz
@@ -78,7 +79,7 @@ def tree_derivatives_core(P, sc, R, p, f, mo, TM, TE, TF, last, q, qd, qdd, w, f
         f[k, 0], f[k, 1], f[k, 2], f[k, 3], f[k, 4], f[k, 5] = body_wrench(
             P, k, wx, wy, wz, ax, ay, az, lx, ly, lz)
         # the parent's live tangents (its ancestors' directions) through body k
-        ca, cl = (dqk, 0.0) if rev else (0.0, 2.0 * dqk)
+        ca, cl = rate_terms(kind, dqk)
         wp = w0x * px + w0y * py + w0z * pz
         j = l
         while j >= 0:
@@ -89,7 +90,7 @@ def tree_derivatives_core(P, sc, R, p, f, mo, TM, TE, TF, last, q, qd, qdd, w, f
                     TM[l, 2, d], TM[l, 3, d], TM[l, 4, d], TM[l, 5, d], TM[l, 6, d],
                     TM[l, 7, d], TM[l, 8, d])
             j = int(P[j, PARENT])
-        seeds(TM[k], k, rev, dqk, wz, wpx, wpy, apx, apy, lpx, lpy, ex, ey, mx, my)
+        seeds(TM[k], k, kind, dqk, wz, wpx, wpy, apx, apy, lpx, lpy, ex, ey, mx, my)
         if on_path:                      # the tip wrench's tangents along its path
             j = l
             while j >= 0:
@@ -126,7 +127,7 @@ def tree_derivatives_core(P, sc, R, p, f, mo, TM, TE, TF, last, q, qd, qdd, w, f
         r = rotation(R, i)
         px, py, pz = p[i, 0], p[i, 1], p[i, 2]
         nx, ny, nz, fx, fy, fz = f[i, 0], f[i, 1], f[i, 2], f[i, 3], f[i, 4], f[i, 5]
-        sx, sy, sz, gx, gy, gz = own_turn(r, px, py, pz, P[i, KIND] == 0.0, nx, ny, nz, fx, fy)
+        sx, sy, sz, gx, gy, gz = own_turn(P[i, KIND], r, px, py, pz, nx, ny, nz, fx, fy)
         for d in range(2 * i, 2 * int(last[i]) + 2):
             carry_tangent(TF, i, l, d, r, px, py, pz)
         j = l

@@ -15,9 +15,10 @@ from . import flags as F
 from .crba_lanes import lane_rotation
 from .data import stack_empty
 from .crba import add_in_parent
+from .joint import joint_momentum, joint_rate, lane_transforms, project
 from .layout import ARM, G, H, IO, KIND, LANES, MASS, PARENT, TIPPATH, W_ACC, W_ALL, W_OMEGA
-from .rnea import body_wrench, into_body, joint_rate, tip_load
-from .rnea_lanes import gather, lane_transforms, scatter, tau_minus_bias
+from .rnea import body_wrench, into_body, tip_load
+from .rnea_lanes import gather, scatter, tau_minus_bias
 from .signatures import In2, Out2, Out3, Pm, i8, internal
 from .spatial import force_to_parent, rotate_t
 from .status import NOT_FINITE, OK
@@ -74,7 +75,7 @@ def tree_newton_euler_lanes(P, flags, QV, WB, RB, PB, MO, FB, EB, BS, TB, nl, sm
             wx, wy, wz, ax, ay, az, lx, ly, lz = into_body(
                 r, PB[pi, b], PB[pi + 1, b], PB[pi + 2, b], S[si, b], S[si + 1, b], S[si + 2, b],
                 S[si + 3, b], S[si + 4, b], S[si + 5, b], S[si + 6, b], S[si + 7, b], S[si + 8, b])
-            wx, wy, wz, ax, ay, az, lx, ly, lz = joint_rate(P, i, wx, wy, wz, ax, ay, az, lx, ly, lz,
+            wx, wy, wz, ax, ay, az, lx, ly, lz = joint_rate(P[i, KIND], wx, wy, wz, ax, ay, az, lx, ly, lz,
                                                             QV[n + i, b], QV[2 * n + i, b])
             (MO[ri, b], MO[ri + 1, b], MO[ri + 2, b], MO[ri + 3, b], MO[ri + 4, b],
              MO[ri + 5, b], MO[ri + 6, b], MO[ri + 7, b], MO[ri + 8, b]) = (wx, wy, wz, ax, ay, az,
@@ -93,12 +94,12 @@ def tree_newton_euler_lanes(P, flags, QV, WB, RB, PB, MO, FB, EB, BS, TB, nl, sm
              FB[fi + 5, b]) = tip_load(P, n, FB[fi, b], FB[fi + 1, b], FB[fi + 2, b], FB[fi + 3, b],
                                        FB[fi + 4, b], FB[fi + 5, b], EB[0, b], EB[1, b], EB[2, b],
                                        EB[3, b], EB[4, b], EB[5, b])
-    # inward: tau_i = S_i^T f_i + I_a,i qdd_i;  f_lambda(i) += Xup_i^T f_i
+    # inward: tau_i = S_i^T f_i;  f_lambda(i) += Xup_i^T f_i
     for i in range(n - 1, -1, -1):
         l, fi, ri, pi = int(P[i, PARENT]), 6 * i, 9 * i, 3 * i
-        rev, arm, li = P[i, KIND] == 0.0, P[i, ARM], 6 * int(P[i, PARENT])
+        kind, li = P[i, KIND], 6 * int(P[i, PARENT])
         for b in range(nl):
-            TB[i, b] = (FB[fi + 2, b] if rev else FB[fi + 5, b]) + arm * QV[2 * n + i, b]
+            TB[i, b] = project(kind, FB[fi + 2, b], FB[fi + 5, b])
         if l >= 0:
             for b in range(nl):
                 nx, ny, nz, fx, fy, fz = force_to_parent(
@@ -107,6 +108,10 @@ def tree_newton_euler_lanes(P, flags, QV, WB, RB, PB, MO, FB, EB, BS, TB, nl, sm
                 FB[li, b], FB[li + 1, b] = FB[li, b] + nx, FB[li + 1, b] + ny
                 FB[li + 2, b], FB[li + 3, b] = FB[li + 2, b] + nz, FB[li + 3, b] + fx
                 FB[li + 4, b], FB[li + 5, b] = FB[li + 4, b] + fy, FB[li + 5, b] + fz
+    for i in range(n):                   # tau_i += I_a,i qdd_i (joint.armature_torques)
+        arm = P[i, ARM]
+        for b in range(nl):
+            TB[i, b] += arm * QV[2 * n + i, b]
 
 
 @njit(cache=True, inline="always")
@@ -122,27 +127,22 @@ def tree_composite_lanes(P, off, RB, PB, IC, FB, MB, nl):
             for b in range(nl):
                 IC[10 * i + r, b] = v
     for i in range(n - 1, -1, -1):
-        rev, arm, c = P[i, KIND] == 0.0, P[i, ARM], 10 * i
-        for b in range(nl):              # F = IC_i S_i; M_ii = S_i^T F + I_a,i
-            m, hx, hy = IC[c, b], IC[c + 1, b], IC[c + 2, b]
-            FB[0, b] = IC[c + 8, b] if rev else hy
-            FB[1, b] = IC[c + 9, b] if rev else -hx
-            FB[2, b] = IC[c + 6, b] if rev else 0.0
-            FB[3, b] = -hy if rev else 0.0
-            FB[4, b] = hx if rev else 0.0
-            FB[5, b] = 0.0 if rev else m
-            MB[off[i], b] = (IC[c + 6, b] if rev else m) + arm
+        kind, c = P[i, KIND], 10 * i
+        for b in range(nl):              # F = IC_i S_i; M_ii = S_i^T F
+            (FB[0, b], FB[1, b], FB[2, b], FB[3, b], FB[4, b], FB[5, b],
+             MB[off[i], b]) = joint_momentum(kind, IC[c, b], IC[c + 1, b], IC[c + 2, b],
+                                             IC[c + 8, b], IC[c + 9, b], IC[c + 6, b])
         j, row = i, off[i]
         while P[j, PARENT] >= 0:         # up the ancestors: F = Xup_j^T F, M_ij = S_j^T F
             rj, pj = 9 * j, 3 * j
             j, row = int(P[j, PARENT]), row + 1
-            up = P[j, KIND] == 0.0
+            up = P[j, KIND]
             for b in range(nl):
                 nx, ny, nz, fx, fy, fz = force_to_parent(
                     lane_rotation(RB, rj, b), PB[pj, b], PB[pj + 1, b], PB[pj + 2, b],
                     FB[0, b], FB[1, b], FB[2, b], FB[3, b], FB[4, b], FB[5, b])
                 FB[0, b], FB[1, b], FB[2, b], FB[3, b], FB[4, b], FB[5, b] = nx, ny, nz, fx, fy, fz
-                MB[row, b] = nz if up else fz
+                MB[row, b] = project(up, nz, fz)
         l = int(P[i, PARENT])
         if l >= 0:                       # IC_lambda(i) += Xup_i^T IC_i Xup_i
             ri, pi, d = 9 * i, 3 * i, 10 * l
@@ -154,6 +154,10 @@ def tree_composite_lanes(P, off, RB, PB, IC, FB, MB, nl):
                     lane_rotation(RB, ri, b), PB[pi, b], PB[pi + 1, b], PB[pi + 2, b],
                     IC[c, b], IC[c + 1, b], IC[c + 2, b], IC[c + 3, b], IC[c + 4, b],
                     IC[c + 5, b], IC[c + 6, b], IC[c + 7, b], IC[c + 8, b], IC[c + 9, b])
+    for i in range(n):                   # M_ii += I_a,i (joint.armature_diagonal)
+        arm = P[i, ARM]
+        for b in range(nl):
+            MB[off[i], b] += arm
 
 
 @njit(cache=True, inline="always")

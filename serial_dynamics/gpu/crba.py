@@ -17,7 +17,7 @@ from .rnea import passes
 from .runtime import Batch, cuda, launch
 from ..core.floating import GW
 from .steps import (composite_to_parent, coordinates, floating_chain_inputs, force_to_parent,
-                    get9, get10, put10, row)
+                    get9, get10, joint_momentum, project, put10, row)
 
 
 @lru_cache(maxsize=None)
@@ -35,28 +35,25 @@ def crba_pass(n, chain):
             put10(c, i, (P[i, MASS], P[i, H], P[i, H + 1], P[i, H + 2], P[i, IO], P[i, IO + 1],
                          P[i, IO + 2], P[i, IO + 3], P[i, IO + 4], P[i, IO + 5]))
         for i in range(n - 1, -1, -1):
-            m, hx, hy, hz = c[i, 0], c[i, 1], c[i, 2], c[i, 3]
+            m, hx, hy = c[i, 0], c[i, 1], c[i, 2]
             # F = IC_i S_i: the momentum of the subtree moving with a unit joint rate
-            if P[i, KIND] == 0.0:       # unit spin about z: n = I_O e_z, f = e_z x h
-                nx, ny, nz, fx, fy, fz = c[i, 8], c[i, 9], c[i, 6], -hy, hx, 0.0
-                M[i, i] = nz + P[i, ARM]
-            else:                       # unit slide along z: n = h x e_z, f = m e_z
-                nx, ny, nz, fx, fy, fz = hy, -hx, 0.0, 0.0, 0.0, m
-                M[i, i] = fz + P[i, ARM]
+            nx, ny, nz, fx, fy, fz, M[i, i] = joint_momentum(P[i, KIND], m, hx, hy, c[i, 8],
+                                                             c[i, 9], c[i, 6])
             j = i
             pj = i - 1 if chain else parent[i]
             while pj >= 0:              # F = Xup_j^T F, then M_ji = S_j^T F
                 nx, ny, nz, fx, fy, fz = force_to_parent(get9(R, j), p[j, 0], p[j, 1], p[j, 2],
                                                          nx, ny, nz, fx, fy, fz)
                 j = pj
-                M[j, i] = nz if P[j, KIND] == 0.0 else fz
+                M[j, i] = project(P[j, KIND], nz, fz)
                 M[i, j] = M[j, i]
                 pj = j - 1 if chain else parent[j]
             pa = i - 1 if chain else parent[i]
             if pa >= 0:
                 put10(c, pa, composite_to_parent(get9(R, i), p[i, 0], p[i, 1], p[i, 2],
                                                  get10(c, i), get10(c, pa)))
-
+        for i in range(n):              # M_ii += I_a,i, after the pass
+            M[i, i] += P[i, ARM]
     return crba
 
 

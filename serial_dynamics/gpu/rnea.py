@@ -2,7 +2,7 @@
 thread per state.
 
 Each thread runs the compiled core's own steps (``core/rnea.py``'s ``into_body``,
-``joint_rate``, ``body_wrench``; ``core/spatial.py``'s ``force_to_parent``, compiled for
+``body_wrench``; ``core/joint.py``'s ``joint_rate``, ``project``; ``core/spatial.py``'s ``force_to_parent``, compiled for
 the CUDA target by ``steps.device``) over the bodies in the order of the parent array:
 outward, each body's (omega, alpha, acc) from its parent's (a chain keeps them in
 registers; a tree in a per-thread array); inward, each body's joint wrench added to its
@@ -26,7 +26,7 @@ from .device_model import device_model
 from .runtime import Batch, cuda, launch
 from ..core.floating import GW
 from .steps import (body_wrench, coordinates, floating_rnea_inputs, force_to_parent, get9,
-                    into_body, joint_rate, joint_transform, put9, row)
+                    into_body, joint_rate, joint_transform, project, put9, row)
 
 QD_QDD = F.QD | F.QDD
 
@@ -61,14 +61,14 @@ def passes(n, chain):
             wx, wy, wz, ax, ay, az, lx, ly, lz = into_body(
                 get9(R, i), p[i, 0], p[i, 1], p[i, 2], wx, wy, wz, ax, ay, az, lx, ly, lz)
             wx, wy, wz, ax, ay, az, lx, ly, lz = joint_rate(
-                P, i, wx, wy, wz, ax, ay, az, lx, ly, lz, qd[i], qdd[i])
+                P[i, KIND], wx, wy, wz, ax, ay, az, lx, ly, lz, qd[i], qdd[i])
             if not chain:
                 put9(st, i, (wx, wy, wz, ax, ay, az, lx, ly, lz))
             f[i, 0], f[i, 1], f[i, 2], f[i, 3], f[i, 4], f[i, 5] = body_wrench(
                 P, i, wx, wy, wz, ax, ay, az, lx, ly, lz)
-        # inward: tau_i = S_i^T (n; f) + I_a,i qdd_i, then f_parent += Xup_i^T f_i
+        # inward: tau_i = S_i^T (n; f), then f_parent += Xup_i^T f_i
         for i in range(n - 1, -1, -1):
-            tau[i] = (f[i, 2] if P[i, KIND] == 0.0 else f[i, 5]) + P[i, ARM] * qdd[i]
+            tau[i] = project(P[i, KIND], f[i, 2], f[i, 5])
             pa = i - 1 if chain else parent[i]
             if pa >= 0:
                 nx, ny, nz, fx, fy, fz = force_to_parent(get9(R, i), p[i, 0], p[i, 1], p[i, 2],
@@ -81,6 +81,8 @@ def passes(n, chain):
                 f[pa, 4] += fy
                 f[pa, 5] += fz
 
+        for i in range(n):          # tau_i += I_a,i qdd_i, after the passes
+            tau[i] += P[i, ARM] * qdd[i]
     return transforms, newton_euler
 
 

@@ -1,14 +1,13 @@
 """The steps the kernels share, as CUDA device functions.
 
-The Newton-Euler steps, the frame changes, sine and cosine, the Cholesky factor and a
-floating base's inputs are the compiled core's own functions (``core/rnea.py``,
-``core/spatial.py``, ``core/cholesky.py``, ``core/floating.py``):
+The Newton-Euler steps, the joint types, the frame changes, sine and cosine, the Cholesky
+factor and a floating base's inputs are the compiled core's own functions (``core/rnea.py``,
+``core/joint.py``, ``core/spatial.py``, ``core/cholesky.py``, ``core/floating.py``):
 ``device`` compiles the same Python source for the CUDA target, and the core functions they
 call are compiled for it by numba-cuda too. What is new here is what the core does over
 Data arrays rather than on scalars:
 
-- ``joint_transform``: one body's (R, p) at q, the formulas of ``spatial.joint_transforms``
-  (which fills the Data arrays of every body, with a CPU stack allocation);
+- ``joint_transform``: one body's (R, p) at q (``core/joint.py``'s, after sin q and cos q);
 - ``composite_to_parent``: the composite-rigid-body step of ``core/crba.py``, written there
   inline in its chain loop; here a function of the child's and the parent's composites, so
   that a tree adds each child to its parent;
@@ -23,9 +22,9 @@ from numba import float64
 
 from ..core import cholesky as _cholesky
 from ..core import floating as _floating
+from ..core import joint as _joint
 from ..core import rnea as _rnea
 from ..core import spatial as _spatial
-from ..core.layout import KIND, XP, XR
 from .runtime import cuda
 
 
@@ -35,7 +34,10 @@ def device(f):
 
 
 into_body = device(_rnea.into_body)
-joint_rate = device(_rnea.joint_rate)
+joint_rate = device(_joint.joint_rate)
+project = device(_joint.project)
+joint_momentum = device(_joint.joint_momentum)
+placement = device(_joint.joint_transform)
 body_wrench = device(_rnea.body_wrench)
 force_to_parent = device(_spatial.force_to_parent)
 sincos = device(_spatial.sincos)
@@ -49,22 +51,13 @@ velocity_products = device(_floating._products)
 
 @cuda.jit(device=True)
 def joint_transform(P, i, q):
-    """Body i in body i-1 at q_i: R_i (nine numbers, row-major) and p_i; R = Xtree_R Rz(q),
-    p = Xtree_p (revolute) or R = Xtree_R, p = Xtree_p + q Xtree_R e_z (prismatic)
-    (Featherstone 2008, Sec. 4.2), as ``core/spatial.joint_transforms``."""
+    """Body i in body i-1 at q_i: R_i (nine numbers, row-major) and p_i, the core's
+    ``joint.joint_transform`` of sin q_i, cos q_i."""
     if abs(q) < _spatial.SMALL_ANGLE:
         s, c = sincos(q)
     else:
         s, c = math.sin(q), math.cos(q)
-    if P[i, KIND] == 0.0:
-        r = (c * P[i, XR] + s * P[i, XR + 1], c * P[i, XR + 1] - s * P[i, XR], P[i, XR + 2],
-             c * P[i, XR + 3] + s * P[i, XR + 4], c * P[i, XR + 4] - s * P[i, XR + 3], P[i, XR + 5],
-             c * P[i, XR + 6] + s * P[i, XR + 7], c * P[i, XR + 7] - s * P[i, XR + 6], P[i, XR + 8])
-        return r, P[i, XP], P[i, XP + 1], P[i, XP + 2]
-    r = (P[i, XR], P[i, XR + 1], P[i, XR + 2], P[i, XR + 3], P[i, XR + 4], P[i, XR + 5],
-         P[i, XR + 6], P[i, XR + 7], P[i, XR + 8])
-    return (r, P[i, XP] + q * P[i, XR + 2], P[i, XP + 1] + q * P[i, XR + 5],
-            P[i, XP + 2] + q * P[i, XR + 8])
+    return placement(P, i, s, c, q)
 
 
 @cuda.jit(device=True)

@@ -11,7 +11,7 @@ a sample's M is bitwise the same alone or in any batch.
 from numba import njit
 
 from .crba import add_in_parent, crba_core, floating_crba_core
-from .joint import joint_momentum, joint_transforms, lane_transforms, project
+from .joint import has_armature, joint_momentum, joint_transforms, lane_transforms, project
 from .layout import ARM, H, IO, KIND, LANES, MASS, W_ALL
 from .data import new_kin, square_lanes_fit, stack_empty
 from .rnea_lanes import gather
@@ -183,10 +183,11 @@ def floating_composite_lanes(P, RB, PB, CB, FB, MB, nl):
 def armature_lanes(P, MB, nl, first):
     """``joint.armature_diagonal`` in every lane: M_ii += I_a,i after the pass (MB row i n + i)."""
     n = P.shape[0] - 1
-    for i in range(first, n):
-        arm = P[i, ARM]
-        for b in range(nl):
-            MB[i * n + i, b] += arm
+    if has_armature(P):
+        for i in range(first, n):
+            arm = P[i, ARM]
+            for b in range(nl):
+                MB[i * n + i, b] += arm
 
 
 @njit(cache=True, inline="always")

@@ -12,7 +12,8 @@ of bodies is ``n = P.shape[0] - 1``.
     P[i, IO:IO+6]   I_O: xx yy zz xy xz yz      P[n, ROOT]        6.0: bodies 0-5 are a
                                                  floating base's coordinates (``pack(root=6)``:
                                                  the tree kernels treat them as one joint)
-    P[i, ARM]       armature (reflected rotor inertia, kg m^2 or kg)
+    P[i, ARM]       armature (reflected rotor inertia, kg m^2 or kg)   P[n, ARMATURE]  1.0: some
+                                                 joint has armature (else the kernels add none)
     P[i, PARENT]    the body joint i hangs from (-1.0: the base); i - 1 in a chain
     P[i, TIPPATH]   1.0 if body i is on the path from the base to body n-1 (the tip's)
 
@@ -27,7 +28,7 @@ import numpy as np
 from ..joints import PRISMATIC
 
 XR, XP, KIND, MASS, H, IO, ARM, PARENT, TIPPATH = 0, 9, 12, 13, 14, 17, 23, 24, 25
-G, TIPP, TIPR, LANES, TREE, ROOT = 0, 3, 6, 15, 16, 17
+G, TIPP, TIPR, LANES, TREE, ROOT, ARMATURE = 0, 3, 6, 15, 16, 17, 18
 WIDTH = 26
 B = 32          # samples per block of the lane-parallel batch kernel (rnea_lanes.py)
 W_F, W_M, W_OMEGA, W_ALPHA, W_ACC = 0, 3, 6, 9, 12
@@ -54,6 +55,7 @@ def pack(model, root=0) -> np.ndarray:
     P[n, LANES] = B
     P[n, TREE] = 0.0 if model.is_chain else 1.0
     P[n, ROOT] = root
+    P[n, ARMATURE] = 1.0 if np.any(model.armature != 0.0) else 0.0
     return P        # writable on purpose: numba's dispatcher types a read-only array ~100 ns slower
 
 

@@ -14,7 +14,7 @@ from numba import njit
 
 from . import flags as F
 from .data import stack_empty
-from .joint import free_flyer, joint_rate, lane_transforms, project
+from .joint import free_flyer, has_armature, joint_rate, lane_transforms, project
 from .layout import ARM, G, H, IO, KIND, LANES, MASS, TIPP, W_ACC, W_ALL
 from .rnea import body_wrench, w_length
 from .status import NOT_FINITE, OK
@@ -208,10 +208,11 @@ def newton_euler_lanes(P, flags, QV, WB, RB, PB, FB, ST, TB, nl, small, first, r
             fx, fy, fz, mx, my, mz = carry_in(RB, PB, FB, ST, i, b)
             ST[0, b], ST[1, b], ST[2, b], ST[3, b], ST[4, b], ST[5, b] = fx, fy, fz, mx, my, mz
             TB[i, b] = project(kind, mz, fz)
-    for i in range(first, n):            # tau_i += I_a,i qdd_i (joint.armature_torques)
-        arm = P[i, ARM]
-        for b in range(nl):
-            TB[i, b] += arm * QV[2 * n + i, b]
+    if has_armature(P):  # tau_i += I_a,i qdd_i (joint.armature_torques)
+        for i in range(first, n):
+            arm = P[i, ARM]
+            for b in range(nl):
+                TB[i, b] += arm * QV[2 * n + i, b]
     root(P, QV, RB, PB, FB, ST, TB, nl, True)    # and its generalized forces
 
 

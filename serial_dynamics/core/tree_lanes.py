@@ -15,7 +15,7 @@ from . import flags as F
 from .crba_lanes import lane_rotation
 from .data import stack_empty
 from .crba import add_in_parent
-from .joint import joint_momentum, joint_rate, lane_transforms, project
+from .joint import has_armature, joint_momentum, joint_rate, lane_transforms, project
 from .layout import ARM, G, H, IO, KIND, LANES, MASS, PARENT, TIPPATH, W_ACC, W_ALL, W_OMEGA
 from .rnea import body_wrench, into_body, tip_load
 from .rnea_lanes import gather, scatter, tau_minus_bias
@@ -108,10 +108,11 @@ def tree_newton_euler_lanes(P, flags, QV, WB, RB, PB, MO, FB, EB, BS, TB, nl, sm
                 FB[li, b], FB[li + 1, b] = FB[li, b] + nx, FB[li + 1, b] + ny
                 FB[li + 2, b], FB[li + 3, b] = FB[li + 2, b] + nz, FB[li + 3, b] + fx
                 FB[li + 4, b], FB[li + 5, b] = FB[li + 4, b] + fy, FB[li + 5, b] + fz
-    for i in range(n):                   # tau_i += I_a,i qdd_i (joint.armature_torques)
-        arm = P[i, ARM]
-        for b in range(nl):
-            TB[i, b] += arm * QV[2 * n + i, b]
+    if has_armature(P):  # tau_i += I_a,i qdd_i (joint.armature_torques)
+        for i in range(n):
+            arm = P[i, ARM]
+            for b in range(nl):
+                TB[i, b] += arm * QV[2 * n + i, b]
 
 
 @njit(cache=True, inline="always")
@@ -154,10 +155,11 @@ def tree_composite_lanes(P, off, RB, PB, IC, FB, MB, nl):
                     lane_rotation(RB, ri, b), PB[pi, b], PB[pi + 1, b], PB[pi + 2, b],
                     IC[c, b], IC[c + 1, b], IC[c + 2, b], IC[c + 3, b], IC[c + 4, b],
                     IC[c + 5, b], IC[c + 6, b], IC[c + 7, b], IC[c + 8, b], IC[c + 9, b])
-    for i in range(n):                   # M_ii += I_a,i (joint.armature_diagonal)
-        arm = P[i, ARM]
-        for b in range(nl):
-            MB[off[i], b] += arm
+    if has_armature(P):  # M_ii += I_a,i (joint.armature_diagonal)
+        for i in range(n):
+            arm = P[i, ARM]
+            for b in range(nl):
+                MB[off[i], b] += arm
 
 
 @njit(cache=True, inline="always")

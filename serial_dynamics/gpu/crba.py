@@ -17,7 +17,7 @@ from .rnea import passes
 from .runtime import Batch, cuda, launch
 from ..core.floating import GW
 from .steps import (composite_to_parent, coordinates, floating_chain_inputs, force_to_parent,
-                    get9, get10, joint_momentum, project, put10, row)
+                    get9, get10, has_armature, joint_momentum, project, put10, row)
 
 
 @lru_cache(maxsize=None)
@@ -52,8 +52,9 @@ def crba_pass(n, chain):
             if pa >= 0:
                 put10(c, pa, composite_to_parent(get9(R, i), p[i, 0], p[i, 1], p[i, 2],
                                                  get10(c, i), get10(c, pa)))
-        for i in range(n):              # M_ii += I_a,i, after the pass
-            M[i, i] += P[i, ARM]
+        if has_armature(P):             # M_ii += I_a,i, after the pass
+            for i in range(n):
+                M[i, i] += P[i, ARM]
     return crba
 
 

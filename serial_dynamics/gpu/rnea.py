@@ -26,7 +26,7 @@ from .device_model import device_model
 from .runtime import Batch, cuda, launch
 from ..core.floating import GW
 from .steps import (body_wrench, coordinates, floating_rnea_inputs, force_to_parent, get9,
-                    into_body, joint_rate, joint_transform, project, put9, row)
+                    has_armature, into_body, joint_rate, joint_transform, project, put9, row)
 
 QD_QDD = F.QD | F.QDD
 
@@ -81,8 +81,9 @@ def passes(n, chain):
                 f[pa, 4] += fy
                 f[pa, 5] += fz
 
-        for i in range(n):          # tau_i += I_a,i qdd_i, after the passes
-            tau[i] += P[i, ARM] * qdd[i]
+        if has_armature(P):         # tau_i += I_a,i qdd_i, after the passes
+            for i in range(n):
+                tau[i] += P[i, ARM] * qdd[i]
     return transforms, newton_euler
 
 

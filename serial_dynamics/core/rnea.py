@@ -84,13 +84,24 @@ def outward_step(P, R, p, i, wx, wy, wz, ax, ay, az, lx, ly, lz, dq, ddq):
 
 
 @njit(cache=True, inline="always")
+def inertia(P, i):
+    """Body i's inertial parameters (m, h = m c, I_O: xx yy zz xy xz yz), 10 numbers."""
+    return (P[i, MASS], P[i, H], P[i, H + 1], P[i, H + 2], P[i, IO], P[i, IO + 1], P[i, IO + 2],
+            P[i, IO + 3], P[i, IO + 4], P[i, IO + 5])
+
+
+@njit(cache=True, inline="always")
 def body_wrench(P, i, wx, wy, wz, ax, ay, az, lx, ly, lz):
-    """Body i's wrench (n; f) about its origin, 6 numbers (Luh, Walker & Paul, 1980):
+    """Body i's wrench (n; f) about its origin, 6 numbers: ``rigid_wrench`` of its inertia."""
+    return rigid_wrench(inertia(P, i), wx, wy, wz, ax, ay, az, lx, ly, lz)
+
+
+@njit(cache=True, inline="always")
+def rigid_wrench(I10, wx, wy, wz, ax, ay, az, lx, ly, lz):
+    """A body's wrench (n; f) about its origin, 6 numbers (Luh, Walker & Paul, 1980), from its
+    inertial parameters I10 (``inertia``):
     n = I_O alpha + omega x (I_O omega) + h x acc,  f = m acc + alpha x h + omega x (omega x h)."""
-    m = P[i, MASS]
-    hx, hy, hz = P[i, H], P[i, H + 1], P[i, H + 2]
-    Ixx, Iyy, Izz, Ixy, Ixz, Iyz = (P[i, IO], P[i, IO + 1], P[i, IO + 2], P[i, IO + 3],
-                                    P[i, IO + 4], P[i, IO + 5])
+    m, hx, hy, hz, Ixx, Iyy, Izz, Ixy, Ixz, Iyz = I10
     ux, uy, uz = wy * hz - wz * hy, wz * hx - wx * hz, wx * hy - wy * hx
     fx = m * lx + ay * hz - az * hy + wy * uz - wz * uy
     fy = m * ly + az * hx - ax * hz + wz * ux - wx * uz

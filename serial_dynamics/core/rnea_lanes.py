@@ -5,7 +5,9 @@ quantity is stored with the sample index (lane) last, shape (rows, B), and each 
 loop over the lanes that the compiler turns into vector instructions (AVX: 4 or 8 lanes).
 The lane count is read at run time (from P): LLVM vectorizes such loops with run-time
 overlap checks between the arrays, which it cannot do once it has unrolled a loop of
-known length. Same equations, frames and symbols as ``rnea.py``; every lane computes
+known length. The steps are ``rnea.py``'s and ``joint.py``'s own (``into_body``,
+``joint_rate``, ``rigid_wrench``, ``project``), called lane by lane on the lanes' rows, with
+what a body or joint reads from ``P`` read once before its loop; every lane computes
 exactly what ``rnea_core`` computes for its sample (same operations in the same order;
 libm's sine and cosine for a sample with an angle beyond SMALL_ANGLE, as there), so a
 sample's torques are bitwise the same alone or in any batch, at any place in it.
@@ -15,8 +17,8 @@ from numba import njit
 from . import flags as F
 from .data import stack_empty
 from .joint import free_flyer, has_armature, joint_rate, lane_transforms, project
-from .layout import ARM, G, H, IO, KIND, LANES, MASS, TIPP, W_ACC, W_ALL
-from .rnea import body_wrench, w_length
+from .layout import ARM, G, KIND, LANES, TIPP, W_ACC, W_ALL
+from .rnea import body_wrench, inertia, into_body, rigid_wrench, w_length
 from .status import NOT_FINITE, OK
 from .signatures import In2, Out2, Pm, i8, internal
 from .spatial import SMALL_ANGLE
@@ -148,38 +150,18 @@ def newton_euler_lanes(P, flags, QV, WB, RB, PB, FB, ST, TB, nl, small, first, r
             px, py, pz = PB[pi, b], PB[pi + 1, b], PB[pi + 2, b]
             wx, wy, wz = ST[0, b], ST[1, b], ST[2, b]
             ax, ay, az = ST[3, b], ST[4, b], ST[5, b]
-            # a + alpha x p + w x (w x p), then into body i: x_i = R^T x
-            ux, uy, uz = wy * pz - wz * py, wz * px - wx * pz, wx * py - wy * px
-            tx = ST[6, b] + ay * pz - az * py + wy * uz - wz * uy
-            ty = ST[7, b] + az * px - ax * pz + wz * ux - wx * uz
-            tz = ST[8, b] + ax * py - ay * px + wx * uy - wy * ux
-            lx, ly, lz = r0 * tx + r3 * ty + r6 * tz, r1 * tx + r4 * ty + r7 * tz, r2 * tx + r5 * ty + r8 * tz
-            wx, wy, wz = r0 * wx + r3 * wy + r6 * wz, r1 * wx + r4 * wy + r7 * wz, r2 * wx + r5 * wy + r8 * wz
-            ax, ay, az = r0 * ax + r3 * ay + r6 * az, r1 * ax + r4 * ay + r7 * az, r2 * ax + r5 * ay + r8 * az
-            # the joint's rate: spin or slide (joint.joint_rate)
+            # the parent's motion into body i, then the joint's rate (rnea.outward_step's steps)
+            wx, wy, wz, ax, ay, az, lx, ly, lz = into_body(
+                (r0, r1, r2, r3, r4, r5, r6, r7, r8), px, py, pz, wx, wy, wz, ax, ay, az,
+                ST[6, b], ST[7, b], ST[8, b])
             (ST[0, b], ST[1, b], ST[2, b], ST[3, b], ST[4, b], ST[5, b], ST[6, b], ST[7, b],
              ST[8, b]) = joint_rate(kind, wx, wy, wz, ax, ay, az, lx, ly, lz, QV[n + i, b],
                                     QV[2 * n + i, b])
-        # body wrench about its origin: f = m a + alpha x h + w x (w x h),
-        #                                n = I_o alpha + w x (I_o w) + h x a
-        m = P[i, MASS]
-        hx, hy, hz = P[i, H], P[i, H + 1], P[i, H + 2]
-        Ixx, Iyy, Izz, Ixy, Ixz, Iyz = (P[i, IO], P[i, IO + 1], P[i, IO + 2], P[i, IO + 3],
-                                        P[i, IO + 4], P[i, IO + 5])
+        I10 = inertia(P, i)              # the body wrench about its origin (rnea.body_wrench)
         for b in range(nl):
-            wx, wy, wz = ST[0, b], ST[1, b], ST[2, b]
-            ax, ay, az = ST[3, b], ST[4, b], ST[5, b]
-            lx, ly, lz = ST[6, b], ST[7, b], ST[8, b]
-            ux, uy, uz = wy * hz - wz * hy, wz * hx - wx * hz, wx * hy - wy * hx
-            FB[fi, b] = m * lx + ay * hz - az * hy + wy * uz - wz * uy
-            FB[fi + 1, b] = m * ly + az * hx - ax * hz + wz * ux - wx * uz
-            FB[fi + 2, b] = m * lz + ax * hy - ay * hx + wx * uy - wy * ux
-            Lx = Ixx * wx + Ixy * wy + Ixz * wz
-            Ly = Ixy * wx + Iyy * wy + Iyz * wz
-            Lz = Ixz * wx + Iyz * wy + Izz * wz
-            FB[fi + 3, b] = Ixx * ax + Ixy * ay + Ixz * az + wy * Lz - wz * Ly + hy * lz - hz * ly
-            FB[fi + 4, b] = Ixy * ax + Iyy * ay + Iyz * az + wz * Lx - wx * Lz + hz * lx - hx * lz
-            FB[fi + 5, b] = Ixz * ax + Iyz * ay + Izz * az + wx * Ly - wy * Lx + hx * ly - hy * lx
+            (FB[fi + 3, b], FB[fi + 4, b], FB[fi + 5, b], FB[fi, b], FB[fi + 1, b],
+             FB[fi + 2, b]) = rigid_wrench(I10, ST[0, b], ST[1, b], ST[2, b], ST[3, b], ST[4, b],
+                                           ST[5, b], ST[6, b], ST[7, b], ST[8, b])
         if use_w:                        # the tip wrench, carried into body i
             for b in range(nl):
                 r0, r1, r2 = RB[ri, b], RB[ri + 1, b], RB[ri + 2, b]

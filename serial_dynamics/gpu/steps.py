@@ -39,7 +39,8 @@ project = device(_joint.project)
 joint_momentum = device(_joint.joint_momentum)
 placement = device(_joint.joint_transform)
 has_armature = device(_joint.has_armature)
-body_wrench = device(_rnea.body_wrench)
+inertia = device(_rnea.inertia)
+rigid_wrench = device(_rnea.rigid_wrench)
 force_to_parent = device(_spatial.force_to_parent)
 sincos = device(_spatial.sincos)
 cholesky_factor = device(_cholesky.cholesky_factor)
@@ -48,6 +49,13 @@ floating_rnea_inputs = device(_floating.rnea_inputs)
 floating_fd_inputs = device(_floating.fd_inputs)
 floating_chain_inputs = device(_floating._chain_inputs)
 velocity_products = device(_floating._products)
+
+
+@cuda.jit(device=True)
+def body_wrench(P, i, wx, wy, wz, ax, ay, az, lx, ly, lz):
+    """``rnea.body_wrench`` with the card's ``inertia`` and ``rigid_wrench`` (the source of a
+    device function calls the CPU's versions of what it names)."""
+    return rigid_wrench(inertia(P, i), wx, wy, wz, ax, ay, az, lx, ly, lz)
 
 
 @cuda.jit(device=True)

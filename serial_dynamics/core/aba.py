@@ -89,6 +89,76 @@ def rigid_body(P, i, I6, pA, wx, wy, wz, ux, uy, uz):
 
 
 @njit(cache=True, inline="always")
+def inertia_to_parent(R, p, i, I6, Y, PA):
+    """IA_l += Xup_i^T Ia Xup_i into PA = IA_l, Ia = I6 (Featherstone 2008, eq. 7.23): the
+    blocks rotated by R_i, then shifted by p_i. Y (3, 3) scratch."""
+    # A' = A1 - B1 [p]x + [p]x B1^T - [p]x C1 [p]x,  B' = B1 + [p]x C1,  C' = C1
+    px, py, pz = p[i, 0], p[i, 1], p[i, 2]
+    rot_block(R, i, I6, 3, 3, Y)                        # C1
+    C00, C01, C02, C11, C12, C22 = Y[0, 0], Y[0, 1], Y[0, 2], Y[1, 1], Y[1, 2], Y[2, 2]
+    # PC = [p]x C1
+    q00, q01, q02 = py * Y[2, 0] - pz * Y[1, 0], py * Y[2, 1] - pz * Y[1, 1], py * Y[2, 2] - pz * Y[1, 2]
+    q10, q11, q12 = pz * Y[0, 0] - px * Y[2, 0], pz * Y[0, 1] - px * Y[2, 1], pz * Y[0, 2] - px * Y[2, 2]
+    q20, q21, q22 = px * Y[1, 0] - py * Y[0, 0], px * Y[1, 1] - py * Y[0, 1], px * Y[1, 2] - py * Y[0, 2]
+    PA[3, 3] += C00
+    PA[3, 4] += C01
+    PA[3, 5] += C02
+    PA[4, 3] += C01
+    PA[4, 4] += C11
+    PA[4, 5] += C12
+    PA[5, 3] += C02
+    PA[5, 4] += C12
+    PA[5, 5] += C22
+    rot_block(R, i, I6, 0, 3, Y)                        # B1
+    B00, B01, B02, B10, B11, B12, B20, B21, B22 = (Y[0, 0], Y[0, 1], Y[0, 2], Y[1, 0], Y[1, 1],
+                                                   Y[1, 2], Y[2, 0], Y[2, 1], Y[2, 2])
+    # B' = B1 + PC, and its transpose in the lower-left block
+    b00, b01, b02 = B00 + q00, B01 + q01, B02 + q02
+    b10, b11, b12 = B10 + q10, B11 + q11, B12 + q12
+    b20, b21, b22 = B20 + q20, B21 + q21, B22 + q22
+    PA[0, 3] += b00
+    PA[0, 4] += b01
+    PA[0, 5] += b02
+    PA[1, 3] += b10
+    PA[1, 4] += b11
+    PA[1, 5] += b12
+    PA[2, 3] += b20
+    PA[2, 4] += b21
+    PA[2, 5] += b22
+    PA[3, 0] += b00
+    PA[4, 0] += b01
+    PA[5, 0] += b02
+    PA[3, 1] += b10
+    PA[4, 1] += b11
+    PA[5, 1] += b12
+    PA[3, 2] += b20
+    PA[4, 2] += b21
+    PA[5, 2] += b22
+    # Q = B1 [p]x  (column k of [p]x is e_k x ... : ([p]x)_{:,0} = (0, pz, -py), etc.)
+    e00, e01, e02 = B01 * pz - B02 * py, B02 * px - B00 * pz, B00 * py - B01 * px
+    e10, e11, e12 = B11 * pz - B12 * py, B12 * px - B10 * pz, B10 * py - B11 * px
+    e20, e21, e22 = B21 * pz - B22 * py, B22 * px - B20 * pz, B20 * py - B21 * px
+    # PCP = PC [p]x  (symmetric)
+    f00, f01, f02 = q01 * pz - q02 * py, q02 * px - q00 * pz, q00 * py - q01 * px
+    f11, f12 = q12 * px - q10 * pz, q10 * py - q11 * px
+    f22 = q20 * py - q21 * px
+    rot_block(R, i, I6, 0, 0, Y)                        # A1
+    # A' = A1 - Q - Q^T - PCP
+    PA[0, 0] += Y[0, 0] - 2.0 * e00 - f00
+    PA[1, 1] += Y[1, 1] - 2.0 * e11 - f11
+    PA[2, 2] += Y[2, 2] - 2.0 * e22 - f22
+    t01 = Y[0, 1] - e01 - e10 - f01
+    t02 = Y[0, 2] - e02 - e20 - f02
+    t12 = Y[1, 2] - e12 - e21 - f12
+    PA[0, 1] += t01
+    PA[1, 0] += t01
+    PA[0, 2] += t02
+    PA[2, 0] += t02
+    PA[1, 2] += t12
+    PA[2, 1] += t12
+
+
+@njit(cache=True, inline="always")
 def articulated_bodies(P, sc, R, p, IA, pA, U, c, Du, Y, va, q, qd, tau, w, damping, flags,
                        out, tree, nb):
     """qdd into ``out``. Returns 0.0, or NaN if an input has a NaN/Inf entry. ``tree`` and
@@ -175,72 +245,7 @@ def articulated_bodies(P, sc, R, p, IA, pA, U, c, Du, Y, va, q, qd, tau, w, damp
                 I6[a, b] = I6[a, b] - Ua * U[i, b]
                 acc += I6[a, b] * c[i, b]
             pA[i, a] = acc
-        # IA_l += Xup_i^T Ia Xup_i: rotate the blocks by R, then shift by p:
-        # A' = A1 - B1 [p]x + [p]x B1^T - [p]x C1 [p]x,  B' = B1 + [p]x C1,  C' = C1
-        px, py, pz = p[i, 0], p[i, 1], p[i, 2]
-        PA = IA[l]
-        rot_block(R, i, I6, 3, 3, Y)                        # C1
-        C00, C01, C02, C11, C12, C22 = Y[0, 0], Y[0, 1], Y[0, 2], Y[1, 1], Y[1, 2], Y[2, 2]
-        # PC = [p]x C1
-        q00, q01, q02 = py * Y[2, 0] - pz * Y[1, 0], py * Y[2, 1] - pz * Y[1, 1], py * Y[2, 2] - pz * Y[1, 2]
-        q10, q11, q12 = pz * Y[0, 0] - px * Y[2, 0], pz * Y[0, 1] - px * Y[2, 1], pz * Y[0, 2] - px * Y[2, 2]
-        q20, q21, q22 = px * Y[1, 0] - py * Y[0, 0], px * Y[1, 1] - py * Y[0, 1], px * Y[1, 2] - py * Y[0, 2]
-        PA[3, 3] += C00
-        PA[3, 4] += C01
-        PA[3, 5] += C02
-        PA[4, 3] += C01
-        PA[4, 4] += C11
-        PA[4, 5] += C12
-        PA[5, 3] += C02
-        PA[5, 4] += C12
-        PA[5, 5] += C22
-        rot_block(R, i, I6, 0, 3, Y)                        # B1
-        B00, B01, B02, B10, B11, B12, B20, B21, B22 = (Y[0, 0], Y[0, 1], Y[0, 2], Y[1, 0], Y[1, 1],
-                                                       Y[1, 2], Y[2, 0], Y[2, 1], Y[2, 2])
-        # B' = B1 + PC, and its transpose in the lower-left block
-        b00, b01, b02 = B00 + q00, B01 + q01, B02 + q02
-        b10, b11, b12 = B10 + q10, B11 + q11, B12 + q12
-        b20, b21, b22 = B20 + q20, B21 + q21, B22 + q22
-        PA[0, 3] += b00
-        PA[0, 4] += b01
-        PA[0, 5] += b02
-        PA[1, 3] += b10
-        PA[1, 4] += b11
-        PA[1, 5] += b12
-        PA[2, 3] += b20
-        PA[2, 4] += b21
-        PA[2, 5] += b22
-        PA[3, 0] += b00
-        PA[4, 0] += b01
-        PA[5, 0] += b02
-        PA[3, 1] += b10
-        PA[4, 1] += b11
-        PA[5, 1] += b12
-        PA[3, 2] += b20
-        PA[4, 2] += b21
-        PA[5, 2] += b22
-        # Q = B1 [p]x  (column k of [p]x is e_k x ... : ([p]x)_{:,0} = (0, pz, -py), etc.)
-        e00, e01, e02 = B01 * pz - B02 * py, B02 * px - B00 * pz, B00 * py - B01 * px
-        e10, e11, e12 = B11 * pz - B12 * py, B12 * px - B10 * pz, B10 * py - B11 * px
-        e20, e21, e22 = B21 * pz - B22 * py, B22 * px - B20 * pz, B20 * py - B21 * px
-        # PCP = PC [p]x  (symmetric)
-        f00, f01, f02 = q01 * pz - q02 * py, q02 * px - q00 * pz, q00 * py - q01 * px
-        f11, f12 = q12 * px - q10 * pz, q10 * py - q11 * px
-        f22 = q20 * py - q21 * px
-        rot_block(R, i, I6, 0, 0, Y)                        # A1
-        # A' = A1 - Q - Q^T - PCP
-        PA[0, 0] += Y[0, 0] - 2.0 * e00 - f00
-        PA[1, 1] += Y[1, 1] - 2.0 * e11 - f11
-        PA[2, 2] += Y[2, 2] - 2.0 * e22 - f22
-        t01 = Y[0, 1] - e01 - e10 - f01
-        t02 = Y[0, 2] - e02 - e20 - f02
-        t12 = Y[1, 2] - e12 - e21 - f12
-        PA[0, 1] += t01
-        PA[1, 0] += t01
-        PA[0, 2] += t02
-        PA[2, 0] += t02
-        PA[1, 2] += t12
-        PA[2, 1] += t12
+        inertia_to_parent(R, p, i, I6, Y, IA[l])            # IA_l += Xup_i^T Ia Xup_i
         # pA_l += Xup_i^T pa
         nx, ny, nz, fx, fy, fz = to_parent(R, p, i, pA[i, 0], pA[i, 1], pA[i, 2],
                                            pA[i, 3], pA[i, 4], pA[i, 5])

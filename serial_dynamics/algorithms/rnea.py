@@ -20,7 +20,6 @@ from .joint import joint_rate, project
 from .kinematics import joint_transforms
 
 
-
 def inverse_dynamics(model, q, qd, qdd, wrench=None, gravity=None, base_motion=None):
     """tau (N, n) or (n,). ``wrench`` (6,) or (N, 6): [f; m] exerted by the environment on
     the tip frame origin, base coordinates. ``gravity``: override of model.gravity.

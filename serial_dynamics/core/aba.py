@@ -33,11 +33,12 @@ Ia and pa overwrite IA_i and pA_i once U_i, D_i, u_i are taken from them.
 
 from . import flags as F
 from .joint import add_rate, axis, joint_transforms, velocity_product
-from .layout import ARM, G, H, IO, KIND, MASS, PARENT, TIPP, TIPPATH, W_ACC, W_ALPHA, W_OMEGA
+from .layout import ARM, G, KIND, PARENT, TIPP, TIPPATH, W_ACC, W_ALPHA, W_OMEGA
 from numba import njit
 
 from .signatures import D2, D3, In1, Out1, Pm, f8, i8, internal
 from .cholesky import cholesky_factor, cholesky_solve_factored
+from .rnea import inertia
 from .spatial import finite, to_child, to_parent
 
 @internal
@@ -58,10 +59,7 @@ def rigid_body(P, i, I6, pA, wx, wy, wz, ux, uy, uz):
     """Pass 1's start of body i moving with (omega; v_O) = (w*; u*): IA_i = I_i into I6 and
     pA_i = v x* I_i v into pA[i]."""
     # IA_i = I_i = [[I_O, [h]x], [[h]x^T, m 1]]  (Featherstone 2008, eq. 2.63)
-    m = P[i, MASS]
-    hx, hy, hz = P[i, H], P[i, H + 1], P[i, H + 2]
-    Ixx, Iyy, Izz, Ixy, Ixz, Iyz = (P[i, IO], P[i, IO + 1], P[i, IO + 2], P[i, IO + 3],
-                                    P[i, IO + 4], P[i, IO + 5])
+    m, hx, hy, hz, Ixx, Iyy, Izz, Ixy, Ixz, Iyz = inertia(P, i)
     I6[0, 0], I6[0, 1], I6[0, 2] = Ixx, Ixy, Ixz
     I6[1, 0], I6[1, 1], I6[1, 2] = Ixy, Iyy, Iyz
     I6[2, 0], I6[2, 1], I6[2, 2] = Ixz, Iyz, Izz

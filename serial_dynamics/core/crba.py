@@ -14,6 +14,7 @@ from .status import BAD_LENGTH, status
 from .signatures import D2, D3, Out2, Pm, internal
 from .joint import armature_diagonal, joint_momentum, joint_transforms, project
 from .layout import H, IO, KIND, MASS
+from .rnea import inertia
 from .spatial import rotation, to_parent
 
 
@@ -48,9 +49,7 @@ def composite_bodies(P, R, p, M, nb):
     (here, not in the callers: a statement after this inlined loop cost a call 2-3 %)."""
     n = M.shape[0]
     k = n - 1
-    m, hx, hy, hz = P[k, MASS], P[k, H], P[k, H + 1], P[k, H + 2]
-    Ixx, Iyy, Izz, Ixy, Ixz, Iyz = (P[k, IO], P[k, IO + 1], P[k, IO + 2], P[k, IO + 3],
-                                    P[k, IO + 4], P[k, IO + 5])
+    m, hx, hy, hz, Ixx, Iyy, Izz, Ixy, Ixz, Iyz = inertia(P, k)
     for i in range(n - 1, nb - 1, -1):
         # F = IC_i S_i: the momentum of composite i.. moving with a unit joint rate
         nx, ny, nz, fx, fy, fz, M[i, i] = joint_momentum(P[i, KIND], m, hx, hy, Ixz, Iyz, Izz)

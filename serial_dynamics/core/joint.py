@@ -306,6 +306,18 @@ def armature_torques(P, qdd, use_qdd, tau, first):
 
 
 @njit(cache=True, inline="always")
+def armature_torques_lanes(P, QV, TB, nl, first):
+    """``armature_torques`` in every lane of a batch kernel: TB[i, b] += I_a,i qdd_i, with
+    qdd in QV rows 2n.. (``rnea_lanes.gather``)."""
+    if has_armature(P):
+        n = P.shape[0] - 1
+        for i in range(first, n):
+            arm = P[i, ARM]
+            for b in range(nl):
+                TB[i, b] += arm * QV[2 * n + i, b]
+
+
+@njit(cache=True, inline="always")
 def armature_diagonal(P, M, first):
     """M_ii += I_a,i, i >= first: after the composite-body pass."""
     if has_armature(P):

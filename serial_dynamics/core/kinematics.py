@@ -208,6 +208,12 @@ def frame_acceleration(P, q, qd, qdd, body, F, out):
     ps = new_poses(n)
     R0, o, Rb, pb = ps.R0, ps.o, ps.Rb, ps.pb
     path = stack_empty((n,))              # the ancestors of body, from it to the root
+    k = 0
+    j = body
+    while j >= 0:
+        path[k] = j
+        k += 1
+        j = int(P[j, PARENT])
     jv = nv - n
     for s in range(N):
         if not root_and_bodies(P, ps, q[s], nb, body + 1):
@@ -220,12 +226,6 @@ def frame_acceleration(P, q, qd, qdd, body, F, out):
             cx, cy, cz = cross(u[3], u[4], u[5], u[0], u[1], u[2])
             ax, ay, az = rotate(Rb, du[0] + cx, du[1] + cy, du[2] + cz)
         ox, oy, oz = pb[0], pb[1], pb[2]
-        k = 0
-        j = body
-        while j >= 0:
-            path[k] = j
-            k += 1
-            j = int(P[j, PARENT])
         for m in range(k - 1, -1, -1):
             j = int(path[m])
             dx, dy, dz = o[j, 0] - ox, o[j, 1] - oy, o[j, 2] - oz

@@ -16,8 +16,8 @@ from numba import njit
 
 from . import flags as F
 from .data import stack_empty
-from .joint import free_flyer, has_armature, joint_rate, lane_transforms, project
-from .layout import ARM, G, KIND, LANES, TIPP, W_ACC, W_ALL
+from .joint import armature_torques_lanes, free_flyer, joint_rate, lane_transforms, project
+from .layout import G, KIND, LANES, TIPP, W_ACC, W_ALL
 from .rnea import body_wrench, inertia, into_body, rigid_wrench, w_length
 from .status import NOT_FINITE, OK
 from .signatures import In2, Out2, Pm, i8, internal
@@ -190,11 +190,7 @@ def newton_euler_lanes(P, flags, QV, WB, RB, PB, FB, ST, TB, nl, small, first, r
             fx, fy, fz, mx, my, mz = carry_in(RB, PB, FB, ST, i, b)
             ST[0, b], ST[1, b], ST[2, b], ST[3, b], ST[4, b], ST[5, b] = fx, fy, fz, mx, my, mz
             TB[i, b] = project(kind, mz, fz)
-    if has_armature(P):  # tau_i += I_a,i qdd_i (joint.armature_torques)
-        for i in range(first, n):
-            arm = P[i, ARM]
-            for b in range(nl):
-                TB[i, b] += arm * QV[2 * n + i, b]
+    armature_torques_lanes(P, QV, TB, nl, first)     # tau_i += I_a,i qdd_i
     root(P, QV, RB, PB, FB, ST, TB, nl, True)    # and its generalized forces
 
 

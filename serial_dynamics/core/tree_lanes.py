@@ -15,7 +15,8 @@ from . import flags as F
 from .crba_lanes import lane_rotation
 from .data import stack_empty
 from .crba import add_in_parent
-from .joint import has_armature, joint_momentum, joint_rate, lane_transforms, project
+from .joint import (armature_torques_lanes, has_armature, joint_momentum, joint_rate, lane_transforms,
+                    project)
 from .layout import ARM, G, H, IO, KIND, LANES, MASS, PARENT, TIPPATH, W_ACC, W_ALL, W_OMEGA
 from .rnea import body_wrench, into_body, tip_load
 from .rnea_lanes import gather, scatter, tau_minus_bias
@@ -108,11 +109,7 @@ def tree_newton_euler_lanes(P, flags, QV, WB, RB, PB, MO, FB, EB, BS, TB, nl, sm
                 FB[li, b], FB[li + 1, b] = FB[li, b] + nx, FB[li + 1, b] + ny
                 FB[li + 2, b], FB[li + 3, b] = FB[li + 2, b] + nz, FB[li + 3, b] + fx
                 FB[li + 4, b], FB[li + 5, b] = FB[li + 4, b] + fy, FB[li + 5, b] + fz
-    if has_armature(P):  # tau_i += I_a,i qdd_i (joint.armature_torques)
-        for i in range(n):
-            arm = P[i, ARM]
-            for b in range(nl):
-                TB[i, b] += arm * QV[2 * n + i, b]
+    armature_torques_lanes(P, QV, TB, nl, 0)         # tau_i += I_a,i qdd_i
 
 
 @njit(cache=True, inline="always")

@@ -94,6 +94,31 @@ def floating_rows(name, robot, path, rounds):
              lambda: pin.aba(m, d, pq, pv, pt), "pinocchio.aba")]:
         ta, tb = pair(ours, peer, 50, rounds)
         rows.append((name, label, ta, tb, peer_name, 1.0))
+    if not robot.model.has_mimic_joints:     # the derivatives and the regressor (no target)
+        ix = np.ix_(idx, idx)
+        for x, y, what in zip(robot.inverse_dynamics_derivatives(q, v, a),
+                              pin.computeRNEADerivatives(m, d, pq, pv, pa), ("dq", "dv")):
+            agree(x, y[ix], f"inverse dynamics derivatives {what}")
+        for x, y, what in zip(robot.forward_dynamics_derivatives(q, v, tau),
+                              pin.computeABADerivatives(m, d, pq, pv, pt), ("dq", "dv", "M^-1")):
+            agree(x, y[ix], f"forward dynamics derivatives {what}", 1e-7)
+        cols = np.concatenate([np.arange(10)] + [10 * (j - 1) + np.arange(10) for j in jid])
+        agree(robot.regressor(q, v, a),
+              pin.computeJointTorqueRegressor(m, d, pq, pv, pa)[np.ix_(idx, cols)], "regressor")
+        for label, ours, peer, peer_name in [
+                ("derivatives of inverse dynamics, one state",
+                 lambda: robot.inverse_dynamics_derivatives(q, v, a),
+                 lambda: pin.computeRNEADerivatives(m, d, pq, pv, pa),
+                 "pinocchio.computeRNEADerivatives"),
+                ("derivatives of forward dynamics, one state",
+                 lambda: robot.forward_dynamics_derivatives(q, v, tau),
+                 lambda: pin.computeABADerivatives(m, d, pq, pv, pt),
+                 "pinocchio.computeABADerivatives"),
+                ("regressor, one state", lambda: robot.regressor(q, v, a),
+                 lambda: pin.computeJointTorqueRegressor(m, d, pq, pv, pa),
+                 "pinocchio.computeJointTorqueRegressor")]:
+            ta, tb = pair(ours, peer, 50, rounds)
+            rows.append((name, label, ta, tb, peer_name, None))
     # 10,000 states in one call against pinocchio.rnea in a Python loop over them
     N = 10_000
     Q, V = robot.random_state(rng, batch=N)
@@ -178,7 +203,9 @@ def main():
              "`python bench/bench_trees.py`. Ours: the compiled tree kernels (`core/tree.py`: "
              "forward dynamics by `method=\"auto\"`, here the sparse factor M = LᵀDL; a "
              "floating base through the instantaneous tree of six virtual joints, whose block "
-             "and columns of M the CRBA computes as one free-flyer root; mimic joints: "
+             "and columns of M the CRBA computes as one free-flyer root, whose derivatives and "
+             "regressor are the fixed-base kernels' on that tree plus the base's columns "
+             "(`core/floating_derivatives.py`, `core/regressor.py`); mimic joints: "
              "`core/mimic.py`, the reduced system in one call). "
              "Ratio = ours / Pinocchio's; target: the issue's. "
              f"Load average (1 min) of the 2 cores: {load_at_start[0]:.1f} at the start, "

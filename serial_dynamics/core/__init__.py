@@ -16,6 +16,7 @@
     planar.py     Newton-Euler and composite bodies of a planar chain in planar 3-vectors
     planar_lanes.py  the same, B samples in SIMD lanes
     floating.py   a free-floating base on the instantaneous chain (six virtual joints, one free-flyer root)
+    floating_derivatives.py  its derivatives: the fixed-base ones on that chain, the base's columns
     tree.py       kinematic trees on the parent array   tree_lanes.py  their batches in lanes
     tree_derivatives.py  the derivatives on trees
     mimic.py      mimic joints: the reduced system of one state in one call

@@ -12,6 +12,7 @@ kinematic trees"; RBDA 2008, Sec. 6.5, Tables 6.3 and 6.4):
 
     ltdl_factor(P, L)              M = L^T D L in place, L unit lower with M's sparsity
     ltdl_solve_factored(P, L, x)   x <- M^-1 x
+    ltdl_solve_matrix(P, L, X)     X <- M^-1 X, many (each column's operations as one x's)
 """
 import math
 
@@ -125,4 +126,30 @@ def ltdl_solve_factored(P, L, x):
         j = int(P[i, PARENT])
         while j >= 0:
             x[i] -= L[i, j] * x[j]
+            j = int(P[j, PARENT])
+
+
+@internal(types.void(Pm, D2, D2))
+def ltdl_solve_matrix(P, L, X):
+    """X <- (L^T D L)^-1 X: ``ltdl_solve_factored`` on every column of X at once, row by
+    row, so that the innermost loop runs along the columns of X (contiguous: SIMD lanes);
+    each column gets the operations, in the order, of a solve of its own."""
+    n, m = X.shape[0], X.shape[1]
+    for i in range(n - 1, -1, -1):               # L^T Z = X
+        j = int(P[i, PARENT])
+        while j >= 0:
+            lij = L[i, j]
+            for c in range(m):
+                X[j, c] -= lij * X[i, c]
+            j = int(P[j, PARENT])
+    for i in range(n):
+        d = L[i, i]
+        for c in range(m):
+            X[i, c] /= d
+    for i in range(n):                            # L X = Z
+        j = int(P[i, PARENT])
+        while j >= 0:
+            lij = L[i, j]
+            for c in range(m):
+                X[i, c] -= lij * X[j, c]
             j = int(P[j, PARENT])

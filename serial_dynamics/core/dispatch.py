@@ -27,6 +27,7 @@ from numba import njit
 from numba.core.dispatcher import Dispatcher
 
 from . import crba, crba_lanes, derivatives, derivatives_lanes, energy, floating, forward, kinematics
+from . import floating_derivatives
 from . import mimic, planar, planar_lanes
 from . import regressor
 from . import rnea, rnea_lanes, tree, tree_derivatives
@@ -63,15 +64,16 @@ ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core fu
     **regressor.ENTRY_POINTS,      # the torque regressor
     **energy.ENTRY_POINTS,         # dT/dq and the symplectic Euler step
     **floating.ENTRY_POINTS,       # a free-floating base on the instantaneous chain
+    **floating_derivatives.ENTRY_POINTS,   # and its derivatives (chains and trees)
     **tree.ENTRY_POINTS,           # kinematic trees on the parent array
     **tree_derivatives.ENTRY_POINTS,   # and their derivatives
     **mimic.ENTRY_POINTS,          # the reduced system of mimic joints, on any of the above
     **kinematics.ENTRY_POINTS,     # frames, Jacobians, center of mass, momentum (any robot)
 }
 SINGLE_STATE = ("rnea", "rnea_wrench", "crba", "fd", "planar_rnea", "planar_rnea_wrench",
-                "planar_crba", "regressor", "rnea_derivatives", "fd_derivatives",
-                *floating.SINGLE_STATE, *tree.SINGLE_STATE, *tree_derivatives.SINGLE_STATE,
-                *mimic.SINGLE_STATE)
+                "planar_crba", "regressor", "floating_regressor", "rnea_derivatives", "fd_derivatives",
+                *floating.SINGLE_STATE, *floating_derivatives.SINGLE_STATE, *tree.SINGLE_STATE,
+                *tree_derivatives.SINGLE_STATE, *mimic.SINGLE_STATE)
 
 
 def check_hook(dispatcher_class=Dispatcher, version=numba.__version__):
@@ -144,6 +146,8 @@ class _Kernels:
     fd_derivatives_batch = _EntryPoint()
     regressor = _EntryPoint()
     regressor_batch = _EntryPoint()
+    floating_regressor = _EntryPoint()
+    floating_regressor_batch = _EntryPoint()
     kinetic_energy_gradient = _EntryPoint()
     symplectic_euler = _EntryPoint()
     # a free-floating base on the instantaneous chain (floating.py)
@@ -155,6 +159,14 @@ class _Kernels:
     floating_crba_batch = _EntryPoint()
     floating_fd_batch = _EntryPoint()
     floating_accelerations = _EntryPoint()
+    floating_rnea_derivatives = _EntryPoint()      # floating_derivatives.py
+    floating_fd_derivatives = _EntryPoint()
+    floating_rnea_derivatives_batch = _EntryPoint()
+    floating_fd_derivatives_batch = _EntryPoint()
+    floating_tree_rnea_derivatives = _EntryPoint()
+    floating_tree_fd_derivatives = _EntryPoint()
+    floating_tree_rnea_derivatives_batch = _EntryPoint()
+    floating_tree_fd_derivatives_batch = _EntryPoint()
     # kinematic trees (tree.py)
     tree_rnea = _EntryPoint()
     tree_rnea_wrench = _EntryPoint()
@@ -214,6 +226,10 @@ class TreeTable:
              "rnea_derivatives": "tree_rnea_derivatives", "fd_derivatives": "tree_fd_derivatives",
              "rnea_derivatives_batch": "tree_rnea_derivatives_batch",
              "fd_derivatives_batch": "tree_fd_derivatives_batch",
+             "floating_rnea_derivatives": "floating_tree_rnea_derivatives",
+             "floating_fd_derivatives": "floating_tree_fd_derivatives",
+             "floating_rnea_derivatives_batch": "floating_tree_rnea_derivatives_batch",
+             "floating_fd_derivatives_batch": "floating_tree_fd_derivatives_batch",
              "mimic_rnea": "mimic_rnea", "mimic_crba": "mimic_crba", "mimic_fd": "mimic_fd"}
 
     def __getattr__(self, name):

@@ -30,9 +30,11 @@ the joint frames' axes A (row-major, columns AR..AR+8) and AID (1.0 where A = 1)
 import numpy as np
 from numba import njit
 
-from .data import new_kin, stack_empty
+from . import flags as F
+from .data import new_kin, scratch, stack_empty
+from .floating import GW, rnea_inputs
 from .joint import add_rate, joint_transforms
-from .layout import G, KIND, PARENT, WIDTH
+from .layout import G, KIND, PARENT, W_ACC, W_ALL, WIDTH
 from .rnea import outward_step
 from .status import BAD_LENGTH, status
 from .signatures import D2, D3, In1, In2, Mat, Out2, Out3, Pm, Vec, f8, i8, internal
@@ -187,7 +189,76 @@ def regressor_batch(L, q, qd, qdd, flags, out):
     return status(bad)
 
 
+# ------------------------------------------------------------------ a floating base
+# On the instantaneous chain or tree (core/floating.py; L = regressor_layout of its P): its
+# q = [0, joints], its rates v, its accelerations a + p(v) with the base accelerating at -g_b
+# (gravity in the base frame, as in floating_derivatives.py); its generalized forces are
+# the floating base's. The columns of its five massless virtual bodies and the virtual
+# joints' armature and friction columns are dropped: the base's ten (virtual body 5, in
+# the base link frame), each body's ten, then the joints' armature and friction columns.
+@njit(cache=True, inline="always")
+def _floating_one(L, Yv, qv, w, qddv, d, V, S, q, v, a, gw, flags, out):
+    nv = qv.shape[0]
+    chk = rnea_inputs(q, v, a, gw, F.QD | F.QDD, qv, w, qddv)       # qdd = a + p(v)
+    for i in range(3):
+        qddv[i] += w[W_ACC + i]                                      # - g_b
+    chk += regressor_core(L, d.sc, d.R, d.p, V, S, qv, v, qddv, flags, Yv)
+    nb, n = 10 * (nv - 5), nv - 6
+    for r in range(nv):
+        for c in range(nb):
+            out[r, c] = Yv[r, 50 + c]
+        for b in range((Yv.shape[1] - 10 * nv) // nv):               # armature, friction
+            for j in range(n):
+                out[r, nb + b * n + j] = Yv[r, 10 * nv + b * nv + 6 + j]
+    return chk
+
+
+@njit(cache=True, inline="always")
+def _floating_scratch(nv, flags):
+    p = _columns(nv, flags)
+    return (scratch((nv, p), nv * p), stack_empty((nv,)), stack_empty((W_ALL,)),
+            stack_empty((nv,)), new_kin(nv), stack_empty((nv, 18)), stack_empty((nv, 7)))
+
+
+@njit(cache=True, inline="always")
+def _floating_columns(nv, flags):
+    """p of a floating base: _columns of its n = nv - 6 joints, plus the base's ten."""
+    return 10 + _columns(nv - 6, flags)
+
+
+def floating_regressor(L, q, v, a, gw, flags, out):
+    """Y (n+6, p) of one floating state into ``out``: q (n+7), v, a (n+6), gw as
+    floating.py's (the wrench not read). Returns OK, NOT_FINITE or BAD_LENGTH."""
+    nv = L.shape[0] - 1
+    if (q.shape[0] != nv + 1 or v.shape[0] != nv or a.shape[0] != nv or gw.shape[0] != GW
+            or out.shape[0] != nv or out.shape[1] != _floating_columns(nv, flags)):
+        return BAD_LENGTH
+    Yv, qv, w, qddv, d, V, S = _floating_scratch(nv, flags)
+    return status(_floating_one(L, Yv, qv, w, qddv, d, V, S, q, v, a, gw, flags, out))
+
+
+def floating_regressor_batch(L, q, v, a, gw, flags, out):
+    """``floating_regressor`` of N states (rows broadcast) into ``out`` (N, n+6, p)."""
+    nv, N = L.shape[0] - 1, out.shape[0]
+    for x, m in ((q, nv + 1), (v, nv), (a, nv), (gw, GW)):
+        if x.shape[1] != m or (x.shape[0] != N and x.shape[0] != 1):
+            return BAD_LENGTH
+    if out.shape[1] != nv or out.shape[2] != _floating_columns(nv, flags):
+        return BAD_LENGTH
+    Yv, qv, w, qddv, d, V, S = _floating_scratch(nv, flags)
+    bad = 0.0
+    for k in range(N):
+        bad += _floating_one(L, Yv, qv, w, qddv, d, V, S, q[min(k, q.shape[0] - 1)],
+                             v[min(k, v.shape[0] - 1)], a[min(k, a.shape[0] - 1)],
+                             gw[min(k, gw.shape[0] - 1)], flags, out[k])
+    return status(bad)
+
+
 ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core functions it calls)
     "regressor": (regressor, i8(Pm, Vec, Vec, Vec, i8, Mat), False, ("regressor_core",)),
     "regressor_batch": (regressor_batch, i8(Pm, In2, In2, In2, i8, Out3), True, ("regressor_core",)),
+    "floating_regressor": (floating_regressor, i8(Pm, Vec, Vec, Vec, Vec, i8, Mat), False,
+                           ("regressor_core",)),
+    "floating_regressor_batch": (floating_regressor_batch, i8(Pm, In2, In2, In2, In2, i8, Out3),
+                                 True, ("regressor_core",)),
 }

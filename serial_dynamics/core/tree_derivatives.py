@@ -19,7 +19,7 @@ factor, column by column (algorithms/derivatives.py).
 from numba import njit, types
 
 from . import flags as F
-from .cholesky import ltdl_solve_factored
+from .cholesky import ltdl_solve_matrix
 from .data import new_chol, new_kin, scratch, stack_empty
 from .derivatives import (HAVE_TRANSFORMS, _bad_shapes, _body_tangent, _inertia_times, _torques,
                           tangent_through, tip_tangents)
@@ -173,26 +173,30 @@ def tree_fd_derivatives_core(P, sc, R, p, f, mo, IC, M, x, TM, TE, TF, last, X, 
         x[i] = qdd[i]
     chk += tree_derivatives_core(P, sc, R, p, f, mo, TM, TE, TF, last, q, qd, x, w,
                                  flags | F.QDD | HAVE_TRANSFORMS, X[:, :n], X[:, n:2 * n])
+    ltdl_solve_minus(P, M, X, dq, dqd, Minv)
+    return chk
+
+
+@njit(cache=True, inline="always")
+def ltdl_solve_minus(P, M, X, dq, dqd, Minv):
+    """``derivatives.solve_minus`` with the sparse factor L^T D L of a tree in M: X =
+    [d tau/d q, d tau/d qd, 1] (n, 3n) solved at once (``ltdl_solve_matrix``) into
+    -M^-1 d tau/d q, -M^-1 d tau/d qd and M^-1 (mirrored from its upper triangle)."""
+    n = M.shape[0]
     for i in range(n):
         for c in range(n):
             X[i, 2 * n + c] = 1.0 if i == c else 0.0
-    for c in range(3 * n):
-        for i in range(n):
-            x[i] = X[i, c]
-        ltdl_solve_factored(P, M, x)
-        for i in range(n):
-            X[i, c] = x[i]
+    ltdl_solve_matrix(P, M, X)
     for i in range(n):
         for c in range(n):
             dq[i, c] = -X[i, c]
             dqd[i, c] = -X[i, n + c]
             Minv[i, c] = X[i, 2 * n + c] if c >= i else X[c, 2 * n + i]
-    return chk
 
 
 tree_fd_derivatives_core = internal(
     f8(Pm, D2, D3, D2, D2, D2, D2, D2, D1, D3, D2, D3, D1, D2, In1, In1, In1, In1, i8, Out2, Out2,
-       Out2), calls=("tree_fd_core", "tree_derivatives_core", "ltdl_solve_factored"))(
+       Out2), calls=("tree_fd_core", "tree_derivatives_core", "ltdl_solve_matrix"))(
     tree_fd_derivatives_core)
 
 

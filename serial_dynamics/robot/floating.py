@@ -21,7 +21,9 @@ virtual joints. The tests hold both backends to Pinocchio's free-flyer.
 
 Beyond the dynamics: the Coriolis matrix (NOC in a frame turning with the base), the
 regressor (the base's ten parameters first), both derivatives, dT/dq (the joints'; zeros on
-the base). Not available on a floating base: a ``base_motion`` (the base moves by its own
+the base); compiled, the regressor and the derivatives are the fixed-base kernels on the
+instantaneous chain or tree with the base's columns added, one call a state
+(``core/regressor.floating_regressor``, ``core/floating_derivatives.py``). Not available on a floating base: a ``base_motion`` (the base moves by its own
 dynamics).
 """
 from __future__ import annotations
@@ -40,8 +42,9 @@ from ..core import K as CHAIN
 from ..core.dispatch import TREE
 from ..core.layout import TREE as TREE_FLAG
 from ..core import flags as F
-from ..core.layout import B, W_ALL, W_WRENCH
+from ..core.layout import B, W_ALL
 from ..core.layout import pack as layout_pack
+from ..core.regressor import ARMATURE_COLUMNS, FRICTION_COLUMNS, regressor_layout
 from ..model import Model
 from .batches import kernel_rows, run_split
 from . import regressor
@@ -56,12 +59,12 @@ FD_METHODS = ("auto", "aba", "cholesky")
 _FD_FLAGS = {"aba": F.ABA, "cholesky": 0}
 _QD_QDD = F.QD | F.QDD
 _empty = np.empty
-FLOATING_KERNELS = tuple(k for k in ENTRY_POINTS if k.startswith("floating"))   # warmup()
+FLOATING_KERNELS = tuple(k for k in ENTRY_POINTS if k.startswith("floating")   # warmup(): the
+                         and "derivatives" not in k and "regressor" not in k)  # dynamics
 _ZERO_ROW = np.zeros((1, 1))  # an input floating_rows does not read
 CHUNK = 1024                  # states per chunk of a batch (a whole number of SIMD blocks)
 _GW_BAD = np.zeros(0)        # a gw that no entry point accepts (status 2): the general path
 _V_NAMES = {"qd": "v", "qdd": "a"}    # a floating base's names of the rates
-_NO_W = np.zeros((1, W_WRENCH))   # the derivative kernels' w without a wrench (not read)
 
 
 class Floating:
@@ -78,7 +81,10 @@ class Floating:
         # instantaneous chain or tree
         self._compiled = self._k is not None
         self._fd_auto = _FD_FLAGS["aba" if aba_by_default(model, True) else "cholesky"]
-        self._chain = layout_pack(virtual_chain(model), root=6) if self._compiled else None
+        chain = virtual_chain(model) if self._compiled else None
+        self._chain = layout_pack(chain, root=6) if self._compiled else None
+        # regressor(): the instantaneous tree's layout with its link frames (core/regressor.py)
+        self._regressor_layout = regressor_layout(self._chain, chain.A) if self._compiled else None
         self._gw = np.concatenate((np.zeros(6), model.gravity))   # core/floating.py's gw
         I = model.base_I_O       # the base body in core/kinematics.py's layout
         self._base = np.r_[model.base_mass, model.base_h,
@@ -218,9 +224,26 @@ class Floating:
         """Y (n+6, p) or (N, n+6, p) with inverse_dynamics(q, v, a) == Y @
         inertial_parameters() (less the friction torques with ``friction=True``): the base's
         ten columns [m0, mx0, .., Izz0] (base link frame), each body's ten, then the joints'
-        armature and friction columns (zero in the base's rows). The NumPy reference
-        (``algorithms/floating.regressor``); ``robot/regressor.py`` for the columns."""
+        armature and friction columns (zero in the base's rows); ``robot/regressor.py`` for
+        the columns. Compiled: the fixed-base regressor kernel (``core/regressor.py``) on the
+        instantaneous chain or tree, as ``inverse_dynamics_derivatives`` uses it (its five
+        massless virtual bodies' columns and the virtual joints' armature dropped); the NumPy
+        reference: ``algorithms/floating.regressor``."""
         friction, arm = regressor.check_friction(friction), regressor.armature_on(self, armature)
+        if self._compiled:
+            flags = (ARMATURE_COLUMNS if arm else 0) | (FRICTION_COLUMNS if friction else 0)
+            n = self.model.dof
+            p = 10 * (n + 1) + (n if arm else 0) + (3 * n if friction else 0)
+            o = _empty((self._nv, p))                     # the single-state fast path
+            if CHAIN.floating_regressor(self._regressor_layout, q, qd, qdd, self._gw, flags,
+                                        o) == OK:
+                return o
+            single, q, _, s = fb.as_batch(self.model, q, False, v=qd, a=qdd)
+            Y = np.empty((q.shape[0], self._nv, p))
+            run_split(CHAIN.floating_regressor_batch, self._regressor_layout, q.shape[0],
+                      [kernel_rows(x) for x in (q, s["v"], s["a"], self._gw[None])], (flags,),
+                      (Y,), regressor.PARALLEL_MIN)
+            return Y[0] if single else Y
         single, q, _, s = fb.as_batch(self.model, q, False, v=qd, a=qdd)
         Y = fb.regressor(self.model, q, s["v"], s["a"])
         extra = []
@@ -246,32 +269,33 @@ class Floating:
         direction is the tangent of q (Pinocchio's q (+) dq: the base's [dp; dtheta], base
         frame, then the joints). In the base frame nothing but gravity sees the base's pose:
         tau(q, v, a) is the gravity-free tau(q, v, a - [R^T g; 0]) of the instantaneous tree
-        (virtual_chain), whose joints' derivatives the reference computes (``algorithms/
-        derivatives.py``), and R -> R Exp(dtheta) turns g_b = R^T g by g_b x dtheta:
-        d tau/d dtheta = -M[:, :3] [g_b]x, d tau/d dp = 0."""
-        if wrench is not None or base_motion is not None:
-            raise ValueError("the derivatives of a floating base take no wrench or base "
-                             "motion yet: subtract J^T w from tau, and give the base's motion "
-                             "through q, v, a")
-        single, q, R, s = fb.as_batch(self.model, q, v=qd, a=qdd)
+        (virtual_chain), whose joints' derivatives the fixed-base recursion computes, and
+        R -> R Exp(dtheta) turns g_b = R^T g by g_b x dtheta: d tau/d dtheta = -M[:, :3]
+        [g_b]x, d tau/d dp = 0 (compiled: core/floating_derivatives.py)."""
+        _no_derivative_load(wrench, base_motion)
+        if self._compiled:                                # the single-state fast path
+            o = _empty((2, self._nv, self._nv))
+            if self._k.floating_rnea_derivatives(self._chain, q, qd, qdd, self._gw, 0, o) == OK:
+                return o[0], o[1]
+        # the general path: the quaternion as given (the kernels normalize it, as above)
+        single, q, R, s = fb.as_batch(self.model, q, not self._compiled, v=qd, a=qdd)
         N, nv = q.shape[0], self._nv
-        v = np.zeros((N, nv)) if s["v"] is None else s["v"]
-        a = np.zeros((N, nv)) if s["a"] is None else np.array(s["a"])
+        v = np.zeros((1, nv)) if s["v"] is None else s["v"]
+        a = np.zeros((1, nv)) if s["a"] is None else s["a"]
+        if self._compiled:
+            dq, dv = np.empty((N, nv, nv)), np.empty((N, nv, nv))
+            run_split(self._k.floating_rnea_derivatives_batch, self._chain, N,
+                      [kernel_rows(x) for x in (q, v, a, self._gw[None])], (0,), (dq, dv),
+                      DERIVATIVES_PARALLEL_MIN)
+            return (dq[0], dv[0]) if single else (dq, dv)
+        v, a = np.broadcast_to(v, (N, nv)), np.array(np.broadcast_to(a, (N, nv)))
         g_b = np.einsum("nji,j->ni", R, self.model.gravity)
         a[:, :3] -= g_b                                             # gravity as acceleration
         rates = a + _velocity_products(v)                           # the instantaneous tree's
         qv = np.concatenate([np.zeros((N, 6)), q[:, 7:]], axis=1)
-        dq, dv = np.empty((N, nv, nv)), np.empty((N, nv, nv))
-        if not (self._compiled and run_split(       # the chain's or the tree's kernel
-                self._k.rnea_derivatives_batch, self._chain, N,
-                [kernel_rows(x) for x in (qv, v, rates)] + [_NO_W], (0,), (dq, dv),
-                DERIVATIVES_PARALLEL_MIN) == OK):
-            dq, dv = derivatives_reference.inverse_dynamics_derivatives(
-                virtual_chain(self.model), qv, v, rates)
-        if not self._compiled:
-            M = fb.mass_matrix(self.model, q)
-        else:       # one state: the single-state kernel (a batch row's bits), no re-validation
-            M = Floating.mass_matrix(self, q[0])[None] if N == 1 else Floating.mass_matrix(self, q)
+        dq, dv = derivatives_reference.inverse_dynamics_derivatives(
+            virtual_chain(self.model), qv, v, rates)
+        M = fb.mass_matrix(self.model, q)
         dq[:, :, :6] = 0.0
         dq[:, :, 3:6] = -M[:, :, :3] @ skew(g_b)
         dv = dv + M @ _products_jacobian(v)
@@ -281,8 +305,20 @@ class Floating:
         """(d a/d q, d a/d v, d a/d tau) = (-M^-1 d tau/d q, -M^-1 d tau/d v, M^-1) at the
         accelerations of ``tau`` (n joint torques or n + 6 generalized forces), each
         (n+6, n+6) or (N, ...); the q direction as in ``inverse_dynamics_derivatives``."""
-        a = self.forward_dynamics(q, qd, tau, wrench, base_motion=base_motion)
-        dq, dv = self.inverse_dynamics_derivatives(q, qd, a, wrench, base_motion)
+        _no_derivative_load(wrench, base_motion)
+        if self._compiled:                                # the single-state fast path
+            o = _empty((3, self._nv, self._nv))
+            if self._k.floating_fd_derivatives(self._chain, q, qd, tau, self._gw, 0, o) == OK:
+                return o[0], o[1], o[2]
+            single, q, _, s = fb.as_batch(self.model, q, False, v=qd, tau=tau)
+            N, nv = q.shape[0], self._nv
+            out = tuple(np.empty((N, nv, nv)) for _ in range(3))
+            run_split(self._k.floating_fd_derivatives_batch, self._chain, N,
+                      [kernel_rows(x) for x in (q, s["v"], s["tau"], self._gw[None])], (0,),
+                      out, DERIVATIVES_PARALLEL_MIN)
+            return tuple(x[0] for x in out) if single else out
+        a = self.forward_dynamics(q, qd, tau)
+        dq, dv = self.inverse_dynamics_derivatives(q, qd, a)
         Minv = np.linalg.inv(self.mass_matrix(q))
         Minv = 0.5 * (Minv + np.swapaxes(Minv, -1, -2))
         return -Minv @ dq, -Minv @ dv, Minv
@@ -424,7 +460,6 @@ def virtual_chain(model) -> Model:
     """The instantaneous chain of a floating ``model`` (module docstring): prismatic joints
     along the base's x, y, z, revolute joints about them (massless, the last carrying the
     base's inertia), then the chain; no gravity (it comes with each call)."""
-    n = model.dof
     eye, zero = np.eye(3), np.zeros(3)
     names = [f"_base_{k}" for k in ("x", "y", "z", "rx", "ry", "rz")]
     frames = {link: (b + 6 if b >= 0 else 5, R, p) for link, (b, R, p) in model.frames.items()}
@@ -504,6 +539,12 @@ def _on_chain(P, q, v, a, tau, gw, flags, kind, out):
         else:
             status = max(status, K.floating_crba_batch(P, qv[:m], out[k:e]))
     return status
+
+
+def _no_derivative_load(wrench, base_motion):
+    if wrench is not None or base_motion is not None:
+        raise ValueError("the derivatives of a floating base take no wrench or base motion yet: "
+                         "subtract J^T w from tau, and give the base's motion through q, v, a")
 
 
 def _no_base_motion(base_motion):

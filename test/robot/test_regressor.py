@@ -344,3 +344,33 @@ def test_a_floating_base_with_mimic_joints_has_the_reduced_regressor():
     Y_all = free.regressor(qa, Gv @ v[0], Gv @ a[0])
     assert rel(Y[0, :, :Y_all.shape[1]], Gv.T @ Y_all) <= TOL
     assert rel(robot.regressor(q[1], v[1], a[1], friction=True), Y[1]) <= TOL
+
+
+@pytest.mark.parametrize("tree", [False, True])
+def test_the_compiled_floating_regressor(tree):
+    """A floating base in one compiled call (core/regressor.floating_regressor, on the
+    instantaneous chain or tree): Y phi is inverse dynamics (less the friction torques), the
+    columns are the reference's (algorithms/floating.regressor) with armature and friction,
+    and a state gives the same bits alone or in a batch (a quaternion of any length)."""
+    from serial_dynamics.robots.synthetic import two_arm_urdf
+    source = two_arm_urdf(3, base_mass=4.0, kinds=["revolute", "prismatic", "revolute"]) if tree \
+        else sd.builtin_path("ur5e")
+    names = sd.load_urdf(source).joint_names
+    robot = sd.load_urdf(source, floating_base=True, armature={j: 0.05 for j in names[1:]})
+    ref = sd.Robot(robot.model, backend="numpy")
+    assert robot.model.is_chain != tree
+    rng = np.random.default_rng(5)
+    q, v = robot.random_state(rng, batch=6, speed=2.0)
+    q[:, 3:7] *= 0.6
+    a = rng.uniform(-2, 2, (6, robot.nv))
+    Y = robot.regressor(q, v, a, friction=True)
+    phi = robot.inertial_parameters(friction=True)
+    tau = robot.inverse_dynamics(q, v, a) - np.concatenate(
+        [np.zeros((6, 6)), robot.dissipation_torques(v[:, 6:])], axis=1)
+    assert rel(np.einsum("nij,j->ni", Y, phi), tau) <= TOL
+    assert rel(Y, ref.regressor(q, v, a, friction=True)) <= TOL
+    for k in range(6):
+        np.testing.assert_array_equal(robot.regressor(q[k], v[k], a[k], friction=True), Y[k])
+    assert robot.regressor(q[0], v[0], a[0], armature=False).shape == (robot.nv, 10 * (robot.dof + 1))
+    with pytest.raises(ValueError, match="a has a NaN"):
+        robot.regressor(q[0], v[0], np.full(robot.nv, np.inf))

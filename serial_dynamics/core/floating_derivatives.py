@@ -1,0 +1,315 @@
+"""Derivatives of inverse and forward dynamics on a free-floating base, compiled: the
+fixed-base derivatives (``derivatives.py``, ``tree_derivatives.py``) on the instantaneous
+chain or tree (``floating.py``), then the base's own columns, in one call.
+
+In the base frame only gravity sees the base's pose: tau(q, v, a) is the instantaneous
+tree's tau at its joint accelerations a + p(v) (p: the virtual joints' velocity products,
+``floating._products``), its base accelerating at -g_b, g_b = R^T g. Turning the base,
+R -> R Exp(dtheta), turns g_b by g_b x dtheta; moving it changes nothing. So, with the
+tree's derivatives d tau_t/d q, d tau_t/d qd (their base columns not used):
+
+    d tau/d q = [0 | -M[:, :3] [g_b]x | d tau_t/d q_joints]
+    d tau/d v = d tau_t/d qd + M dp/dv
+    d a/d q   = -M^-1 [0 | 0 | d tau_t/d q_joints] + [0 | E_3 [g_b]x | 0]   (M^-1 M E_3 = E_3)
+    d a/d v   = -M^-1 d tau_t/d qd - dp/dv,        d a/d tau = M^-1
+
+(the q direction is the tangent of q, Pinocchio's q (+) dq: the base's [dp; dtheta] in the
+base frame, then the joints). Forward dynamics first solves for a by the Cholesky route
+(chains) or the sparse factor (trees), whose factor the solves then reuse; M itself is not
+needed there. A batch runs each state through the single-state code (the same bits).
+
+Entry points: as ``floating.py``'s (q (n+7), v, a (n+6), ``gw`` of which the wrench is not
+read; tau (n+6) or joint torques (n)); ``out`` (2, n+6, n+6) = (d tau/d q, d tau/d v) or
+(3, n+6, n+6) = (d a/d q, d a/d v, M^-1); batches (N, n+6, n+6) arrays. The trees' are
+``floating_tree_*`` (``dispatch.TreeTable``).
+"""
+from numba import njit
+
+from . import flags as F
+from .crba import floating_crba_core
+from .data import new_chol, new_kin, scratch, stack_empty
+from .derivatives import derivatives_core, solve_minus
+from .floating import GW, fd_inputs, rnea_inputs
+from .forward import floating_cholesky_core
+from .layout import W_ACC, W_ALL
+from .signatures import In2, Out3, Pm, Vec, i8
+from .status import BAD_LENGTH, NOT_FINITE, OK, status
+from .tree import tree_crba_core, tree_fd_core
+from .tree_derivatives import Mat3, ltdl_solve_minus, tree_derivatives_core
+from .tree_derivatives import _scratch as tree_scratch
+
+ID_FLAGS = F.QD | F.QDD | F.BASE       # the tree's derivatives: gravity as the base's acceleration
+
+
+@njit(cache=True, inline="always")
+def base_columns(v, w, M, dq, dv):
+    """The instantaneous tree's d tau/d q, d tau/d qd (dq, dv) into the floating base's,
+    in place (module docstring): the base's q columns [0 | g_b x M[i, :3]], and + M dp/dv."""
+    gx, gy, gz = -w[W_ACC], -w[W_ACC + 1], -w[W_ACC + 2]            # g_b = R^T g
+    vx, vy, vz, wx, wy, wz = v[0], v[1], v[2], v[3], v[4], v[5]
+    for i in range(dq.shape[0]):
+        m0, m1, m2, m3, m4, m5 = M[i, 0], M[i, 1], M[i, 2], M[i, 3], M[i, 4], M[i, 5]
+        dq[i, 0] = dq[i, 1] = dq[i, 2] = 0.0                         # d tau/d dp = 0
+        dq[i, 3] = gy * m2 - gz * m1                                 # -M[i, :3] [g_b]x
+        dq[i, 4] = gz * m0 - gx * m2
+        dq[i, 5] = gx * m1 - gy * m0
+        dv[i, 0] += m1 * wz - m2 * wy                                # + (M dp/dv)[i]
+        dv[i, 1] += m2 * wx - m0 * wz
+        dv[i, 2] += m0 * wy - m1 * wx
+        dv[i, 3] += m2 * vy - m1 * vz + m4 * wz - m5 * wy
+        dv[i, 4] += m0 * vz - m2 * vx - m3 * wz - m5 * wx
+        dv[i, 5] += m1 * vx - m0 * vy - m3 * wy + m4 * wx
+
+
+@njit(cache=True, inline="always")
+def base_columns_fd(v, w, dq, dv):
+    """After the solves: d a/d q's base columns [0 | E_3 [g_b]x] and d a/d v - dp/dv."""
+    gx, gy, gz = -w[W_ACC], -w[W_ACC + 1], -w[W_ACC + 2]
+    vx, vy, vz, wx, wy, wz = v[0], v[1], v[2], v[3], v[4], v[5]
+    for i in range(dq.shape[0]):
+        for c in range(6):
+            dq[i, c] = 0.0
+    dq[0, 4], dq[0, 5] = -gz, gy                                     # [g_b]x
+    dq[1, 3], dq[1, 5] = gz, -gx
+    dq[2, 3], dq[2, 4] = -gy, gx
+    dv[0, 1] += wz                                                   # - dp/dv
+    dv[0, 2] -= wy
+    dv[0, 4] -= vz
+    dv[0, 5] += vy
+    dv[1, 0] -= wz
+    dv[1, 2] += wx
+    dv[1, 3] += vz
+    dv[1, 5] -= vx
+    dv[2, 0] += wy
+    dv[2, 1] -= wx
+    dv[2, 3] -= vy
+    dv[2, 4] += vx
+    dv[3, 4] += wz
+    dv[3, 5] += wy
+    dv[4, 3] -= wz
+    dv[4, 5] -= wx
+    dv[5, 3] += wy
+    dv[5, 4] += wx
+
+
+@njit(cache=True, inline="always")
+def _clear_base(X):
+    """The tree's base q columns are not used: zeros, before the solves."""
+    for i in range(X.shape[0]):
+        for c in range(6):
+            X[i, c] = 0.0
+
+
+# ------------------------------------------------------------------ one state, a chain
+@njit(cache=True, inline="always")
+def _chain_id(P, d, qv, w, qddv, M, T, Tf, dB, q, v, a, gw, dq, dv):
+    chk = rnea_inputs(q, v, a, gw, F.QD | F.QDD, qv, w, qddv)       # qdd_t = a + p(v)
+    chk += derivatives_core(P, d.sc, d.R, d.p, d.f, T, Tf, dB, qv, v, qddv, w, ID_FLAGS, dq, dv)
+    floating_crba_core(P, d.R, d.p, M)
+    base_columns(v, w, M, dq, dv)
+    return chk
+
+
+@njit(cache=True, inline="always")
+def _chain_fd(P, d, c, qv, w, tv, qddv, T, Tf, dB, X, q, v, tau, gw, dq, dv, Minv):
+    chk = fd_inputs(q, tau, gw, 0, qv, w, tv)
+    chk += floating_cholesky_core(P, d.sc, d.R, d.p, d.f, c.M, c.b, qv, v, tv, w, tv,
+                                  F.QD | F.BASE, qddv)               # qdd_t; c.M <- L
+    n = qddv.shape[0]
+    chk += derivatives_core(P, d.sc, d.R, d.p, d.f, T, Tf, dB, qv, v, qddv, w, ID_FLAGS,
+                            X[:, :n], X[:, n:2 * n])
+    _clear_base(X)
+    solve_minus(c.M, X, dq, dv, Minv)
+    base_columns_fd(v, w, dq, dv)
+    return chk
+
+
+@njit(cache=True, inline="always")
+def _chain_id_scratch(nv):
+    return (new_kin(nv), stack_empty((nv,)), stack_empty((W_ALL,)), stack_empty((nv,)),
+            scratch((nv, nv), nv * nv), stack_empty((15, 2 * nv)), stack_empty((6, 2 * nv)),
+            scratch((nv, 6, 2 * nv), 12 * nv * nv))
+
+
+@njit(cache=True, inline="always")
+def _chain_fd_scratch(nv):
+    return (new_kin(nv), new_chol(nv), stack_empty((nv,)), stack_empty((W_ALL,)),
+            stack_empty((nv,)), stack_empty((nv,)), stack_empty((15, 2 * nv)),
+            stack_empty((6, 2 * nv)), scratch((nv, 6, 2 * nv), 12 * nv * nv),
+            scratch((nv, 3 * nv), 3 * nv * nv))
+
+
+# ------------------------------------------------------------------ one state, a tree
+@njit(cache=True, inline="always")
+def _tree_id(P, d, mo, TM, TE, TF, last, qv, w, qddv, IC, M, q, v, a, gw, dq, dv):
+    chk = rnea_inputs(q, v, a, gw, F.QD | F.QDD, qv, w, qddv)
+    chk += tree_derivatives_core(P, d.sc, d.R, d.p, d.f, mo, TM, TE, TF, last, qv, v, qddv, w,
+                                 ID_FLAGS, dq, dv)
+    tree_crba_core(P, d.R, d.p, IC, M)
+    base_columns(v, w, M, dq, dv)
+    return chk
+
+
+@njit(cache=True, inline="always")
+def _tree_fd(P, d, c, mo, TM, TE, TF, last, qv, w, tv, qddv, IC, X, q, v, tau, gw, dq, dv, Minv):
+    chk = fd_inputs(q, tau, gw, 0, qv, w, tv)
+    chk += tree_fd_core(P, d.sc, d.R, d.p, d.f, mo, IC, c.M, qv, v, tv, w, F.QD | F.BASE,
+                        qddv)                                        # qdd_t; c.M <- L^T D L
+    n = qddv.shape[0]
+    chk += tree_derivatives_core(P, d.sc, d.R, d.p, d.f, mo, TM, TE, TF, last, qv, v, qddv, w,
+                                 ID_FLAGS, X[:, :n], X[:, n:2 * n])
+    _clear_base(X)
+    ltdl_solve_minus(P, c.M, X, dq, dv, Minv)
+    base_columns_fd(v, w, dq, dv)
+    return chk
+
+
+# ------------------------------------------------------------------ entry points
+@njit(cache=True, inline="always")
+def _bad_single(P, q, v, x, gw, out, k):
+    nv = P.shape[0] - 1
+    return (q.shape[0] != nv + 1 or v.shape[0] != nv or gw.shape[0] != GW or out.shape[0] != k
+            or out.shape[1] != nv or out.shape[2] != nv
+            or not (x.shape[0] == nv or (k == 3 and x.shape[0] == nv - 6)))
+
+
+@njit(cache=True, inline="always")
+def _bad_batch(P, q, v, x, gw, dq, fd):
+    nv = P.shape[0] - 1
+    N = dq.shape[0]
+    rows = (q.shape[0], v.shape[0], x.shape[0], gw.shape[0])
+    for r in rows:
+        if r != 1 and r != N:
+            return True
+    return (q.shape[1] != nv + 1 or v.shape[1] != nv or gw.shape[1] != GW
+            or not (x.shape[1] == nv or (fd and x.shape[1] == nv - 6)))
+
+
+def floating_rnea_derivatives(P, q, v, a, gw, flags, out):
+    """d tau/d q, d tau/d v of one floating state into out[0], out[1] (flags: none read).
+    Returns OK, NOT_FINITE or BAD_LENGTH."""
+    if _bad_single(P, q, v, a, gw, out, 2):
+        return BAD_LENGTH
+    d, qv, w, qddv, M, T, Tf, dB = _chain_id_scratch(P.shape[0] - 1)
+    return status(_chain_id(P, d, qv, w, qddv, M, T, Tf, dB, q, v, a, gw, out[0], out[1]))
+
+
+def floating_fd_derivatives(P, q, v, tau, gw, flags, out):
+    """d a/d q, d a/d v, M^-1 of one floating state into out[0], out[1], out[2]."""
+    if _bad_single(P, q, v, tau, gw, out, 3):
+        return BAD_LENGTH
+    d, c, qv, w, tv, qddv, T, Tf, dB, X = _chain_fd_scratch(P.shape[0] - 1)
+    return status(_chain_fd(P, d, c, qv, w, tv, qddv, T, Tf, dB, X, q, v, tau, gw,
+                            out[0], out[1], out[2]))
+
+
+def floating_rnea_derivatives_batch(P, q, v, a, gw, flags, dq, dv):
+    """``floating_rnea_derivatives`` of N states (rows broadcast) into (N, n+6, n+6)."""
+    if _bad_batch(P, q, v, a, gw, dq, False):
+        return BAD_LENGTH
+    d, qv, w, qddv, M, T, Tf, dB = _chain_id_scratch(P.shape[0] - 1)
+    bad = OK
+    for k in range(dq.shape[0]):
+        if _chain_id(P, d, qv, w, qddv, M, T, Tf, dB, q[min(k, q.shape[0] - 1)],
+                     v[min(k, v.shape[0] - 1)], a[min(k, a.shape[0] - 1)],
+                     gw[min(k, gw.shape[0] - 1)], dq[k], dv[k]) != 0.0:
+            bad = NOT_FINITE
+    return bad
+
+
+def floating_fd_derivatives_batch(P, q, v, tau, gw, flags, dq, dv, Minv):
+    """``floating_fd_derivatives`` of N states into (N, n+6, n+6) arrays."""
+    if _bad_batch(P, q, v, tau, gw, dq, True):
+        return BAD_LENGTH
+    d, c, qv, w, tv, qddv, T, Tf, dB, X = _chain_fd_scratch(P.shape[0] - 1)
+    bad = OK
+    for k in range(dq.shape[0]):
+        if _chain_fd(P, d, c, qv, w, tv, qddv, T, Tf, dB, X, q[min(k, q.shape[0] - 1)],
+                     v[min(k, v.shape[0] - 1)], tau[min(k, tau.shape[0] - 1)],
+                     gw[min(k, gw.shape[0] - 1)], dq[k], dv[k], Minv[k]) != 0.0:
+            bad = NOT_FINITE
+    return bad
+
+
+@njit(cache=True, inline="always")
+def _tree_id_scratch(nv):
+    mo, TM, TE, TF, last = tree_scratch(nv)
+    return (new_kin(nv), mo, TM, TE, TF, last, stack_empty((nv,)), stack_empty((W_ALL,)),
+            stack_empty((nv,)), stack_empty((nv, 10)), scratch((nv, nv), nv * nv))
+
+
+@njit(cache=True, inline="always")
+def _tree_fd_scratch(nv):
+    mo, TM, TE, TF, last = tree_scratch(nv)
+    return (new_kin(nv), new_chol(nv), mo, TM, TE, TF, last, stack_empty((nv,)),
+            stack_empty((W_ALL,)), stack_empty((nv,)), stack_empty((nv,)),
+            stack_empty((nv, 10)), scratch((nv, 3 * nv), 3 * nv * nv))
+
+
+def floating_tree_rnea_derivatives(P, q, v, a, gw, flags, out):
+    """``floating_rnea_derivatives`` on a floating base's instantaneous tree."""
+    if _bad_single(P, q, v, a, gw, out, 2):
+        return BAD_LENGTH
+    d, mo, TM, TE, TF, last, qv, w, qddv, IC, M = _tree_id_scratch(P.shape[0] - 1)
+    return status(_tree_id(P, d, mo, TM, TE, TF, last, qv, w, qddv, IC, M, q, v, a, gw,
+                           out[0], out[1]))
+
+
+def floating_tree_fd_derivatives(P, q, v, tau, gw, flags, out):
+    """``floating_fd_derivatives`` on a floating base's instantaneous tree."""
+    if _bad_single(P, q, v, tau, gw, out, 3):
+        return BAD_LENGTH
+    d, c, mo, TM, TE, TF, last, qv, w, tv, qddv, IC, X = _tree_fd_scratch(P.shape[0] - 1)
+    return status(_tree_fd(P, d, c, mo, TM, TE, TF, last, qv, w, tv, qddv, IC, X, q, v, tau,
+                           gw, out[0], out[1], out[2]))
+
+
+def floating_tree_rnea_derivatives_batch(P, q, v, a, gw, flags, dq, dv):
+    if _bad_batch(P, q, v, a, gw, dq, False):
+        return BAD_LENGTH
+    d, mo, TM, TE, TF, last, qv, w, qddv, IC, M = _tree_id_scratch(P.shape[0] - 1)
+    bad = OK
+    for k in range(dq.shape[0]):
+        if _tree_id(P, d, mo, TM, TE, TF, last, qv, w, qddv, IC, M, q[min(k, q.shape[0] - 1)],
+                    v[min(k, v.shape[0] - 1)], a[min(k, a.shape[0] - 1)],
+                    gw[min(k, gw.shape[0] - 1)], dq[k], dv[k]) != 0.0:
+            bad = NOT_FINITE
+    return bad
+
+
+def floating_tree_fd_derivatives_batch(P, q, v, tau, gw, flags, dq, dv, Minv):
+    if _bad_batch(P, q, v, tau, gw, dq, True):
+        return BAD_LENGTH
+    d, c, mo, TM, TE, TF, last, qv, w, tv, qddv, IC, X = _tree_fd_scratch(P.shape[0] - 1)
+    bad = OK
+    for k in range(dq.shape[0]):
+        if _tree_fd(P, d, c, mo, TM, TE, TF, last, qv, w, tv, qddv, IC, X,
+                    q[min(k, q.shape[0] - 1)], v[min(k, v.shape[0] - 1)],
+                    tau[min(k, tau.shape[0] - 1)], gw[min(k, gw.shape[0] - 1)],
+                    dq[k], dv[k], Minv[k]) != 0.0:
+            bad = NOT_FINITE
+    return bad
+
+
+_ID = i8(Pm, Vec, Vec, Vec, Vec, i8, Mat3)
+_ID_BATCH = i8(Pm, In2, In2, In2, In2, i8, Out3, Out3)
+_FD_BATCH = i8(Pm, In2, In2, In2, In2, i8, Out3, Out3, Out3)
+_CHAIN_ID = ("derivatives_core", "floating_crba_core")
+_CHAIN_FD = ("floating_cholesky_core", "derivatives_core", "cholesky_solve_matrix")
+_TREE_ID = ("tree_derivatives_core", "tree_crba_core")
+_TREE_FD = ("tree_fd_core", "tree_derivatives_core", "ltdl_solve_matrix")
+ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core functions it calls)
+    "floating_rnea_derivatives": (floating_rnea_derivatives, _ID, False, _CHAIN_ID),
+    "floating_fd_derivatives": (floating_fd_derivatives, _ID, False, _CHAIN_FD),
+    "floating_rnea_derivatives_batch": (floating_rnea_derivatives_batch, _ID_BATCH, True,
+                                        _CHAIN_ID),
+    "floating_fd_derivatives_batch": (floating_fd_derivatives_batch, _FD_BATCH, True, _CHAIN_FD),
+    "floating_tree_rnea_derivatives": (floating_tree_rnea_derivatives, _ID, False, _TREE_ID),
+    "floating_tree_fd_derivatives": (floating_tree_fd_derivatives, _ID, False, _TREE_FD),
+    "floating_tree_rnea_derivatives_batch": (floating_tree_rnea_derivatives_batch, _ID_BATCH,
+                                             True, _TREE_ID),
+    "floating_tree_fd_derivatives_batch": (floating_tree_fd_derivatives_batch, _FD_BATCH, True,
+                                           _TREE_FD),
+}
+SINGLE_STATE = ("floating_rnea_derivatives", "floating_fd_derivatives",
+                "floating_tree_rnea_derivatives", "floating_tree_fd_derivatives")

@@ -187,6 +187,9 @@ class _Kernels:
     mimic_rnea = _EntryPoint()
     mimic_crba = _EntryPoint()
     mimic_fd = _EntryPoint()
+    mimic_rnea_batch = _EntryPoint()
+    mimic_crba_batch = _EntryPoint()
+    mimic_fd_batch = _EntryPoint()
     # kinematics (kinematics.py): one kernel each for chains and trees, batches of states
     frame_pose = _EntryPoint()
     frame_jacobian = _EntryPoint()
@@ -230,7 +233,9 @@ class TreeTable:
              "floating_fd_derivatives": "floating_tree_fd_derivatives",
              "floating_rnea_derivatives_batch": "floating_tree_rnea_derivatives_batch",
              "floating_fd_derivatives_batch": "floating_tree_fd_derivatives_batch",
-             "mimic_rnea": "mimic_rnea", "mimic_crba": "mimic_crba", "mimic_fd": "mimic_fd"}
+             "mimic_rnea": "mimic_rnea", "mimic_crba": "mimic_crba", "mimic_fd": "mimic_fd",
+             "mimic_rnea_batch": "mimic_rnea_batch", "mimic_crba_batch": "mimic_crba_batch",
+             "mimic_fd_batch": "mimic_fd_batch"}
 
     def __getattr__(self, name):
         if name not in self.NAMES:

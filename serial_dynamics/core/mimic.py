@@ -2,7 +2,7 @@
 
 A joint that mimics another moves as q_i = m q_leader + o, so every joint's state is
 x_all = G x (+ o for q), G constant (n, k), and by virtual work (Featherstone 2008,
-Sec. 3.2; robot/mimic.py holds the maths, the batches and the general path):
+Sec. 3.2; robot/mimic.py holds the maths and the general path):
 
     tau = G^T tau_all(q_all, qd_all, qdd_all)    M = G^T M_all G    (G^T M_all G) qdd = tau - G^T b_all
 
@@ -32,10 +32,12 @@ between a gather (G x + o) and a sum (G^T y), with the maps in one array ``Gm`` 
                                            the indices are int64 bit patterns (read
                                            through a view: no conversion a pair)
 
-Each gather and sum does the operations of robot/mimic.py's batch path in the same order
-(x[src] m + o; G^T y as the independent coordinates' entries, then each follower's m y in
-joint order), and the batch path calls ``reduce_mass`` and ``reduced_fd`` state by state,
-so a batch row is the single call's bits.
+Batches (``mimic_*_batch``) run each state through the single call's steps. Each gather
+and sum also does the operations of robot/mimic.py's general path (a wrench, a base motion,
+the other kinds' batches) in the same order (x[src] m + o; G^T y as the independent
+coordinates' entries, then each follower's m y in joint order), which calls
+``reduce_mass`` and ``reduced_fd`` state by state, so a row is the single call's bits on
+every path.
 """
 import numpy as np
 from numba import njit
@@ -48,7 +50,7 @@ from .floating import GW, _chain_inputs, rnea_inputs
 from .joint import joint_transforms
 from .layout import ROOT, TREE, W_ALL
 from .rnea import floating_rnea_core, rnea_core
-from .signatures import Mat, Pm, Vec, i8
+from .signatures import In2, Mat, Out2, Out3, Pm, Vec, i8
 from .status import BAD_LENGTH, status
 from .tree import tree_crba_core, tree_rnea_core
 
@@ -222,6 +224,44 @@ def _whole_tau(P, Gm, d, q, qd, qdd, gw, flags, nq, nv, ta):
     return chk + _whole_rnea(P, d, stack_empty((nv, 9)), qa, va, aa, gw, flags, ta)
 
 
+# ------------------------------------------------------------------ one state
+@njit(cache=True, inline="always")
+def _rnea_state(P, Gm, q, qd, qdd, gw, flags, nq, nv, out):
+    """tau = G^T tau_all into ``out``; returns the inputs' check."""
+    ta = stack_empty((nv,))
+    chk = _whole_tau(P, Gm, new_kin(nv), q, qd, qdd, gw, flags, nq, nv, ta)
+    reduce_vector(Gm, ta, out)
+    return chk
+
+
+@njit(cache=True, inline="always")
+def _crba_state(P, Gm, q, nq, nv, out):
+    """M = G^T M_all G into ``out``."""
+    k = out.shape[0]
+    qa = stack_empty((nq,))
+    chk = _gather(Gm, q, qa, QSRC, QMUL, QOFF)
+    d = new_kin(nv)
+    M = scratch((nv, nv), nv * nv)
+    chk += _whole_transforms(P, d, qa, nv)
+    _whole_crba(P, d, M)
+    reduce_mass(Gm, M, scratch((nv, k), nv * k), out)
+    return chk
+
+
+@njit(cache=True, inline="always")
+def _fd_state(P, Gm, q, qd, tau, gw, nq, nv, out):
+    """qdd = (G^T M_all G)^-1 (tau - G^T b_all) into ``out``."""
+    k = out.shape[0]
+    d, b = new_kin(nv), stack_empty((nv,))
+    chk = _whole_tau(P, Gm, d, q, qd, tau, gw, F.QD, nq, nv, b)    # b_all (tau: unread)
+    M = scratch((nv, nv), nv * nv)
+    _whole_crba(P, d, M)                 # on the joint transforms the Newton-Euler pass left
+    for i in range(k):
+        chk += tau[i] * 0.0
+    reduced_fd_inline(Gm, M, b, tau, out)
+    return chk
+
+
 # ------------------------------------------------------------------ entry points
 # q, qd, qdd, tau, out: the reduced system's (nq, nv); gw: a floating base's (core/floating.py:
 # gravity in the world), not read on a fixed base.
@@ -232,10 +272,7 @@ def mimic_rnea(P, Gm, q, qd, qdd, gw, flags, out):
     nv, nq = _lengths(P, Gm, q, k)
     if nv < 0 or qd.shape[0] != k or qdd.shape[0] != k or gw.shape[0] != GW:
         return BAD_LENGTH
-    ta = stack_empty((nv,))
-    chk = _whole_tau(P, Gm, new_kin(nv), q, qd, qdd, gw, flags, nq, nv, ta)
-    reduce_vector(Gm, ta, out)
-    return status(chk)
+    return status(_rnea_state(P, Gm, q, qd, qdd, gw, flags, nq, nv, out))
 
 
 def mimic_crba(P, Gm, q, out):
@@ -244,14 +281,7 @@ def mimic_crba(P, Gm, q, out):
     nv, nq = _lengths(P, Gm, q, k)
     if nv < 0 or out.shape[1] != k:
         return BAD_LENGTH
-    qa = stack_empty((nq,))
-    chk = _gather(Gm, q, qa, QSRC, QMUL, QOFF)
-    d = new_kin(nv)
-    M = scratch((nv, nv), nv * nv)
-    chk += _whole_transforms(P, d, qa, nv)
-    _whole_crba(P, d, M)
-    reduce_mass(Gm, M, scratch((nv, k), nv * k), out)
-    return status(chk)
+    return status(_crba_state(P, Gm, q, nq, nv, out))
 
 
 def mimic_fd(P, Gm, q, qd, tau, gw, flags, out):
@@ -261,18 +291,73 @@ def mimic_fd(P, Gm, q, qd, tau, gw, flags, out):
     nv, nq = _lengths(P, Gm, q, k)
     if nv < 0 or qd.shape[0] != k or tau.shape[0] != k or gw.shape[0] != GW:
         return BAD_LENGTH
-    d, b = new_kin(nv), stack_empty((nv,))
-    chk = _whole_tau(P, Gm, d, q, qd, tau, gw, F.QD, nq, nv, b)    # b_all (tau: unread)
-    M = scratch((nv, nv), nv * nv)
-    _whole_crba(P, d, M)                 # on the joint transforms the Newton-Euler pass left
-    for i in range(k):
-        chk += tau[i] * 0.0
-    reduced_fd_inline(Gm, M, b, tau, out)
+    return status(_fd_state(P, Gm, q, qd, tau, gw, nq, nv, out))
+
+
+# Batches: each state through the single call's steps, compiled as a function of its own
+# (``_*_frame``: its scratch on its own stack frame, freed as it returns; inlined into the
+# loop, the scratch would grow the stack state after state): the single call's bits. The
+# map Gm comes after the states, so that robot/batches.run_split splits only the states.
+_rnea_frame = njit(cache=True)(_rnea_state.py_func)
+_crba_frame = njit(cache=True)(_crba_state.py_func)
+_fd_frame = njit(cache=True)(_fd_state.py_func)
+
+
+@njit(cache=True, inline="always")
+def _rows_fit(N, k, rows):
+    for x in rows:
+        if x.shape[1] != k or (x.shape[0] != N and x.shape[0] != 1):
+            return False
+    return True
+
+
+@njit(cache=True, inline="always")
+def _row(x, s):
+    return x[min(s, x.shape[0] - 1)]
+
+
+def mimic_rnea_batch(P, q, qd, qdd, gw, Gm, flags, out):
+    """``mimic_rnea`` of N states (rows broadcast) into ``out`` (N, k)."""
+    N, k = out.shape[0], out.shape[1]
+    nv, nq = _lengths(P, Gm, q[0], k)
+    if (nv < 0 or not _rows_fit(N, k, (qd, qdd)) or not _rows_fit(N, nq - nv + k, (q,))
+            or not _rows_fit(N, GW, (gw,))):
+        return BAD_LENGTH
+    chk = 0.0
+    for s in range(N):
+        chk += _rnea_frame(P, Gm, _row(q, s), _row(qd, s), _row(qdd, s), _row(gw, s), flags,
+                           nq, nv, out[s])
+    return status(chk)
+
+
+def mimic_crba_batch(P, q, Gm, out):
+    """``mimic_crba`` of N configurations into ``out`` (N, k, k)."""
+    N, k = out.shape[0], out.shape[1]
+    nv, nq = _lengths(P, Gm, q[0], k)
+    if nv < 0 or out.shape[2] != k or not _rows_fit(N, nq - nv + k, (q,)):
+        return BAD_LENGTH
+    chk = 0.0
+    for s in range(N):
+        chk += _crba_frame(P, Gm, _row(q, s), nq, nv, out[s])
+    return status(chk)
+
+
+def mimic_fd_batch(P, q, qd, tau, gw, Gm, flags, out):
+    """``mimic_fd`` of N states into ``out`` (N, k)."""
+    N, k = out.shape[0], out.shape[1]
+    nv, nq = _lengths(P, Gm, q[0], k)
+    if (nv < 0 or not _rows_fit(N, k, (qd, tau)) or not _rows_fit(N, nq - nv + k, (q,))
+            or not _rows_fit(N, GW, (gw,))):
+        return BAD_LENGTH
+    chk = 0.0
+    for s in range(N):
+        chk += _fd_frame(P, Gm, _row(q, s), _row(qd, s), _row(tau, s), _row(gw, s), nq, nv,
+                         out[s])
     return status(chk)
 
 
 reduced_fd_inline = njit(cache=True, inline="always")(reduced_fd)
-reduced_fd = njit(cache=True)(reduced_fd)        # the batch path's, state by state
+reduced_fd = njit(cache=True)(reduced_fd)        # the general path's, state by state
 
 _CALLS = ("rnea_core", "floating_rnea_core", "tree_rnea_core", "crba_core", "floating_crba_core", "tree_crba_core", "cholesky_factor",
           "cholesky_solve_factored", "ltdl_factor", "ltdl_solve_factored")
@@ -280,5 +365,8 @@ ENTRY_POINTS = {
     "mimic_rnea": (mimic_rnea, i8(Pm, Mat, Vec, Vec, Vec, Vec, i8, Vec), False, _CALLS),
     "mimic_crba": (mimic_crba, i8(Pm, Mat, Vec, Mat), False, _CALLS),
     "mimic_fd": (mimic_fd, i8(Pm, Mat, Vec, Vec, Vec, Vec, i8, Vec), False, _CALLS),
+    "mimic_rnea_batch": (mimic_rnea_batch, i8(Pm, In2, In2, In2, In2, Pm, i8, Out2), True, _CALLS),
+    "mimic_crba_batch": (mimic_crba_batch, i8(Pm, In2, Pm, Out3), True, _CALLS),
+    "mimic_fd_batch": (mimic_fd_batch, i8(Pm, In2, In2, In2, In2, Pm, i8, Out2), True, _CALLS),
 }
-SINGLE_STATE = tuple(ENTRY_POINTS)
+SINGLE_STATE = ("mimic_rnea", "mimic_crba", "mimic_fd")

@@ -14,7 +14,8 @@ maps its inputs to all joints, calls the chain's algorithms (compiled or referen
 ``super()``) on them, and maps the results back; forward dynamics solves
 (G^T M G) qdd = tau - G^T b. On the compiled backend a single state's inverse dynamics,
 bias torques, M and forward dynamics are one call each (``core/mimic.py``, with the maps and
-the reduced tree of ``mimic_layout``). Its coordinates, names, limits and dissipation are the
+the reduced tree of ``mimic_layout``), and so is a batch of them (each state as alone,
+split over the cores). Its coordinates, names, limits and dissipation are the
 independent joints'; a mimic joint's viscous and Coulomb friction act on its leader as
 m^2 beta and |m| tau_c (exact: its friction torque, times m by virtual work).
 """
@@ -35,7 +36,8 @@ from ..core.mimic import (FM, FT, FW, IW, NF, NPAIRS, PAIR, PI, PJ, PM, PSI, PSJ
 from ..model.dissipation import Dissipation
 from . import derivatives, regressor
 from .wrenches import generalized_forces
-from .common import FD_METHODS
+from .batches import kernel_rows, run_split
+from .common import FD_METHODS, PARALLEL_MIN
 from .common import into as _into
 
 
@@ -112,8 +114,8 @@ class Mimic:
     # G x and G^T y as gathers and ordered sums (not matrix products, whose summation order
     # BLAS may change with the shape): a state gives the same bits alone or in a batch. One
     # state goes through small compiled loops (_gather; core/mimic.py's reduce_vector and
-    # reduce_matrix), a batch through the same operations in NumPy; the dynamics' single
-    # states through one compiled call each (core/mimic.py's entry points).
+    # reduce_matrix), a batch through the same operations in NumPy; the dynamics (one state
+    # or a batch) through compiled calls (core/mimic.py's entry points).
     def _expand(self, x, offset):
         """G x + offset over the last axis (the joints): x[src] m + offset."""
         return x[..., self._src] * self._m + offset
@@ -168,16 +170,31 @@ class Mimic:
         if full is not None:
             return True, [x for _, x in named], full
         maps = [self._maps[name][1] for name, _ in named]
-        if self._bq:                                     # a floating base (q: k + 7, v: k + 6)
-            d = dict(named)
-            single, q, _, rest = fb.as_batch(self._view, d.pop("q", None), False, **d)
-            reduced = [q if name == "q" else rest[name] for name, _ in named]
-        else:                                            # a batch, other types, or a NaN/Inf
-            single, reduced = as_batch(self._view, *named)
+        single, reduced = self._reduced(named)
         reduced = [x[0] if single else x for x in reduced]
         full = [None if mp is None else np.ascontiguousarray(x[..., mp[0]] * mp[1] + mp[2])
                 for mp, x in zip(maps, reduced)]
         return single, reduced, full
+
+    def _reduced(self, named):
+        """(single, the reduced states as (N, .) arrays), validated (errors name the
+        culprit); a floating base's quaternion as given (the kernels normalize it)."""
+        if self._bq:                                     # a floating base (q: k + 7, v: k + 6)
+            d = dict(named)
+            single, q, _, rest = fb.as_batch(self._view, d.pop("q", None), False, **d)
+            return single, [q if name == "q" else rest[name] for name, _ in named]
+        return as_batch(self._view, *named)             # a batch, other types, or a NaN/Inf
+
+    def _batch(self, kernel, named, extra, shape):
+        """A batch through the compiled ``kernel`` (core/mimic.py's ``mimic_*_batch``: each
+        state the single call's bits), split over the cores; the result of shape (N, *shape)
+        or, for one state given otherwise (a list, another dtype), shape."""
+        single, reduced = self._reduced(named)
+        N = max(x.shape[0] for x in reduced)
+        out = np.empty((N,) + shape)
+        rows = [kernel_rows(x) for x in reduced] + ([self._gwk[None]] if extra else [])
+        run_split(kernel, self._Pk, N, rows, (self._Gm,) + extra, (out,), PARALLEL_MIN)
+        return out[0] if single else out
 
     # ------------------------------------------------------------- dynamics
     def inverse_dynamics(self, q, qd, qdd, wrench=None, base_motion=None, out=None,
@@ -189,6 +206,9 @@ class Mimic:
             o = _empty(self.nv) if out is None else out
             if self._k.mimic_rnea(self._Pk, self._Gm, q, qd, qdd, self._gwk, _QD_QDD, o) == OK:
                 return o
+            return _into(out, self._batch(self._k.mimic_rnea_batch,
+                                          (("q", q), ("qd", qd), ("qdd", qdd)), (_QD_QDD,),
+                                          (self.nv,)))
         _, _, (q, qd, qdd) = self._all(("q", q), ("qd", qd), ("qdd", qdd))
         tau = super().inverse_dynamics(q, qd, qdd, wrench, base_motion)
         return _into(out, self._reduce(tau))             # tau = G^T tau_all
@@ -201,6 +221,9 @@ class Mimic:
             o = _empty(self.nv) if out is None else out
             if self._k.mimic_rnea(self._Pk, self._Gm, q, qd, qd, self._gwk, F.QD, o) == OK:
                 return o
+            return _into(out, self._batch(self._k.mimic_rnea_batch,
+                                          (("q", q), ("qd", qd), ("qdd", qd)), (F.QD,),
+                                          (self.nv,)))
         _, _, (q, qd) = self._all(("q", q), ("qd", qd))
         return _into(out, self._reduce(super().bias_torques(q, qd, wrench, base_motion)))
 
@@ -221,6 +244,8 @@ class Mimic:
             o = _empty((self.nv, self.nv)) if out is None else out
             if self._k.mimic_crba(self._Pk, self._Gm, q, o) == OK:
                 return o
+            return _into(out, self._batch(self._k.mimic_crba_batch, (("q", q),), (),
+                                          (self.nv, self.nv)))
         _, _, (q,) = self._all(("q", q))
         return _into(out, self._reduce_mass(super().mass_matrix(q)))   # G^T M_all G
 
@@ -252,6 +277,9 @@ class Mimic:
             o = _empty(self.nv) if out is None else out
             if self._k.mimic_fd(self._Pk, self._Gm, q, qd, tau, self._gwk, 0, o) == OK:
                 return o
+            return _into(out, self._batch(self._k.mimic_fd_batch,
+                                          (("q", q), ("qd", qd), ("tau", tau)), (0,),
+                                          (self.nv,)))
         single, (_, _, tau), (q, qd, _) = self._all(("q", q), ("qd", qd), ("tau", tau))
         M, b = super().mass_matrix(q), super().bias_torques(q, qd, wrench, base_motion)
         o = np.empty(np.shape(tau))

@@ -590,11 +590,12 @@ class FloatingMimicRobot(Mimic, Floating, Robot):
     def integrate(self, q, qd, dt):
         """q moved by v dt (the map is linear: G (q + qd dt) + o = q_all + G qd dt)."""
         _, _, (qa, va) = self._all(("q", q), ("qd", qd))
-        return super().integrate(qa, va, dt)[..., self._q_independent]
+        return np.ascontiguousarray(super().integrate(qa, va, dt)[..., self._q_independent])
 
     def random_state(self, rng=None, batch=None, speed=1.0):
-        q, v = super().random_state(rng, batch, speed)
-        return q[..., self._q_independent], v[..., self._ind]
+        q, v = super().random_state(rng, batch, speed)     # rows C-contiguous, as the other
+        return (np.ascontiguousarray(q[..., self._q_independent]),   # kinds': fast calls
+                np.ascontiguousarray(v[..., self._ind]))
 
     _q_independent = property(lambda self: np.r_[np.arange(7), 7 + self.model.independent])
 

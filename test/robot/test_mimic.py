@@ -156,6 +156,9 @@ def test_the_compiled_reduced_system_of_a_tree(rel, floating, branches):
     assert set(robot.kernels()) >= {"mimic_rnea", "mimic_crba", "mimic_fd"}
     rng = np.random.default_rng(4)
     Q, V = robot.random_state(rng, batch=5)
+    # rows of random states and of integrate's are C-contiguous (each a single fast call)
+    assert Q.flags.c_contiguous and V.flags.c_contiguous
+    assert robot.integrate(Q, V, 0.01).flags.c_contiguous
     A = rng.uniform(-1, 1, (5, robot.nv))
     T = robot.inverse_dynamics(Q, V, A)
     calls = {"inverse_dynamics": (Q, V, A), "bias_torques": (Q, V), "mass_matrix": (Q,),

@@ -228,6 +228,14 @@ class Mimic:
         return _into(out, self._reduce(super().bias_torques(q, qd, wrench, base_motion)))
 
     def gravity_torques(self, q, out=None):
+        if self._k is not None:          # mimic_rnea at zero rates (flags 0: neither read)
+            zero = _zeros(self.nv)
+            o = _empty(self.nv) if out is None else out
+            if self._k.mimic_rnea(self._Pk, self._Gm, q, zero, zero, self._gwk, 0, o) == OK:
+                return o
+            return _into(out, self._batch(self._k.mimic_rnea_batch,
+                                          (("q", q), ("qd", zero), ("qdd", zero)), (0,),
+                                          (self.nv,)))
         _, _, (q,) = self._all(("q", q))
         return _into(out, self._reduce(super().gravity_torques(q)))
 
@@ -358,7 +366,7 @@ class Mimic:
 
 _F8 = np.dtype(np.float64)
 _QD_QDD = F.QD | F.QDD
-_empty = np.empty
+_empty, _zeros = np.empty, np.zeros
 _MIMIC_KERNELS = ("mimic_rnea", "mimic_crba", "mimic_fd")
 
 

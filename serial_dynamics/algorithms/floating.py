@@ -261,7 +261,6 @@ def integrate(model, q, v, dt):
     th = np.linalg.norm(w, axis=1)[:, None]
     small = th < 1e-6                                      # Taylor series below (error < 1e-18)
     ths = np.where(small, 1.0, th)
-    A = np.where(small, 1 - th**2 / 6, np.sin(ths) / ths)                       # sin t / t
     B = np.where(small, 0.5 - th**2 / 24, (1 - np.cos(ths)) / ths**2)           # (1 - cos t)/t^2
     C = np.where(small, 1 / 6 - th**2 / 120, (ths - np.sin(ths)) / ths**3)      # (t - sin t)/t^3
     W = skew(w)

@@ -50,7 +50,7 @@ from ..sim.equations import (PRISMATIC_BOUND, Equations, energy_error, energy_sc
 from .crba import crba_pass
 from .rnea import base_acc, passes
 from .runtime import cuda, free_bytes, launch, require_card
-from .steps import cholesky_factor, cholesky_solve_factored, get9
+from .steps import cholesky_factor, cholesky_solve_factored
 
 LAWS = ("computed_torque", "gravity_compensation")
 CHUNK = 1 << 16             # cases a launch (progress between launches)

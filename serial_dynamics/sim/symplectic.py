@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core import flags as F
-from ..core.status import BAD_LENGTH, NOT_CONVERGED, NOT_FINITE, OK
+from ..core.status import BAD_LENGTH, NOT_CONVERGED, NOT_FINITE
 from .equations import External, split
 from ..model.errors import SimulationError
 from .methods import advice

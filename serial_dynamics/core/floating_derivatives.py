@@ -13,6 +13,10 @@ tree's derivatives d tau_t/d q, d tau_t/d qd (their base columns not used):
     d a/d q   = -M^-1 [0 | 0 | d tau_t/d q_joints] + [0 | E_3 [g_b]x | 0]   (M^-1 M E_3 = E_3)
     d a/d v   = -M^-1 d tau_t/d qd - dp/dv,        d a/d tau = M^-1
 
+A tip wrench w given in the world (flag WRENCH) reaches the tree as w_b = R^T w, which the
+turn also turns, by w_b x dtheta: d tau/d dtheta_c gains tau's wrench part at [f_b x e_c;
+m_b x e_c], -J^T of it, one Newton-Euler pass at rest each (``_wrench_turns``).
+
 (the q direction is the tangent of q, Pinocchio's q (+) dq: the base's [dp; dtheta] in the
 base frame, then the joints). Forward dynamics first solves for a by the Cholesky route
 (chains) or the sparse factor (trees), whose factor the solves then reuse; M itself is not
@@ -27,6 +31,7 @@ from numba import njit
 
 from . import flags as F
 from .crba import floating_crba_core
+from .rnea import floating_rnea_core
 from .data import new_chol, new_kin, scratch, stack_empty
 from .derivatives import derivatives_core, solve_minus
 from .floating import GW, fd_inputs, rnea_inputs
@@ -34,7 +39,7 @@ from .forward import floating_cholesky_core
 from .layout import W_ACC, W_ALL
 from .signatures import In2, Out3, Pm, Vec, i8
 from .status import BAD_LENGTH, NOT_FINITE, OK, status
-from .tree import tree_crba_core, tree_fd_core
+from .tree import tree_crba_core, tree_fd_core, tree_rnea_core
 from .tree_derivatives import Mat3, ltdl_solve_minus, tree_derivatives_core
 from .tree_derivatives import _scratch as tree_scratch
 
@@ -63,15 +68,15 @@ def base_columns(v, w, M, dq, dv):
 
 @njit(cache=True, inline="always")
 def base_columns_fd(v, w, dq, dv):
-    """After the solves: d a/d q's base columns [0 | E_3 [g_b]x] and d a/d v - dp/dv."""
+    """After the solves: d a/d q's base columns + [0 | E_3 [g_b]x] and d a/d v - dp/dv."""
     gx, gy, gz = -w[W_ACC], -w[W_ACC + 1], -w[W_ACC + 2]
     vx, vy, vz, wx, wy, wz = v[0], v[1], v[2], v[3], v[4], v[5]
-    for i in range(dq.shape[0]):
-        for c in range(6):
-            dq[i, c] = 0.0
-    dq[0, 4], dq[0, 5] = -gz, gy                                     # [g_b]x
-    dq[1, 3], dq[1, 5] = gz, -gx
-    dq[2, 3], dq[2, 4] = -gy, gx
+    dq[0, 4] -= gz                                                   # [g_b]x
+    dq[0, 5] += gy
+    dq[1, 3] += gz
+    dq[1, 5] -= gx
+    dq[2, 3] -= gy
+    dq[2, 4] += gx
     dv[0, 1] += wz                                                   # - dp/dv
     dv[0, 2] -= wy
     dv[0, 4] -= vz
@@ -93,6 +98,26 @@ def base_columns_fd(v, w, dq, dv):
 
 
 @njit(cache=True, inline="always")
+def _cross_axis(x, y, z, c):
+    """(x, y, z) x e_c."""
+    if c == 0:
+        return 0.0, z, -y
+    if c == 1:
+        return -z, 0.0, x
+    return y, -x, 0.0
+
+
+@njit(cache=True, inline="always")
+def turned_wrench(w, c, y):
+    """y (W_ALL) = [f_b x e_c; m_b x e_c], the change of the tip wrench w_b = w[:6] as the
+    base turns about its axis c (module docstring); the rest zero."""
+    for i in range(W_ALL):
+        y[i] = 0.0
+    y[0], y[1], y[2] = _cross_axis(w[0], w[1], w[2], c)
+    y[3], y[4], y[5] = _cross_axis(w[3], w[4], w[5], c)
+
+
+@njit(cache=True, inline="always")
 def _clear_base(X):
     """The tree's base q columns are not used: zeros, before the solves."""
     for i in range(X.shape[0]):
@@ -102,23 +127,38 @@ def _clear_base(X):
 
 # ------------------------------------------------------------------ one state, a chain
 @njit(cache=True, inline="always")
-def _chain_id(P, d, qv, w, qddv, M, T, Tf, dB, q, v, a, gw, dq, dv):
-    chk = rnea_inputs(q, v, a, gw, F.QD | F.QDD, qv, w, qddv)       # qdd_t = a + p(v)
-    chk += derivatives_core(P, d.sc, d.R, d.p, d.f, T, Tf, dB, qv, v, qddv, w, ID_FLAGS, dq, dv)
+def _chain_id(P, d, qv, w, qddv, M, T, Tf, dB, y, col, q, v, a, gw, flags, dq, dv):
+    wf = flags & F.WRENCH
+    chk = rnea_inputs(q, v, a, gw, F.QD | F.QDD | wf, qv, w, qddv)  # qdd_t = a + p(v)
+    chk += derivatives_core(P, d.sc, d.R, d.p, d.f, T, Tf, dB, qv, v, qddv, w, ID_FLAGS | wf,
+                            dq, dv)
     floating_crba_core(P, d.R, d.p, M)
     base_columns(v, w, M, dq, dv)
+    if wf != 0:                          # the tip wrench turned with the base
+        for c in range(3):
+            turned_wrench(w, c, y)
+            floating_rnea_core(P, d.sc, d.R, d.p, d.f, qv, qv, qv, y, F.WRENCH, col)
+            for i in range(col.shape[0]):
+                dq[i, 3 + c] += col[i]
     return chk
 
 
 @njit(cache=True, inline="always")
-def _chain_fd(P, d, c, qv, w, tv, qddv, T, Tf, dB, X, q, v, tau, gw, dq, dv, Minv):
-    chk = fd_inputs(q, tau, gw, 0, qv, w, tv)
+def _chain_fd(P, d, c, qv, w, tv, qddv, T, Tf, dB, X, y, q, v, tau, gw, flags, dq, dv, Minv):
+    wf = flags & F.WRENCH
+    chk = fd_inputs(q, tau, gw, wf, qv, w, tv)
     chk += floating_cholesky_core(P, d.sc, d.R, d.p, d.f, c.M, c.b, qv, v, tv, w, tv,
-                                  F.QD | F.BASE, qddv)               # qdd_t; c.M <- L
+                                  F.QD | F.BASE | wf, qddv)          # qdd_t; c.M <- L
     n = qddv.shape[0]
-    chk += derivatives_core(P, d.sc, d.R, d.p, d.f, T, Tf, dB, qv, v, qddv, w, ID_FLAGS,
+    chk += derivatives_core(P, d.sc, d.R, d.p, d.f, T, Tf, dB, qv, v, qddv, w, ID_FLAGS | wf,
                             X[:, :n], X[:, n:2 * n])
     _clear_base(X)
+    if wf != 0:                          # the tip wrench turned with the base
+        for k in range(3):
+            turned_wrench(w, k, y)
+            floating_rnea_core(P, d.sc, d.R, d.p, d.f, qv, qv, qv, y, F.WRENCH, qddv)
+            for i in range(n):
+                X[i, 3 + k] += qddv[i]
     solve_minus(c.M, X, dq, dv, Minv)
     base_columns_fd(v, w, dq, dv)
     return chk
@@ -128,7 +168,7 @@ def _chain_fd(P, d, c, qv, w, tv, qddv, T, Tf, dB, X, q, v, tau, gw, dq, dv, Min
 def _chain_id_scratch(nv):
     return (new_kin(nv), stack_empty((nv,)), stack_empty((W_ALL,)), stack_empty((nv,)),
             scratch((nv, nv), nv * nv), stack_empty((15, 2 * nv)), stack_empty((6, 2 * nv)),
-            scratch((nv, 6, 2 * nv), 12 * nv * nv))
+            scratch((nv, 6, 2 * nv), 12 * nv * nv), stack_empty((W_ALL,)), stack_empty((nv,)))
 
 
 @njit(cache=True, inline="always")
@@ -136,29 +176,44 @@ def _chain_fd_scratch(nv):
     return (new_kin(nv), new_chol(nv), stack_empty((nv,)), stack_empty((W_ALL,)),
             stack_empty((nv,)), stack_empty((nv,)), stack_empty((15, 2 * nv)),
             stack_empty((6, 2 * nv)), scratch((nv, 6, 2 * nv), 12 * nv * nv),
-            scratch((nv, 3 * nv), 3 * nv * nv))
+            scratch((nv, 3 * nv), 3 * nv * nv), stack_empty((W_ALL,)))
 
 
 # ------------------------------------------------------------------ one state, a tree
 @njit(cache=True, inline="always")
-def _tree_id(P, d, mo, TM, TE, TF, last, qv, w, qddv, IC, M, q, v, a, gw, dq, dv):
-    chk = rnea_inputs(q, v, a, gw, F.QD | F.QDD, qv, w, qddv)
+def _tree_id(P, d, mo, TM, TE, TF, last, qv, w, qddv, IC, M, y, col, q, v, a, gw, flags, dq, dv):
+    wf = flags & F.WRENCH
+    chk = rnea_inputs(q, v, a, gw, F.QD | F.QDD | wf, qv, w, qddv)
     chk += tree_derivatives_core(P, d.sc, d.R, d.p, d.f, mo, TM, TE, TF, last, qv, v, qddv, w,
-                                 ID_FLAGS, dq, dv)
+                                 ID_FLAGS | wf, dq, dv)
     tree_crba_core(P, d.R, d.p, IC, M)
     base_columns(v, w, M, dq, dv)
+    if wf != 0:                          # the tip wrench turned with the base
+        for c in range(3):
+            turned_wrench(w, c, y)
+            tree_rnea_core(P, d.sc, d.R, d.p, d.f, mo, qv, qv, qv, y, F.WRENCH, col)
+            for i in range(col.shape[0]):
+                dq[i, 3 + c] += col[i]
     return chk
 
 
 @njit(cache=True, inline="always")
-def _tree_fd(P, d, c, mo, TM, TE, TF, last, qv, w, tv, qddv, IC, X, q, v, tau, gw, dq, dv, Minv):
-    chk = fd_inputs(q, tau, gw, 0, qv, w, tv)
-    chk += tree_fd_core(P, d.sc, d.R, d.p, d.f, mo, IC, c.M, qv, v, tv, w, F.QD | F.BASE,
+def _tree_fd(P, d, c, mo, TM, TE, TF, last, qv, w, tv, qddv, IC, X, y, q, v, tau, gw, flags,
+             dq, dv, Minv):
+    wf = flags & F.WRENCH
+    chk = fd_inputs(q, tau, gw, wf, qv, w, tv)
+    chk += tree_fd_core(P, d.sc, d.R, d.p, d.f, mo, IC, c.M, qv, v, tv, w, F.QD | F.BASE | wf,
                         qddv)                                        # qdd_t; c.M <- L^T D L
     n = qddv.shape[0]
     chk += tree_derivatives_core(P, d.sc, d.R, d.p, d.f, mo, TM, TE, TF, last, qv, v, qddv, w,
-                                 ID_FLAGS, X[:, :n], X[:, n:2 * n])
+                                 ID_FLAGS | wf, X[:, :n], X[:, n:2 * n])
     _clear_base(X)
+    if wf != 0:                          # the tip wrench turned with the base
+        for k in range(3):
+            turned_wrench(w, k, y)
+            tree_rnea_core(P, d.sc, d.R, d.p, d.f, mo, qv, qv, qv, y, F.WRENCH, qddv)
+            for i in range(n):
+                X[i, 3 + k] += qddv[i]
     ltdl_solve_minus(P, c.M, X, dq, dv, Minv)
     base_columns_fd(v, w, dq, dv)
     return chk
@@ -186,33 +241,38 @@ def _bad_batch(P, q, v, x, gw, dq, fd):
 
 
 def floating_rnea_derivatives(P, q, v, a, gw, flags, out):
-    """d tau/d q, d tau/d v of one floating state into out[0], out[1] (flags: none read).
-    Returns OK, NOT_FINITE or BAD_LENGTH."""
+    """d tau/d q, d tau/d v of one floating state into out[0], out[1] (flag WRENCH: the tip
+    wrench gw[:6], world). Returns OK, NOT_FINITE or BAD_LENGTH."""
     if _bad_single(P, q, v, a, gw, out, 2):
         return BAD_LENGTH
-    d, qv, w, qddv, M, T, Tf, dB = _chain_id_scratch(P.shape[0] - 1)
-    return status(_chain_id(P, d, qv, w, qddv, M, T, Tf, dB, q, v, a, gw, out[0], out[1]))
+    d, qv, w, qddv, M, T, Tf, dB, y, col = _chain_id_scratch(P.shape[0] - 1)
+    return status(_chain_id(P, d, qv, w, qddv, M, T, Tf, dB, y, col, q, v, a, gw, flags,
+                            out[0], out[1]))
 
 
 def floating_fd_derivatives(P, q, v, tau, gw, flags, out):
     """d a/d q, d a/d v, M^-1 of one floating state into out[0], out[1], out[2]."""
     if _bad_single(P, q, v, tau, gw, out, 3):
         return BAD_LENGTH
-    d, c, qv, w, tv, qddv, T, Tf, dB, X = _chain_fd_scratch(P.shape[0] - 1)
-    return status(_chain_fd(P, d, c, qv, w, tv, qddv, T, Tf, dB, X, q, v, tau, gw,
+    d, c, qv, w, tv, qddv, T, Tf, dB, X, y = _chain_fd_scratch(P.shape[0] - 1)
+    return status(_chain_fd(P, d, c, qv, w, tv, qddv, T, Tf, dB, X, y, q, v, tau, gw, flags,
                             out[0], out[1], out[2]))
+
+
+@njit(cache=True, inline="always")
+def _row(x, k):
+    return x[min(k, x.shape[0] - 1)]
 
 
 def floating_rnea_derivatives_batch(P, q, v, a, gw, flags, dq, dv):
     """``floating_rnea_derivatives`` of N states (rows broadcast) into (N, n+6, n+6)."""
     if _bad_batch(P, q, v, a, gw, dq, False):
         return BAD_LENGTH
-    d, qv, w, qddv, M, T, Tf, dB = _chain_id_scratch(P.shape[0] - 1)
+    d, qv, w, qddv, M, T, Tf, dB, y, col = _chain_id_scratch(P.shape[0] - 1)
     bad = OK
     for k in range(dq.shape[0]):
-        if _chain_id(P, d, qv, w, qddv, M, T, Tf, dB, q[min(k, q.shape[0] - 1)],
-                     v[min(k, v.shape[0] - 1)], a[min(k, a.shape[0] - 1)],
-                     gw[min(k, gw.shape[0] - 1)], dq[k], dv[k]) != 0.0:
+        if _chain_id(P, d, qv, w, qddv, M, T, Tf, dB, y, col, _row(q, k), _row(v, k), _row(a, k),
+                     _row(gw, k), flags, dq[k], dv[k]) != 0.0:
             bad = NOT_FINITE
     return bad
 
@@ -221,12 +281,11 @@ def floating_fd_derivatives_batch(P, q, v, tau, gw, flags, dq, dv, Minv):
     """``floating_fd_derivatives`` of N states into (N, n+6, n+6) arrays."""
     if _bad_batch(P, q, v, tau, gw, dq, True):
         return BAD_LENGTH
-    d, c, qv, w, tv, qddv, T, Tf, dB, X = _chain_fd_scratch(P.shape[0] - 1)
+    d, c, qv, w, tv, qddv, T, Tf, dB, X, y = _chain_fd_scratch(P.shape[0] - 1)
     bad = OK
     for k in range(dq.shape[0]):
-        if _chain_fd(P, d, c, qv, w, tv, qddv, T, Tf, dB, X, q[min(k, q.shape[0] - 1)],
-                     v[min(k, v.shape[0] - 1)], tau[min(k, tau.shape[0] - 1)],
-                     gw[min(k, gw.shape[0] - 1)], dq[k], dv[k], Minv[k]) != 0.0:
+        if _chain_fd(P, d, c, qv, w, tv, qddv, T, Tf, dB, X, y, _row(q, k), _row(v, k),
+                     _row(tau, k), _row(gw, k), flags, dq[k], dv[k], Minv[k]) != 0.0:
             bad = NOT_FINITE
     return bad
 
@@ -235,7 +294,8 @@ def floating_fd_derivatives_batch(P, q, v, tau, gw, flags, dq, dv, Minv):
 def _tree_id_scratch(nv):
     mo, TM, TE, TF, last = tree_scratch(nv)
     return (new_kin(nv), mo, TM, TE, TF, last, stack_empty((nv,)), stack_empty((W_ALL,)),
-            stack_empty((nv,)), stack_empty((nv, 10)), scratch((nv, nv), nv * nv))
+            stack_empty((nv,)), stack_empty((nv, 10)), scratch((nv, nv), nv * nv),
+            stack_empty((W_ALL,)), stack_empty((nv,)))
 
 
 @njit(cache=True, inline="always")
@@ -243,36 +303,35 @@ def _tree_fd_scratch(nv):
     mo, TM, TE, TF, last = tree_scratch(nv)
     return (new_kin(nv), new_chol(nv), mo, TM, TE, TF, last, stack_empty((nv,)),
             stack_empty((W_ALL,)), stack_empty((nv,)), stack_empty((nv,)),
-            stack_empty((nv, 10)), scratch((nv, 3 * nv), 3 * nv * nv))
+            stack_empty((nv, 10)), scratch((nv, 3 * nv), 3 * nv * nv), stack_empty((W_ALL,)))
 
 
 def floating_tree_rnea_derivatives(P, q, v, a, gw, flags, out):
     """``floating_rnea_derivatives`` on a floating base's instantaneous tree."""
     if _bad_single(P, q, v, a, gw, out, 2):
         return BAD_LENGTH
-    d, mo, TM, TE, TF, last, qv, w, qddv, IC, M = _tree_id_scratch(P.shape[0] - 1)
-    return status(_tree_id(P, d, mo, TM, TE, TF, last, qv, w, qddv, IC, M, q, v, a, gw,
-                           out[0], out[1]))
+    d, mo, TM, TE, TF, last, qv, w, qddv, IC, M, y, col = _tree_id_scratch(P.shape[0] - 1)
+    return status(_tree_id(P, d, mo, TM, TE, TF, last, qv, w, qddv, IC, M, y, col, q, v, a, gw,
+                           flags, out[0], out[1]))
 
 
 def floating_tree_fd_derivatives(P, q, v, tau, gw, flags, out):
     """``floating_fd_derivatives`` on a floating base's instantaneous tree."""
     if _bad_single(P, q, v, tau, gw, out, 3):
         return BAD_LENGTH
-    d, c, mo, TM, TE, TF, last, qv, w, tv, qddv, IC, X = _tree_fd_scratch(P.shape[0] - 1)
-    return status(_tree_fd(P, d, c, mo, TM, TE, TF, last, qv, w, tv, qddv, IC, X, q, v, tau,
-                           gw, out[0], out[1], out[2]))
+    d, c, mo, TM, TE, TF, last, qv, w, tv, qddv, IC, X, y = _tree_fd_scratch(P.shape[0] - 1)
+    return status(_tree_fd(P, d, c, mo, TM, TE, TF, last, qv, w, tv, qddv, IC, X, y, q, v, tau,
+                           gw, flags, out[0], out[1], out[2]))
 
 
 def floating_tree_rnea_derivatives_batch(P, q, v, a, gw, flags, dq, dv):
     if _bad_batch(P, q, v, a, gw, dq, False):
         return BAD_LENGTH
-    d, mo, TM, TE, TF, last, qv, w, qddv, IC, M = _tree_id_scratch(P.shape[0] - 1)
+    d, mo, TM, TE, TF, last, qv, w, qddv, IC, M, y, col = _tree_id_scratch(P.shape[0] - 1)
     bad = OK
     for k in range(dq.shape[0]):
-        if _tree_id(P, d, mo, TM, TE, TF, last, qv, w, qddv, IC, M, q[min(k, q.shape[0] - 1)],
-                    v[min(k, v.shape[0] - 1)], a[min(k, a.shape[0] - 1)],
-                    gw[min(k, gw.shape[0] - 1)], dq[k], dv[k]) != 0.0:
+        if _tree_id(P, d, mo, TM, TE, TF, last, qv, w, qddv, IC, M, y, col, _row(q, k),
+                    _row(v, k), _row(a, k), _row(gw, k), flags, dq[k], dv[k]) != 0.0:
             bad = NOT_FINITE
     return bad
 
@@ -280,13 +339,12 @@ def floating_tree_rnea_derivatives_batch(P, q, v, a, gw, flags, dq, dv):
 def floating_tree_fd_derivatives_batch(P, q, v, tau, gw, flags, dq, dv, Minv):
     if _bad_batch(P, q, v, tau, gw, dq, True):
         return BAD_LENGTH
-    d, c, mo, TM, TE, TF, last, qv, w, tv, qddv, IC, X = _tree_fd_scratch(P.shape[0] - 1)
+    d, c, mo, TM, TE, TF, last, qv, w, tv, qddv, IC, X, y = _tree_fd_scratch(P.shape[0] - 1)
     bad = OK
     for k in range(dq.shape[0]):
-        if _tree_fd(P, d, c, mo, TM, TE, TF, last, qv, w, tv, qddv, IC, X,
-                    q[min(k, q.shape[0] - 1)], v[min(k, v.shape[0] - 1)],
-                    tau[min(k, tau.shape[0] - 1)], gw[min(k, gw.shape[0] - 1)],
-                    dq[k], dv[k], Minv[k]) != 0.0:
+        if _tree_fd(P, d, c, mo, TM, TE, TF, last, qv, w, tv, qddv, IC, X, y, _row(q, k),
+                    _row(v, k), _row(tau, k), _row(gw, k), flags, dq[k], dv[k],
+                    Minv[k]) != 0.0:
             bad = NOT_FINITE
     return bad
 
@@ -294,10 +352,11 @@ def floating_tree_fd_derivatives_batch(P, q, v, tau, gw, flags, dq, dv, Minv):
 _ID = i8(Pm, Vec, Vec, Vec, Vec, i8, Mat3)
 _ID_BATCH = i8(Pm, In2, In2, In2, In2, i8, Out3, Out3)
 _FD_BATCH = i8(Pm, In2, In2, In2, In2, i8, Out3, Out3, Out3)
-_CHAIN_ID = ("derivatives_core", "floating_crba_core")
-_CHAIN_FD = ("floating_cholesky_core", "derivatives_core", "cholesky_solve_matrix")
-_TREE_ID = ("tree_derivatives_core", "tree_crba_core")
-_TREE_FD = ("tree_fd_core", "tree_derivatives_core", "ltdl_solve_matrix")
+_CHAIN_ID = ("derivatives_core", "floating_crba_core", "floating_rnea_core")
+_CHAIN_FD = ("floating_cholesky_core", "derivatives_core", "cholesky_solve_matrix",
+             "floating_rnea_core")
+_TREE_ID = ("tree_derivatives_core", "tree_crba_core", "tree_rnea_core")
+_TREE_FD = ("tree_fd_core", "tree_derivatives_core", "ltdl_solve_matrix", "tree_rnea_core")
 ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core functions it calls)
     "floating_rnea_derivatives": (floating_rnea_derivatives, _ID, False, _CHAIN_ID),
     "floating_fd_derivatives": (floating_fd_derivatives, _ID, False, _CHAIN_FD),

@@ -271,11 +271,13 @@ class Floating:
         tau(q, v, a) is the gravity-free tau(q, v, a - [R^T g; 0]) of the instantaneous tree
         (virtual_chain), whose joints' derivatives the fixed-base recursion computes, and
         R -> R Exp(dtheta) turns g_b = R^T g by g_b x dtheta: d tau/d dtheta = -M[:, :3]
-        [g_b]x, d tau/d dp = 0 (compiled: core/floating_derivatives.py)."""
-        _no_derivative_load(wrench, base_motion)
+        [g_b]x, d tau/d dp = 0 (compiled: core/floating_derivatives.py). A tip ``wrench``
+        (world coordinates, as ``inverse_dynamics``'s) turns with the base too, as R^T w."""
+        _no_base_motion(base_motion)
         if self._compiled:                                # the single-state fast path
             o = _empty((2, self._nv, self._nv))
-            if self._k.floating_rnea_derivatives(self._chain, q, qd, qdd, self._gw, 0, o) == OK:
+            if self._k.floating_rnea_derivatives(self._chain, q, qd, qdd,
+                                                 *self._gw_single(wrench, 0), o) == OK:
                 return o[0], o[1]
         # the general path: the quaternion as given (the kernels normalize it, as above)
         single, q, R, s = fb.as_batch(self.model, q, not self._compiled, v=qd, a=qdd)
@@ -283,11 +285,15 @@ class Floating:
         v = np.zeros((1, nv)) if s["v"] is None else s["v"]
         a = np.zeros((1, nv)) if s["a"] is None else s["a"]
         if self._compiled:
+            gw, flags = self._gw_rows(wrench, N, 0)
             dq, dv = np.empty((N, nv, nv)), np.empty((N, nv, nv))
             run_split(self._k.floating_rnea_derivatives_batch, self._chain, N,
-                      [kernel_rows(x) for x in (q, v, a, self._gw[None])], (0,), (dq, dv),
+                      [kernel_rows(x) for x in (q, v, a, gw)], (flags,), (dq, dv),
                       DERIVATIVES_PARALLEL_MIN)
             return (dq[0], dv[0]) if single else (dq, dv)
+        if wrench is not None:
+            raise ValueError("the NumPy backend's derivatives of a floating base take no "
+                             "wrench: subtract J^T w from tau, or use the compiled backend")
         v, a = np.broadcast_to(v, (N, nv)), np.array(np.broadcast_to(a, (N, nv)))
         g_b = np.einsum("nji,j->ni", R, self.model.gravity)
         a[:, :3] -= g_b                                             # gravity as acceleration
@@ -304,19 +310,25 @@ class Floating:
     def forward_dynamics_derivatives(self, q, qd, tau, wrench=None, base_motion=None):
         """(d a/d q, d a/d v, d a/d tau) = (-M^-1 d tau/d q, -M^-1 d tau/d v, M^-1) at the
         accelerations of ``tau`` (n joint torques or n + 6 generalized forces), each
-        (n+6, n+6) or (N, ...); the q direction as in ``inverse_dynamics_derivatives``."""
-        _no_derivative_load(wrench, base_motion)
+        (n+6, n+6) or (N, ...); the q direction and ``wrench`` as in
+        ``inverse_dynamics_derivatives``."""
+        _no_base_motion(base_motion)
         if self._compiled:                                # the single-state fast path
             o = _empty((3, self._nv, self._nv))
-            if self._k.floating_fd_derivatives(self._chain, q, qd, tau, self._gw, 0, o) == OK:
+            if self._k.floating_fd_derivatives(self._chain, q, qd, tau,
+                                               *self._gw_single(wrench, 0), o) == OK:
                 return o[0], o[1], o[2]
             single, q, _, s = fb.as_batch(self.model, q, False, v=qd, tau=tau)
             N, nv = q.shape[0], self._nv
+            gw, flags = self._gw_rows(wrench, N, 0)
             out = tuple(np.empty((N, nv, nv)) for _ in range(3))
             run_split(self._k.floating_fd_derivatives_batch, self._chain, N,
-                      [kernel_rows(x) for x in (q, s["v"], s["tau"], self._gw[None])], (0,),
+                      [kernel_rows(x) for x in (q, s["v"], s["tau"], gw)], (flags,),
                       out, DERIVATIVES_PARALLEL_MIN)
             return tuple(x[0] for x in out) if single else out
+        if wrench is not None:
+            raise ValueError("the NumPy backend's derivatives of a floating base take no "
+                             "wrench: subtract J^T w from tau, or use the compiled backend")
         a = self.forward_dynamics(q, qd, tau)
         dq, dv = self.inverse_dynamics_derivatives(q, qd, a)
         Minv = np.linalg.inv(self.mass_matrix(q))
@@ -539,12 +551,6 @@ def _on_chain(P, q, v, a, tau, gw, flags, kind, out):
         else:
             status = max(status, K.floating_crba_batch(P, qv[:m], out[k:e]))
     return status
-
-
-def _no_derivative_load(wrench, base_motion):
-    if wrench is not None or base_motion is not None:
-        raise ValueError("the derivatives of a floating base take no wrench or base motion yet: "
-                         "subtract J^T w from tau, and give the base's motion through q, v, a")
 
 
 def _no_base_motion(base_motion):

@@ -43,18 +43,25 @@ def central(f, robot, q, v, x, h=1e-6):
 
 
 @pytest.mark.parametrize("name", ROBOTS)
-def test_the_derivatives_are_those_of_the_dynamics_along_the_tangent(name):
+@pytest.mark.parametrize("wrench", [None, (3.0, -2.0, 5.0, 0.4, -0.7, 0.2)])
+def test_the_derivatives_are_those_of_the_dynamics_along_the_tangent(name, wrench):
+    """With a tip wrench (world coordinates) the base's turn turns it in the base frame:
+    its columns are checked by the same differences."""
     robot = ROBOTS[name]()
     q, v, a = states(robot, 1)
-    dq, dv = robot.inverse_dynamics_derivatives(q, v, a)
-    nq, nv = central(robot.inverse_dynamics, robot, q, v, a)
+    ID = lambda q, v, a: robot.inverse_dynamics(q, v, a, wrench)      # noqa: E731
+    FD = lambda q, v, t: robot.forward_dynamics(q, v, t, wrench)      # noqa: E731
+    dq, dv = robot.inverse_dynamics_derivatives(q, v, a, wrench)
+    nq, nv = central(ID, robot, q, v, a)
     assert rel_err(dq, nq) < 1e-7 and rel_err(dv, nv) < 1e-7
     assert np.all(dq[:, :3] == 0.0)                  # nothing sees where the base is
-    tau = robot.inverse_dynamics(q, v, a)
-    fq, fv, Minv = robot.forward_dynamics_derivatives(q, v, tau)
-    mq, mv = central(robot.forward_dynamics, robot, q, v, tau)
+    tau = ID(q, v, a)
+    fq, fv, Minv = robot.forward_dynamics_derivatives(q, v, tau, wrench)
+    mq, mv = central(FD, robot, q, v, tau)
     assert rel_err(fq, mq) < 1e-6 and rel_err(fv, mv) < 1e-6
     assert rel_err(Minv, np.linalg.inv(robot.mass_matrix(q))) < 1e-10
+    if wrench is not None:                           # the wrench's own columns are there
+        assert rel_err(dq, robot.inverse_dynamics_derivatives(q, v, a)[0]) > 1e-3
     # joint torques only (the base free) are the same forces with six zeros in front
     fj = robot.forward_dynamics_derivatives(q, v, tau[6:])
     ref = robot.forward_dynamics_derivatives(q, v, np.r_[np.zeros(6), tau[6:]])
@@ -82,10 +89,19 @@ def test_batch_rows_are_single_calls_bit_for_bit(name):
     q[:, 3:7] *= 1.7                                 # a quaternion of any length: normalized alike
     batch_id = robot.inverse_dynamics_derivatives(q, v, x)
     batch_fd = robot.forward_dynamics_derivatives(q, v, x[:, 6:])
+    w = np.random.default_rng(6).normal(size=(5, 6))
+    wrench_id = robot.inverse_dynamics_derivatives(q, v, x, w)
+    wrench_fd = robot.forward_dynamics_derivatives(q, v, x, w)
     for k in range(5):
         for one, rows in zip(robot.inverse_dynamics_derivatives(q[k], v[k], x[k]), batch_id):
             np.testing.assert_array_equal(one, rows[k])
         for one, rows in zip(robot.forward_dynamics_derivatives(q[k], v[k], x[k, 6:]), batch_fd):
+            np.testing.assert_array_equal(one, rows[k])
+        for one, rows in zip(robot.inverse_dynamics_derivatives(q[k], v[k], x[k], w[k]),
+                             wrench_id):
+            np.testing.assert_array_equal(one, rows[k])
+        for one, rows in zip(robot.forward_dynamics_derivatives(q[k], v[k], x[k], w[k]),
+                             wrench_fd):
             np.testing.assert_array_equal(one, rows[k])
     # a row broadcast over the batch, and lists, take the general path with the same bits
     bc = robot.inverse_dynamics_derivatives(q[:1], v, x)
@@ -103,5 +119,7 @@ def test_bad_input_names_the_culprit():
         robot.forward_dynamics_derivatives(np.r_[q[:3], np.zeros(4), q[7:]], v, a)
     with pytest.raises(ValueError, match=r"tau has shape \(3,\)"):
         robot.forward_dynamics_derivatives(q, v, a[:3])
-    with pytest.raises(ValueError, match="no wrench"):
-        robot.inverse_dynamics_derivatives(q, v, a, wrench=np.ones(6))
+    with pytest.raises(ValueError, match="wrench"):
+        robot.inverse_dynamics_derivatives(q, v, a, wrench=np.ones(5))
+    with pytest.raises(ValueError, match="moves by its own dynamics"):
+        robot.forward_dynamics_derivatives(q, v, a, base_motion=sd.BaseMotion())

@@ -71,7 +71,8 @@ ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core fu
     **kinematics.ENTRY_POINTS,     # frames, Jacobians, center of mass, momentum (any robot)
 }
 SINGLE_STATE = ("rnea", "rnea_wrench", "crba", "fd", "planar_rnea", "planar_rnea_wrench",
-                "planar_crba", "regressor", "floating_regressor", "rnea_derivatives", "fd_derivatives",
+                "planar_crba", "regressor", "floating_regressor", "rnea_derivatives",
+                "fd_derivatives",
                 *floating.SINGLE_STATE, *floating_derivatives.SINGLE_STATE, *tree.SINGLE_STATE,
                 *tree_derivatives.SINGLE_STATE, *mimic.SINGLE_STATE)
 

@@ -14,7 +14,8 @@ its parent. The tip wrench is carried along the tip's path only (``P[i, TIPPATH]
 ``tree.tree_rnea_core``, so its tangents run along that path (TE, as the chain's T rows
 9-14). Forward dynamics: qdd by ``tree.tree_fd_core`` (its sparse factor L^T D L of M),
 then d tau at (q, qd, qdd), then -M^-1 d tau/d (q, qd) and M^-1 by solves with the
-factor, column by column (algorithms/derivatives.py).
+factor, every right-hand side at once (``cholesky.ltdl_solve_matrix``; each column's
+operations those of a solve of its own).
 """
 from numba import njit, types
 
@@ -163,8 +164,9 @@ def tree_fd_derivatives_core(P, sc, R, p, f, mo, IC, M, x, TM, TE, TF, last, X, 
     """d qdd/d q, d qdd/d qd, d qdd/d tau = -M^-1 d tau/d q, -M^-1 d tau/d qd, M^-1 at
     qdd = FD(q, qd, tau) of a tree (flags WRENCH, BASE; qd always read): qdd by
     ``tree_fd_core`` (which leaves the factor L^T D L in M), d tau at (q, qd, qdd), then
-    the 3n right-hand sides [d tau/d q, d tau/d qd, 1] (X, (n, 3n)) solved one by one
-    (x, (n,)); M^-1 mirrored from its upper triangle. Returns 0.0 or NaN."""
+    the 3n right-hand sides [d tau/d q, d tau/d qd, 1] (X, (n, 3n)) solved at once
+    (``ltdl_solve_minus``; x (n,): qdd); M^-1 mirrored from its upper triangle. Returns 0.0
+    or NaN."""
     n = x.shape[0]
     flags = (flags & (F.WRENCH | F.BASE)) | F.QD
     qdd = Minv[0]                        # scratch until M^-1 is written

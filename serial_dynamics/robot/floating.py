@@ -23,8 +23,8 @@ Beyond the dynamics: the Coriolis matrix (NOC in a frame turning with the base),
 regressor (the base's ten parameters first), both derivatives, dT/dq (the joints'; zeros on
 the base); compiled, the regressor and the derivatives are the fixed-base kernels on the
 instantaneous chain or tree with the base's columns added, one call a state
-(``core/regressor.floating_regressor``, ``core/floating_derivatives.py``). Not available on a floating base: a ``base_motion`` (the base moves by its own
-dynamics).
+(``core/regressor.floating_regressor``, ``core/floating_derivatives.py``). Not available
+on a floating base: a ``base_motion`` (the base moves by its own dynamics).
 """
 from __future__ import annotations
 
@@ -291,9 +291,7 @@ class Floating:
                       [kernel_rows(x) for x in (q, v, a, gw)], (flags,), (dq, dv),
                       DERIVATIVES_PARALLEL_MIN)
             return (dq[0], dv[0]) if single else (dq, dv)
-        if wrench is not None:
-            raise ValueError("the NumPy backend's derivatives of a floating base take no "
-                             "wrench: subtract J^T w from tau, or use the compiled backend")
+        _no_reference_wrench(wrench)
         v, a = np.broadcast_to(v, (N, nv)), np.array(np.broadcast_to(a, (N, nv)))
         g_b = np.einsum("nji,j->ni", R, self.model.gravity)
         a[:, :3] -= g_b                                             # gravity as acceleration
@@ -326,9 +324,7 @@ class Floating:
                       [kernel_rows(x) for x in (q, s["v"], s["tau"], gw)], (flags,),
                       out, DERIVATIVES_PARALLEL_MIN)
             return tuple(x[0] for x in out) if single else out
-        if wrench is not None:
-            raise ValueError("the NumPy backend's derivatives of a floating base take no "
-                             "wrench: subtract J^T w from tau, or use the compiled backend")
+        _no_reference_wrench(wrench)
         a = self.forward_dynamics(q, qd, tau)
         dq, dv = self.inverse_dynamics_derivatives(q, qd, a)
         Minv = np.linalg.inv(self.mass_matrix(q))
@@ -551,6 +547,12 @@ def _on_chain(P, q, v, a, tau, gw, flags, kind, out):
         else:
             status = max(status, K.floating_crba_batch(P, qv[:m], out[k:e]))
     return status
+
+
+def _no_reference_wrench(wrench):
+    if wrench is not None:
+        raise ValueError("the NumPy backend's derivatives of a floating base take no wrench: "
+                         "subtract J^T w from tau, or use the compiled backend")
 
 
 def _no_base_motion(base_motion):

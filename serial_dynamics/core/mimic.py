@@ -316,15 +316,25 @@ def _row(x, s):
     return x[min(s, x.shape[0] - 1)]
 
 
-def mimic_rnea_batch(P, q, qd, qdd, gw, Gm, flags, out):
-    """``mimic_rnea`` of N states (rows broadcast) into ``out`` (N, k)."""
+@njit(cache=True, inline="always")
+def _batch_lengths(P, Gm, q, rates, gw, out):
+    """``_lengths`` of a batch (N = out's rows, k its columns) whose rows q (k + 1 on a
+    floating base), the rates (k) and gw (GW) fit, one each or N; else (-1, -1)."""
     N, k = out.shape[0], out.shape[1]
     nv, nq = _lengths(P, Gm, q[0], k)
-    if (nv < 0 or not _rows_fit(N, k, (qd, qdd)) or not _rows_fit(N, nq - nv + k, (q,))
+    if (nv < 0 or not _rows_fit(N, k, rates) or not _rows_fit(N, nq - nv + k, (q,))
             or not _rows_fit(N, GW, (gw,))):
+        return -1, -1
+    return nv, nq
+
+
+def mimic_rnea_batch(P, q, qd, qdd, gw, Gm, flags, out):
+    """``mimic_rnea`` of N states (rows broadcast) into ``out`` (N, k)."""
+    nv, nq = _batch_lengths(P, Gm, q, (qd, qdd), gw, out)
+    if nv < 0:
         return BAD_LENGTH
     chk = 0.0
-    for s in range(N):
+    for s in range(out.shape[0]):
         chk += _rnea_frame(P, Gm, _row(q, s), _row(qd, s), _row(qdd, s), _row(gw, s), flags,
                            nq, nv, out[s])
     return status(chk)
@@ -344,13 +354,11 @@ def mimic_crba_batch(P, q, Gm, out):
 
 def mimic_fd_batch(P, q, qd, tau, gw, Gm, flags, out):
     """``mimic_fd`` of N states into ``out`` (N, k)."""
-    N, k = out.shape[0], out.shape[1]
-    nv, nq = _lengths(P, Gm, q[0], k)
-    if (nv < 0 or not _rows_fit(N, k, (qd, tau)) or not _rows_fit(N, nq - nv + k, (q,))
-            or not _rows_fit(N, GW, (gw,))):
+    nv, nq = _batch_lengths(P, Gm, q, (qd, tau), gw, out)
+    if nv < 0:
         return BAD_LENGTH
     chk = 0.0
-    for s in range(N):
+    for s in range(out.shape[0]):
         chk += _fd_frame(P, Gm, _row(q, s), _row(qd, s), _row(tau, s), _row(gw, s), nq, nv,
                          out[s])
     return status(chk)

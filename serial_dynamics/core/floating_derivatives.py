@@ -13,30 +13,31 @@ tree's derivatives d tau_t/d q, d tau_t/d qd (their base columns not used):
     d a/d q   = -M^-1 [0 | 0 | d tau_t/d q_joints] + [0 | E_3 [g_b]x | 0]   (M^-1 M E_3 = E_3)
     d a/d v   = -M^-1 d tau_t/d qd - dp/dv,        d a/d tau = M^-1
 
-A tip wrench w given in the world (flag WRENCH) reaches the tree as w_b = R^T w, which the
-turn also turns, by w_b x dtheta: d tau/d dtheta_c gains tau's wrench part at [f_b x e_c;
-m_b x e_c], -J^T of it, one Newton-Euler pass at rest each (``_wrench_turns``).
-
 (the q direction is the tangent of q, Pinocchio's q (+) dq: the base's [dp; dtheta] in the
 base frame, then the joints). Forward dynamics first solves for a by the Cholesky route
 (chains) or the sparse factor (trees), whose factor the solves then reuse; M itself is not
 needed there. A batch runs each state through the single-state code (the same bits).
 
-Entry points: as ``floating.py``'s (q (n+7), v, a (n+6), ``gw`` of which the wrench is not
-read; tau (n+6) or joint torques (n)); ``out`` (2, n+6, n+6) = (d tau/d q, d tau/d v) or
-(3, n+6, n+6) = (d a/d q, d a/d v, M^-1); batches (N, n+6, n+6) arrays. The trees' are
-``floating_tree_*`` (``dispatch.TreeTable``).
+A tip wrench w given in the world (flag WRENCH) reaches the tree as w_b = R^T w, which the
+turn also turns, by w_b x dtheta: d tau/d dtheta_c gains tau's wrench part at [f_b x e_c;
+m_b x e_c], -J^T of it, one Newton-Euler pass at rest each (``turned_wrench``; in the
+forward case added before the solves).
+
+Entry points: as ``floating.py``'s (q (n+7), v, a (n+6), ``gw``: the tip wrench, read with
+flag WRENCH, and gravity; tau (n+6) or joint torques (n)); ``out`` (2, n+6, n+6) =
+(d tau/d q, d tau/d v) or (3, n+6, n+6) = (d a/d q, d a/d v, M^-1); batches (N, n+6, n+6)
+arrays. The trees' are ``floating_tree_*`` (``dispatch.TreeTable``).
 """
 from numba import njit
 
 from . import flags as F
 from .crba import floating_crba_core
-from .rnea import floating_rnea_core
 from .data import new_chol, new_kin, scratch, stack_empty
 from .derivatives import derivatives_core, solve_minus
 from .floating import GW, fd_inputs, rnea_inputs
 from .forward import floating_cholesky_core
 from .layout import W_ACC, W_ALL
+from .rnea import floating_rnea_core
 from .signatures import In2, Out3, Pm, Vec, i8
 from .status import BAD_LENGTH, NOT_FINITE, OK, status
 from .tree import tree_crba_core, tree_fd_core, tree_rnea_core

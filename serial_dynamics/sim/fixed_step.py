@@ -55,10 +55,11 @@ class FixedStepIntegrator:
 
     METHODS = FIXED_STEP
     SERVO_METHODS = SERVO_METHODS
+    _kinds = {}        # sim/floating.py registers the integrator of a floating base
+
     def __new__(cls, robot, *args, **kwargs):
-        if cls is FixedStepIntegrator and on_a_group(robot):   # q on SE(3) x R^n: a chart
-            from .floating import FloatingStepIntegrator        # (a subclass: imported here)
-            cls = FloatingStepIntegrator
+        if cls is FixedStepIntegrator and on_a_group(robot):   # q on SE(3) x R^n
+            cls = FixedStepIntegrator._kinds["floating"]
         return super().__new__(cls)
 
     def __init__(self, robot, method="semi_implicit_euler", dt=1e-3, dissipation=True, *,

@@ -347,6 +347,9 @@ class _Constant:
         return self.tau, self.wrench
 
 
+FixedStepIntegrator._kinds["floating"] = FloatingStepIntegrator
+
+
 def run_floating(robot, duration, q0, v0, inputs, method, *, rtol, atol, dt, max_step,
                  first_step, dissipation, output_dt, check_energy, bar, position_limits=False):
     """``simulate`` for a floating robot (module docstring)."""

@@ -20,8 +20,8 @@ needed there. A batch runs each state through the single-state code (the same bi
 
 A tip wrench w given in the world (flag WRENCH) reaches the tree as w_b = R^T w, which the
 turn also turns, by w_b x dtheta: d tau/d dtheta_c gains tau's wrench part at [f_b x e_c;
-m_b x e_c], -J^T of it, one Newton-Euler pass at rest each (``turned_wrench``; in the
-forward case added before the solves).
+m_b x e_c], -J^T of it, one Newton-Euler pass at rest each (``_chain_wrench_turns``,
+``_tree_wrench_turns``; in the forward case added before the solves).
 
 Entry points: as ``floating.py``'s (q (n+7), v, a (n+6), ``gw``: the tip wrench, read with
 flag WRENCH, and gravity; tau (n+6) or joint torques (n)); ``out`` (2, n+6, n+6) =
@@ -38,7 +38,7 @@ from .floating import GW, fd_inputs, rnea_inputs
 from .forward import floating_cholesky_core
 from .layout import W_ACC, W_ALL
 from .rnea import floating_rnea_core
-from .signatures import In2, Out3, Pm, Vec, i8
+from .signatures import In2, Out3, Pm, Vec, i8, row, rows_fit
 from .status import BAD_LENGTH, NOT_FINITE, OK, status
 from .tree import tree_crba_core, tree_fd_core, tree_rnea_core
 from .tree_derivatives import Mat3, ltdl_solve_minus, tree_derivatives_core
@@ -119,6 +119,27 @@ def turned_wrench(w, c, y):
 
 
 @njit(cache=True, inline="always")
+def _chain_wrench_turns(P, d, qv, w, y, col, dq):
+    """dq[:, 3 + c] += tau's wrench part at ``turned_wrench`` c (the tip wrench turned with
+    the base), c = 0, 1, 2: Newton-Euler at rest on the instantaneous chain (col: scratch)."""
+    for c in range(3):
+        turned_wrench(w, c, y)
+        floating_rnea_core(P, d.sc, d.R, d.p, d.f, qv, qv, qv, y, F.WRENCH, col)
+        for i in range(col.shape[0]):
+            dq[i, 3 + c] += col[i]
+
+
+@njit(cache=True, inline="always")
+def _tree_wrench_turns(P, d, mo, qv, w, y, col, dq):
+    """``_chain_wrench_turns`` on the instantaneous tree."""
+    for c in range(3):
+        turned_wrench(w, c, y)
+        tree_rnea_core(P, d.sc, d.R, d.p, d.f, mo, qv, qv, qv, y, F.WRENCH, col)
+        for i in range(col.shape[0]):
+            dq[i, 3 + c] += col[i]
+
+
+@njit(cache=True, inline="always")
 def _clear_base(X):
     """The tree's base q columns are not used: zeros, before the solves."""
     for i in range(X.shape[0]):
@@ -135,12 +156,8 @@ def _chain_id(P, d, qv, w, qddv, M, T, Tf, dB, y, col, q, v, a, gw, flags, dq, d
                             dq, dv)
     floating_crba_core(P, d.R, d.p, M)
     base_columns(v, w, M, dq, dv)
-    if wf != 0:                          # the tip wrench turned with the base
-        for c in range(3):
-            turned_wrench(w, c, y)
-            floating_rnea_core(P, d.sc, d.R, d.p, d.f, qv, qv, qv, y, F.WRENCH, col)
-            for i in range(col.shape[0]):
-                dq[i, 3 + c] += col[i]
+    if wf != 0:
+        _chain_wrench_turns(P, d, qv, w, y, col, dq)
     return chk
 
 
@@ -154,12 +171,8 @@ def _chain_fd(P, d, c, qv, w, tv, qddv, T, Tf, dB, X, y, q, v, tau, gw, flags, d
     chk += derivatives_core(P, d.sc, d.R, d.p, d.f, T, Tf, dB, qv, v, qddv, w, ID_FLAGS | wf,
                             X[:, :n], X[:, n:2 * n])
     _clear_base(X)
-    if wf != 0:                          # the tip wrench turned with the base
-        for k in range(3):
-            turned_wrench(w, k, y)
-            floating_rnea_core(P, d.sc, d.R, d.p, d.f, qv, qv, qv, y, F.WRENCH, qddv)
-            for i in range(n):
-                X[i, 3 + k] += qddv[i]
+    if wf != 0:                          # before the solves (qddv: scratch now)
+        _chain_wrench_turns(P, d, qv, w, y, qddv, X[:, :n])
     solve_minus(c.M, X, dq, dv, Minv)
     base_columns_fd(v, w, dq, dv)
     return chk
@@ -189,12 +202,8 @@ def _tree_id(P, d, mo, TM, TE, TF, last, qv, w, qddv, IC, M, y, col, q, v, a, gw
                                  ID_FLAGS | wf, dq, dv)
     tree_crba_core(P, d.R, d.p, IC, M)
     base_columns(v, w, M, dq, dv)
-    if wf != 0:                          # the tip wrench turned with the base
-        for c in range(3):
-            turned_wrench(w, c, y)
-            tree_rnea_core(P, d.sc, d.R, d.p, d.f, mo, qv, qv, qv, y, F.WRENCH, col)
-            for i in range(col.shape[0]):
-                dq[i, 3 + c] += col[i]
+    if wf != 0:
+        _tree_wrench_turns(P, d, mo, qv, w, y, col, dq)
     return chk
 
 
@@ -209,12 +218,8 @@ def _tree_fd(P, d, c, mo, TM, TE, TF, last, qv, w, tv, qddv, IC, X, y, q, v, tau
     chk += tree_derivatives_core(P, d.sc, d.R, d.p, d.f, mo, TM, TE, TF, last, qv, v, qddv, w,
                                  ID_FLAGS | wf, X[:, :n], X[:, n:2 * n])
     _clear_base(X)
-    if wf != 0:                          # the tip wrench turned with the base
-        for k in range(3):
-            turned_wrench(w, k, y)
-            tree_rnea_core(P, d.sc, d.R, d.p, d.f, mo, qv, qv, qv, y, F.WRENCH, qddv)
-            for i in range(n):
-                X[i, 3 + k] += qddv[i]
+    if wf != 0:                          # before the solves (qddv: scratch now)
+        _tree_wrench_turns(P, d, mo, qv, w, y, qddv, X[:, :n])
     ltdl_solve_minus(P, c.M, X, dq, dv, Minv)
     base_columns_fd(v, w, dq, dv)
     return chk
@@ -231,14 +236,9 @@ def _bad_single(P, q, v, x, gw, out, k):
 
 @njit(cache=True, inline="always")
 def _bad_batch(P, q, v, x, gw, dq, fd):
-    nv = P.shape[0] - 1
-    N = dq.shape[0]
-    rows = (q.shape[0], v.shape[0], x.shape[0], gw.shape[0])
-    for r in rows:
-        if r != 1 and r != N:
-            return True
-    return (q.shape[1] != nv + 1 or v.shape[1] != nv or gw.shape[1] != GW
-            or not (x.shape[1] == nv or (fd and x.shape[1] == nv - 6)))
+    nv, N = P.shape[0] - 1, dq.shape[0]
+    return not (rows_fit(N, nv + 1, (q,)) and rows_fit(N, nv, (v,)) and rows_fit(N, GW, (gw,))
+                and (rows_fit(N, nv, (x,)) or (fd and rows_fit(N, nv - 6, (x,)))))
 
 
 def floating_rnea_derivatives(P, q, v, a, gw, flags, out):
@@ -260,11 +260,6 @@ def floating_fd_derivatives(P, q, v, tau, gw, flags, out):
                             out[0], out[1], out[2]))
 
 
-@njit(cache=True, inline="always")
-def _row(x, k):
-    return x[min(k, x.shape[0] - 1)]
-
-
 def floating_rnea_derivatives_batch(P, q, v, a, gw, flags, dq, dv):
     """``floating_rnea_derivatives`` of N states (rows broadcast) into (N, n+6, n+6)."""
     if _bad_batch(P, q, v, a, gw, dq, False):
@@ -272,8 +267,8 @@ def floating_rnea_derivatives_batch(P, q, v, a, gw, flags, dq, dv):
     d, qv, w, qddv, M, T, Tf, dB, y, col = _chain_id_scratch(P.shape[0] - 1)
     bad = OK
     for k in range(dq.shape[0]):
-        if _chain_id(P, d, qv, w, qddv, M, T, Tf, dB, y, col, _row(q, k), _row(v, k), _row(a, k),
-                     _row(gw, k), flags, dq[k], dv[k]) != 0.0:
+        if _chain_id(P, d, qv, w, qddv, M, T, Tf, dB, y, col, row(q, k), row(v, k), row(a, k),
+                     row(gw, k), flags, dq[k], dv[k]) != 0.0:
             bad = NOT_FINITE
     return bad
 
@@ -285,8 +280,8 @@ def floating_fd_derivatives_batch(P, q, v, tau, gw, flags, dq, dv, Minv):
     d, c, qv, w, tv, qddv, T, Tf, dB, X, y = _chain_fd_scratch(P.shape[0] - 1)
     bad = OK
     for k in range(dq.shape[0]):
-        if _chain_fd(P, d, c, qv, w, tv, qddv, T, Tf, dB, X, y, _row(q, k), _row(v, k),
-                     _row(tau, k), _row(gw, k), flags, dq[k], dv[k], Minv[k]) != 0.0:
+        if _chain_fd(P, d, c, qv, w, tv, qddv, T, Tf, dB, X, y, row(q, k), row(v, k),
+                     row(tau, k), row(gw, k), flags, dq[k], dv[k], Minv[k]) != 0.0:
             bad = NOT_FINITE
     return bad
 
@@ -331,8 +326,8 @@ def floating_tree_rnea_derivatives_batch(P, q, v, a, gw, flags, dq, dv):
     d, mo, TM, TE, TF, last, qv, w, qddv, IC, M, y, col = _tree_id_scratch(P.shape[0] - 1)
     bad = OK
     for k in range(dq.shape[0]):
-        if _tree_id(P, d, mo, TM, TE, TF, last, qv, w, qddv, IC, M, y, col, _row(q, k),
-                    _row(v, k), _row(a, k), _row(gw, k), flags, dq[k], dv[k]) != 0.0:
+        if _tree_id(P, d, mo, TM, TE, TF, last, qv, w, qddv, IC, M, y, col, row(q, k),
+                    row(v, k), row(a, k), row(gw, k), flags, dq[k], dv[k]) != 0.0:
             bad = NOT_FINITE
     return bad
 
@@ -343,8 +338,8 @@ def floating_tree_fd_derivatives_batch(P, q, v, tau, gw, flags, dq, dv, Minv):
     d, c, mo, TM, TE, TF, last, qv, w, tv, qddv, IC, X, y = _tree_fd_scratch(P.shape[0] - 1)
     bad = OK
     for k in range(dq.shape[0]):
-        if _tree_fd(P, d, c, mo, TM, TE, TF, last, qv, w, tv, qddv, IC, X, y, _row(q, k),
-                    _row(v, k), _row(tau, k), _row(gw, k), flags, dq[k], dv[k],
+        if _tree_fd(P, d, c, mo, TM, TE, TF, last, qv, w, tv, qddv, IC, X, y, row(q, k),
+                    row(v, k), row(tau, k), row(gw, k), flags, dq[k], dv[k],
                     Minv[k]) != 0.0:
             bad = NOT_FINITE
     return bad

@@ -30,7 +30,7 @@ from .data import new_poses, stack_empty
 from .joint import (PRISMATIC, REVOLUTE, cross, joint_transforms, world_column, world_column_rate,
                     world_joint_rate, world_rate)
 from .layout import H, IO, KIND, MASS, PARENT
-from .signatures import In1, In2, Out2, Out3, Pm, i8, internal
+from .signatures import In1, In2, Out2, Out3, Pm, i8, internal, row
 from .status import BAD_LENGTH, NOT_FINITE, OK
 
 
@@ -218,7 +218,7 @@ def frame_acceleration(P, q, qd, qdd, body, F, out):
     for s in range(N):
         if not root_and_bodies(P, ps, q[s], nb, body + 1):
             return NOT_FINITE
-        u, du = qd[min(s, qd.shape[0] - 1)], qdd[min(s, qdd.shape[0] - 1)]
+        u, du = row(qd, s), row(qdd, s)
         wx = wy = wz = bx = by = bz = ax = ay = az = 0.0
         if nb:
             wx, wy, wz = rotate(Rb, u[3], u[4], u[5])
@@ -288,7 +288,7 @@ def centroidal(P, q, qd, base, out):
     for s in range(N):
         if not root_and_bodies(P, ps, q[s], nb, n):
             return NOT_FINITE
-        u = qd[min(s, qd.shape[0] - 1)]
+        u = row(qd, s)
         ux, uy, uz = rotate(Rb, u[0], u[1], u[2]) if nb else (0.0, 0.0, 0.0)
         bx, by, bz = rotate(Rb, u[3], u[4], u[5]) if nb else (0.0, 0.0, 0.0)
         px, py, pz, lx, ly, lz = body_momentum(Rb, pb[0], pb[1], pb[2], ux, uy, uz, bx, by, bz,
@@ -393,7 +393,7 @@ def coriolis(P, q, qd, base, out):
     for s in range(N):
         if not root_and_bodies(P, ps, q[s], nb, n):
             return NOT_FINITE
-        u = qd[min(s, qd.shape[0] - 1)]
+        u = row(qd, s)
         C = out[s]
         for a in range(nv):
             for b in range(nv):

@@ -50,7 +50,7 @@ from .floating import GW, _chain_inputs, rnea_inputs
 from .joint import joint_transforms
 from .layout import ROOT, TREE, W_ALL
 from .rnea import floating_rnea_core, rnea_core
-from .signatures import In2, Mat, Out2, Out3, Pm, Vec, i8
+from .signatures import In2, Mat, Out2, Out3, Pm, Vec, i8, row, rows_fit
 from .status import BAD_LENGTH, status
 from .tree import tree_crba_core, tree_rnea_core
 
@@ -304,26 +304,13 @@ _fd_frame = njit(cache=True)(_fd_state.py_func)
 
 
 @njit(cache=True, inline="always")
-def _rows_fit(N, k, rows):
-    for x in rows:
-        if x.shape[1] != k or (x.shape[0] != N and x.shape[0] != 1):
-            return False
-    return True
-
-
-@njit(cache=True, inline="always")
-def _row(x, s):
-    return x[min(s, x.shape[0] - 1)]
-
-
-@njit(cache=True, inline="always")
 def _batch_lengths(P, Gm, q, rates, gw, out):
     """``_lengths`` of a batch (N = out's rows, k its columns) whose rows q (k + 1 on a
     floating base), the rates (k) and gw (GW) fit, one each or N; else (-1, -1)."""
     N, k = out.shape[0], out.shape[1]
     nv, nq = _lengths(P, Gm, q[0], k)
-    if (nv < 0 or not _rows_fit(N, k, rates) or not _rows_fit(N, nq - nv + k, (q,))
-            or not _rows_fit(N, GW, (gw,))):
+    if (nv < 0 or not rows_fit(N, k, rates) or not rows_fit(N, nq - nv + k, (q,))
+            or not rows_fit(N, GW, (gw,))):
         return -1, -1
     return nv, nq
 
@@ -335,7 +322,7 @@ def mimic_rnea_batch(P, q, qd, qdd, gw, Gm, flags, out):
         return BAD_LENGTH
     chk = 0.0
     for s in range(out.shape[0]):
-        chk += _rnea_frame(P, Gm, _row(q, s), _row(qd, s), _row(qdd, s), _row(gw, s), flags,
+        chk += _rnea_frame(P, Gm, row(q, s), row(qd, s), row(qdd, s), row(gw, s), flags,
                            nq, nv, out[s])
     return status(chk)
 
@@ -344,11 +331,11 @@ def mimic_crba_batch(P, q, Gm, out):
     """``mimic_crba`` of N configurations into ``out`` (N, k, k)."""
     N, k = out.shape[0], out.shape[1]
     nv, nq = _lengths(P, Gm, q[0], k)
-    if nv < 0 or out.shape[2] != k or not _rows_fit(N, nq - nv + k, (q,)):
+    if nv < 0 or out.shape[2] != k or not rows_fit(N, nq - nv + k, (q,)):
         return BAD_LENGTH
     chk = 0.0
     for s in range(N):
-        chk += _crba_frame(P, Gm, _row(q, s), nq, nv, out[s])
+        chk += _crba_frame(P, Gm, row(q, s), nq, nv, out[s])
     return status(chk)
 
 
@@ -359,7 +346,7 @@ def mimic_fd_batch(P, q, qd, tau, gw, Gm, flags, out):
         return BAD_LENGTH
     chk = 0.0
     for s in range(out.shape[0]):
-        chk += _fd_frame(P, Gm, _row(q, s), _row(qd, s), _row(tau, s), _row(gw, s), nq, nv,
+        chk += _fd_frame(P, Gm, row(q, s), row(qd, s), row(tau, s), row(gw, s), nq, nv,
                          out[s])
     return status(chk)
 

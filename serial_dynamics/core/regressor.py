@@ -37,7 +37,8 @@ from .joint import add_rate, joint_transforms
 from .layout import G, KIND, PARENT, W_ACC, W_ALL, WIDTH
 from .rnea import outward_step
 from .status import BAD_LENGTH, status
-from .signatures import D2, D3, In1, In2, Mat, Out2, Out3, Pm, Vec, f8, i8, internal
+from .signatures import (D2, D3, In1, In2, Mat, Out2, Out3, Pm, Vec, f8, i8, internal, row,
+                         rows_fit)
 from .spatial import finite, to_child
 
 AR, AID = WIDTH, WIDTH + 9
@@ -240,17 +241,15 @@ def floating_regressor(L, q, v, a, gw, flags, out):
 def floating_regressor_batch(L, q, v, a, gw, flags, out):
     """``floating_regressor`` of N states (rows broadcast) into ``out`` (N, n+6, p)."""
     nv, N = L.shape[0] - 1, out.shape[0]
-    for x, m in ((q, nv + 1), (v, nv), (a, nv), (gw, GW)):
-        if x.shape[1] != m or (x.shape[0] != N and x.shape[0] != 1):
-            return BAD_LENGTH
-    if out.shape[1] != nv or out.shape[2] != _floating_columns(nv, flags):
+    if (not rows_fit(N, nv + 1, (q,)) or not rows_fit(N, nv, (v, a))
+            or not rows_fit(N, GW, (gw,)) or out.shape[1] != nv
+            or out.shape[2] != _floating_columns(nv, flags)):
         return BAD_LENGTH
     Yv, qv, w, qddv, d, V, S = _floating_scratch(nv, flags)
     bad = 0.0
     for k in range(N):
-        bad += _floating_one(L, Yv, qv, w, qddv, d, V, S, q[min(k, q.shape[0] - 1)],
-                             v[min(k, v.shape[0] - 1)], a[min(k, a.shape[0] - 1)],
-                             gw[min(k, gw.shape[0] - 1)], flags, out[k])
+        bad += _floating_one(L, Yv, qv, w, qddv, d, V, S, row(q, k), row(v, k), row(a, k),
+                             row(gw, k), flags, out[k])
     return status(bad)
 
 

@@ -64,3 +64,20 @@ Out3 = types.Array(f8, 3, "A")
 D1 = types.Array(f8, 1, "C")                     # Data (core/data.py): always C-contiguous,
 D2 = types.Array(f8, 2, "C")                     # which keeps the many scratch accesses
 D3 = types.Array(f8, 3, "C")                     # cheap (no run-time strides)
+
+
+# A batch argument (In2) has N rows, or one row that stands for every state of the batch.
+@njit(cache=True, inline="always")
+def row(x, k):
+    """Row k of a batch argument: its own row, or its one row broadcast over the batch."""
+    return x[min(k, x.shape[0] - 1)]
+
+
+@njit(cache=True, inline="always")
+def rows_fit(N, width, arrays):
+    """Whether each batch argument in the tuple ``arrays`` has ``width`` columns and N rows
+    or one."""
+    for x in arrays:
+        if x.shape[1] != width or (x.shape[0] != N and x.shape[0] != 1):
+            return False
+    return True

@@ -44,7 +44,7 @@ from ..core.layout import TREE as TREE_FLAG
 from ..core import flags as F
 from ..core.layout import B, W_ALL
 from ..core.layout import pack as layout_pack
-from ..core.regressor import ARMATURE_COLUMNS, FRICTION_COLUMNS, regressor_layout
+from ..core.regressor import regressor_layout
 from ..model import Model
 from .batches import kernel_rows, run_split
 from . import regressor
@@ -81,10 +81,12 @@ class Floating:
         # instantaneous chain or tree
         self._compiled = self._k is not None
         self._fd_auto = _FD_FLAGS["aba" if aba_by_default(model, True) else "cholesky"]
-        chain = virtual_chain(model) if self._compiled else None
-        self._chain = layout_pack(chain, root=6) if self._compiled else None
-        # regressor(): the instantaneous tree's layout with its link frames (core/regressor.py)
-        self._regressor_layout = regressor_layout(self._chain, chain.A) if self._compiled else None
+        self._chain = self._regressor_layout = None
+        if self._compiled:
+            chain = virtual_chain(model)
+            self._chain = layout_pack(chain, root=6)
+            # regressor(): the instantaneous tree's layout with its link frames
+            self._regressor_layout = regressor_layout(self._chain, chain.A)
         self._gw = np.concatenate((np.zeros(6), model.gravity))   # core/floating.py's gw
         I = model.base_I_O       # the base body in core/kinematics.py's layout
         self._base = np.r_[model.base_mass, model.base_h,
@@ -231,9 +233,8 @@ class Floating:
         reference: ``algorithms/floating.regressor``."""
         friction, arm = regressor.check_friction(friction), regressor.armature_on(self, armature)
         if self._compiled:
-            flags = (ARMATURE_COLUMNS if arm else 0) | (FRICTION_COLUMNS if friction else 0)
-            n = self.model.dof
-            p = 10 * (n + 1) + (n if arm else 0) + (3 * n if friction else 0)
+            flags, p = regressor.kernel_columns(self.model.dof, arm, friction)
+            p += 10                                       # the base's ten columns first
             o = _empty((self._nv, p))                     # the single-state fast path
             if CHAIN.floating_regressor(self._regressor_layout, q, qd, qdd, self._gw, flags,
                                         o) == OK:

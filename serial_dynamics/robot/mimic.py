@@ -87,6 +87,7 @@ class Mimic:
             self._v_parent_whole)
         self._Pk = self._chain if model.floating else self._P
         self._gwk = self._gw if model.floating else np.zeros(GW)
+        self._rest = np.zeros(self.nv)     # gravity_torques' rates (read, never written)
 
     # ------------------------------------------------------------- description
     dof = property(lambda self: self._view.dof)
@@ -229,12 +230,12 @@ class Mimic:
 
     def gravity_torques(self, q, out=None):
         if self._k is not None:          # mimic_rnea at zero rates (flags 0: neither read)
-            zero = _zeros(self.nv)
+            rest = self._rest
             o = _empty(self.nv) if out is None else out
-            if self._k.mimic_rnea(self._Pk, self._Gm, q, zero, zero, self._gwk, 0, o) == OK:
+            if self._k.mimic_rnea(self._Pk, self._Gm, q, rest, rest, self._gwk, 0, o) == OK:
                 return o
             return _into(out, self._batch(self._k.mimic_rnea_batch,
-                                          (("q", q), ("qd", zero), ("qdd", zero)), (0,),
+                                          (("q", q), ("qd", rest), ("qdd", rest)), (0,),
                                           (self.nv,)))
         _, _, (q,) = self._all(("q", q))
         return _into(out, self._reduce(super().gravity_torques(q)))
@@ -366,7 +367,7 @@ class Mimic:
 
 _F8 = np.dtype(np.float64)
 _QD_QDD = F.QD | F.QDD
-_empty, _zeros = np.empty, np.zeros
+_empty = np.empty
 _MIMIC_KERNELS = ("mimic_rnea", "mimic_crba", "mimic_fd")
 
 

@@ -125,8 +125,7 @@ def regressor(robot, q, qd, qdd, friction=False, armature=None):
     friction, arm = check_friction(friction), arm if armature is None else armature_on(robot, armature)
     if L is not None:
         n = robot._n
-        p = 10 * n + (n if arm else 0) + (3 * n if friction else 0)
-        flags = (ARMATURE_COLUMNS if arm else 0) | (FRICTION_COLUMNS if friction else 0)
+        flags, p = kernel_columns(n, arm, friction)
         N = _plain_batch(n, q, qd, qdd)       # float64 (N, n) arrays: the batch kernel, checked there
         if N:
             Y = _empty((N, n, p))
@@ -143,6 +142,13 @@ def regressor(robot, q, qd, qdd, friction=False, armature=None):
     if friction:
         Y = np.concatenate([Y, friction_columns(qd)], axis=-1)
     return Y
+
+
+def kernel_columns(n, arm, friction):
+    """(the regressor kernels' flags, p) of n joints' columns: each body's ten, then the
+    armature's n and the friction's 3 n as asked (core/regressor.py)."""
+    flags = (ARMATURE_COLUMNS if arm else 0) | (FRICTION_COLUMNS if friction else 0)
+    return flags, 10 * n + (n if arm else 0) + (3 * n if friction else 0)
 
 
 def friction_columns(qd):

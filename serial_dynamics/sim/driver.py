@@ -36,7 +36,7 @@ from .adaptive import run_adaptive
 from .equations import Inputs
 from .compiled_run import run_compiled
 from .fixed_step import run_fixed
-from .floating import FLOATING_FIXED_STEP, FLOATING_METHODS, run_floating
+from .group import run_on_group
 from .jacobians import check_jacobian
 from .methods import DEFAULT_ATOL, DEFAULT_DT, DEFAULT_RTOL, FIXED_STEP, METHODS, on_a_group
 from .progress import Progress
@@ -125,7 +125,7 @@ def with_link_wrenches(robot, torque_fn, wrenches, q0, qd0):
     """``torque_fn`` plus the generalized forces sum_k J_k(q)^T w_k of ``wrenches`` (each a
     (6,) wrench or a callable of (t, q, qd)), checked once at the initial state. On a
     floating base the sum has nv = n + 6 entries: the joint torques come after six zeros
-    (sim/floating.py takes the first six as forces on the base)."""
+    (sim/group.py takes the first six as forces on the base)."""
     pad = np.zeros(robot.nv - robot.dof)
     if not isinstance(wrenches, dict):
         raise ValueError(f"wrenches must be a dict {{link: wrench or callable}}; got "
@@ -196,8 +196,8 @@ def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853"
                              + f"one per joint ({n}: {robot.joint_names})")
         if not np.all(np.isfinite(x)):
             raise ValueError(f"{name} has a NaN or Inf entry")
-    if on_a_group(robot):           # the pose on SE(3): sim/floating.py
-        check_floating(method, position_limits, base_motion, dt, rtol, atol)
+    if on_a_group(robot):           # q on a group, stepped in the robot's chart: sim/group.py
+        check_on_group(method, position_limits, base_motion, dt, rtol, atol)
     qj = q0[q0.shape[0] - n:]                       # the joints (after a floating base's pose)
     outside = np.flatnonzero((qj < robot.lower) | (qj > robot.upper)) if position_limits else []
     if len(outside):
@@ -218,8 +218,8 @@ def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853"
     start = time.perf_counter()
     try:
         if on_a_group(robot):
-            fixed = method in FLOATING_FIXED_STEP
-            out = run_floating(robot, duration, robot.integrate(q0, np.zeros(robot.nv), 0.0),
+            fixed = method in FIXED_STEP
+            out = run_on_group(robot, duration, robot.integrate(q0, np.zeros(robot.nv), 0.0),
                                qd0, inputs, method, dt=(DEFAULT_DT if dt is None else float(dt)),
                                rtol=None if fixed else (DEFAULT_RTOL if rtol is None else rtol),
                                atol=None if fixed else (DEFAULT_ATOL if atol is None else atol),
@@ -258,18 +258,15 @@ def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853"
     return out
 
 
-def check_floating(method, position_limits, base_motion, dt, rtol, atol):
-    """What a floating base cannot do, named (sim/floating.py)."""
-    if method not in FLOATING_METHODS:
-        raise ValueError(f"method {method!r} is not available for a floating base; use one of "
-                         f"{list(FLOATING_METHODS)}")
+def check_on_group(method, position_limits, base_motion, dt, rtol, atol):
+    """What a floating base (q on a group, sim/group.py) cannot do, named."""
     if base_motion is not None:
         raise ValueError("base_motion is not available for a floating base (its base moves "
                          "by its own dynamics)")
-    if position_limits and method not in FLOATING_FIXED_STEP:
+    if position_limits and method not in FIXED_STEP:
         raise ValueError(f"position_limits needs a fixed-step method "
-                         f"{list(FLOATING_FIXED_STEP)}: {method!r} has no impact events")
-    if method in FLOATING_FIXED_STEP and (rtol is not None or atol is not None):
+                         f"{list(FIXED_STEP)}: {method!r} has no impact events")
+    if method in FIXED_STEP and (rtol is not None or atol is not None):
         raise ValueError(f"{method!r} is a fixed-step method: give dt, not rtol/atol")
-    if method not in FLOATING_FIXED_STEP and dt is not None:
+    if method not in FIXED_STEP and dt is not None:
         raise ValueError(f"{method!r} is adaptive: give rtol/atol, not dt")

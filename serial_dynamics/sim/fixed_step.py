@@ -12,6 +12,7 @@ import numpy as np
 
 from .equations import EnergyGuard, Equations, Inputs, StepStart
 from .explicit import euler_update, rk4, semi_implicit_euler
+from .group import GroupStepIntegrator
 from .implicit import implicit_midpoint
 from .jacobians import analytical
 from .methods import FIXED_STEP, on_a_group
@@ -32,6 +33,8 @@ class FixedStepIntegrator:
 
     ``step(q, qd, tau, wrench=None) -> (q, qd)`` advances (n,) states by ``dt`` seconds
     with the robot's dissipation added when ``dissipation`` is true (or a ``Dissipation``).
+    Where q lives on a group (nq > nv: a floating base's quaternion) the constructor gives
+    ``group.GroupStepIntegrator``, with this interface, stepping in the robot's chart.
 
     Methods: "semi_implicit_euler" (velocity first, then position with the new velocity;
     one dynamics call a step; symplectic only for a constant mass matrix: its energy error
@@ -55,11 +58,10 @@ class FixedStepIntegrator:
 
     METHODS = FIXED_STEP
     SERVO_METHODS = SERVO_METHODS
-    _kinds = {}        # sim/floating.py registers the integrator of a floating base
 
     def __new__(cls, robot, *args, **kwargs):
-        if cls is FixedStepIntegrator and on_a_group(robot):   # q on SE(3) x R^n
-            cls = FixedStepIntegrator._kinds["floating"]
+        if on_a_group(robot):         # q on a group: the steps in the robot's chart (group.py)
+            return GroupStepIntegrator(robot, *args, **kwargs)
         return super().__new__(cls)
 
     def __init__(self, robot, method="semi_implicit_euler", dt=1e-3, dissipation=True, *,

@@ -13,7 +13,7 @@ DEFAULT_RTOL, DEFAULT_ATOL, DEFAULT_DT = 1e-6, 1e-9, 1e-3
 
 def on_a_group(robot) -> bool:
     """Whether q has coordinates beyond v's (nq > nv: a floating base's unit quaternion), so
-    that q moves on a Lie group, in a chart (``floating.py``), not as q + dt v: what sim/
+    that q moves on a Lie group, in the robot's chart (``group.py``), not as q + dt v: what sim/
     asks of the configuration space instead of the kind of robot."""
     return robot.nq != robot.nv
 

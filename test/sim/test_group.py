@@ -1,11 +1,13 @@
-"""Simulation of a floating base (sim/floating.py): conservation laws in zero gravity, unit
-quaternions, the node's integrator, refused options."""
+"""Simulation on a group in the robot's chart (sim/group.py): a floating base's conservation
+laws in zero gravity, unit quaternions, the node's integrator, refused options; and the same
+steps on R^n (a fixed base's Euclidean chart) against sim/'s own integrators."""
 import numpy as np
 import pytest
 
 import serial_dynamics as sd
 from serial_dynamics.robots.synthetic import satellite_urdf
 from serial_dynamics.sim.fixed_step import FixedStepIntegrator
+from serial_dynamics.sim.group import GroupStepIntegrator, run_on_group
 
 
 @pytest.fixture(scope="module")
@@ -196,3 +198,39 @@ def test_symplectic_euler_on_a_floating_base(satellite):
         q, v = integ.step(q, v, tau)
         np.testing.assert_array_equal(q, res.q[k + 1])
         np.testing.assert_array_equal(v, res.qd[k + 1])
+
+
+def test_the_group_steps_ask_only_the_chart():
+    """sim/group.py on a fixed-base arm, whose chart is R^n (q = phi, C = 1): nothing in it
+    asks what the chart is, so its steps are those of sim/'s integrators for R^n. RK4 and
+    semi-implicit Euler take the same operations (the same bits after 200 steps);
+    symplectic Euler (momentum form, a fixed point) and the implicit midpoint rule (Newton
+    with differences against the analytical Jacobian) agree to their tolerances; DOP853 in
+    one chart agrees with sim/adaptive.py to its tolerance."""
+    ur5e = sd.default_robot()
+    assert isinstance(FixedStepIntegrator(ur5e), FixedStepIntegrator)
+    assert isinstance(FixedStepIntegrator(sd.load_urdf(satellite_urdf())), GroupStepIntegrator)
+    q0, v0 = ur5e.random_state(3)
+    tau = ur5e.gravity_torques(q0) + np.linspace(-0.2, 0.2, 6)
+    for method, steps, tol in (("rk4", 200, 0.0), ("semi_implicit_euler", 200, 0.0),
+                               ("symplectic_euler", 200, 1e-10), ("implicit_midpoint", 20, 1e-8)):
+        a = FixedStepIntegrator(ur5e, method, 1e-3, dissipation=False)
+        b = GroupStepIntegrator(ur5e, method, 1e-3, dissipation=False)
+        qa, va, qb, vb = q0, v0, q0, v0
+        for _ in range(steps):
+            qa, va = a.step(qa, va, tau)
+            qb, vb = b.step(qb, vb, tau)
+        assert np.max(np.abs(np.r_[qa - qb, va - vb])) <= tol, method
+    ref = sd.simulate(ur5e, 0.5, q0, v0, torque=tau, method="DOP853", rtol=1e-11, atol=1e-11,
+                      dissipation=False)
+    res = run_on_group(ur5e, 0.5, q0, v0, ref_inputs(tau), "DOP853", rtol=1e-11, atol=1e-11,
+                       dt=None, max_step=np.inf, first_step=None, dissipation=False,
+                       output_dt=None, check_energy=False, bar=lambda t: None)
+    assert res.stats.message == "ok; 1 chart of R^n"
+    np.testing.assert_allclose(res.q[-1], ref.q[-1], atol=1e-8)
+    np.testing.assert_allclose(res.qd[-1], ref.qd[-1], atol=1e-8)
+
+
+def ref_inputs(tau):
+    from serial_dynamics.sim.equations import Inputs
+    return Inputs(lambda t, q, qd: tau, None, None, False)

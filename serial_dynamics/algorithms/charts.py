@@ -26,6 +26,7 @@ class Euclidean:
     """R^n: q = phi, C = 1 (a fixed base: the joints are the coordinates)."""
 
     group = "R^n"
+    base_names = ((), ())    # q's and v's coordinates before the joints': none
 
     def centre(self, q):
         """phi of q in the chart around q itself: q."""
@@ -74,6 +75,8 @@ class FreeFlyer:
     round-off; the chart is singular at |dtheta| = 2 pi, so integrators re-centre it."""
 
     group = "SE(3)"
+    base_names = (("base_x", "base_y", "base_z", "base_qx", "base_qy", "base_qz", "base_qw"),
+                  ("base_vx", "base_vy", "base_vz", "base_wx", "base_wy", "base_wz"))
     LIMIT = 1.0          # rad: ``far`` beyond this turn, well short of the singularity
 
     def centre(self, q):

@@ -204,6 +204,10 @@ class GroupStepIntegrator:
             dv = np.linalg.solve(A, g - vb)
             vb, scale = vb + dv, 1.0 + np.max(np.abs(vb))
             change = np.max(np.abs(dv))
+            if not np.isfinite(change):   # an overflow: the next call would see NaN
+                raise SimulationError(f"symplectic Euler: the fixed-point iteration diverged "
+                                      f"at t = {t:.6g} s. {advice(self.method, dt)}", t, None,
+                                      "newton")
             if change <= SYMPLECTIC_TOL * scale or (change >= prev and change <= ROUNDOFF * scale):
                 break                     # converged, or round-off that stops shrinking
             prev = change

@@ -52,6 +52,7 @@ class SimulationResult:
     work_external: np.ndarray
     stats: SolverStats
     joint_names: list = field(default_factory=list)
+    base_names: tuple = ((), ())     # q's and qd's coordinates before the joints (robot.chart)
 
     method = property(lambda self: self.stats.method)
 
@@ -85,12 +86,10 @@ class SimulationResult:
 
     def columns(self):
         """(header, table) with t, q_*, qd_*, tau_*, delta_*, energies and works."""
-        names = self.joint_names or [f"j{i}" for i in range(self.q.shape[1])]
-        base = self.q.shape[1] - len(names) == 7          # a floating base: its pose, twist
-        q_names = ["base_x", "base_y", "base_z", "base_qx", "base_qy", "base_qz", "base_qw"]
-        v_names = ["base_vx", "base_vy", "base_vz", "base_wx", "base_wy", "base_wz"]
-        head = (["t"] + [f"q_{j}" for j in (q_names if base else []) + names]
-                + [f"qd_{j}" for j in (v_names if base else []) + names]
+        names = self._names()
+        q_names, v_names = (list(b) for b in self.base_names)
+        head = (["t"] + [f"q_{j}" for j in q_names + names]
+                + [f"qd_{j}" for j in v_names + names]
                 + [f"tau_{j}" for j in names] + [f"delta_{j}" for j in names]
                 + ["kinetic", "potential", "energy", "work_actuators", "work_dissipation",
                    "work_external"])
@@ -98,6 +97,9 @@ class SimulationResult:
                                  self.potential, self.energy, self.work_actuators,
                                  self.work_dissipation, self.work_external])
         return head, table
+
+    def _names(self):
+        return self.joint_names or [f"j{i}" for i in range(self.tau.shape[1])]
 
     def to_csv(self, path):
         head, table = self.columns()
@@ -109,10 +111,10 @@ class SimulationResult:
         if path is not None:
             matplotlib.use("Agg", force=False)
         import matplotlib.pyplot as plt
-        names = self.joint_names or [f"j{i}" for i in range(self.q.shape[1])]
+        names, nqb = self._names(), len(self.base_names[0])
         fig, ax = plt.subplots(3, 1, figsize=(9, 9), sharex=True)
-        for j, name in enumerate(names):
-            line, = ax[0].plot(self.t, self.q[:, j], label=name)
+        for j, name in enumerate(names):                  # the joints (after a base's pose)
+            line, = ax[0].plot(self.t, self.q[:, nqb + j], label=name)
             ax[1].plot(self.t, self.tau[:, j], color=line.get_color(), label=f"tau {name}")
             if np.any(self.delta[:, j]):
                 ax[1].plot(self.t, self.delta[:, j], color=line.get_color(), ls="--", lw=0.8)
@@ -153,4 +155,4 @@ def finish(eq, ts, Q, QD, QDD, TAU, DELTA, W, stats, names):
     stats.dynamics_calls, stats.dynamics_states = eq.calls, eq.states
     return SimulationResult(np.asarray(ts), Q, QD, np.asarray(QDD), np.asarray(TAU),
                             np.asarray(DELTA), kinetic, potential, W[:, 0], W[:, 1], W[:, 2],
-                            stats, list(names))
+                            stats, list(names), robot.chart.base_names)

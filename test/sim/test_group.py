@@ -41,6 +41,15 @@ def test_a_driven_arm_keeps_the_total_momentum(satellite):
     assert len(head) == table.shape[1] and head[1:9] == ["q_base_x", "q_base_y", "q_base_z",
                                                          "q_base_qx", "q_base_qy", "q_base_qz",
                                                          "q_base_qw", "q_joint1"]
+    assert head[1 + satellite.nq:1 + satellite.nq + 7] == ["qd_base_vx", "qd_base_vy",
+                                                          "qd_base_vz", "qd_base_wx",
+                                                          "qd_base_wy", "qd_base_wz",
+                                                          "qd_joint1"]
+    import matplotlib
+    matplotlib.use("Agg")
+    lines = res.plot(title="satellite").axes[0].lines          # the joints, not the pose
+    assert [ln.get_label() for ln in lines] == satellite.joint_names
+    np.testing.assert_array_equal(lines[0].get_ydata(), res.q[:, 7])
 
 
 def test_a_free_tumble_keeps_kinetic_energy_and_momentum_across_charts(satellite):
@@ -198,6 +207,17 @@ def test_symplectic_euler_on_a_floating_base(satellite):
         q, v = integ.step(q, v, tau)
         np.testing.assert_array_equal(q, res.q[k + 1])
         np.testing.assert_array_equal(v, res.qd[k + 1])
+
+
+def test_a_diverging_symplectic_step_is_a_simulation_error():
+    """A step too long for the fixed point (10 ms on the satellite in gravity, driven): its
+    iterates overflow; the run stops with SimulationError and advice, not a NaN error."""
+    sat = sd.load_urdf(satellite_urdf())
+    v0 = np.r_[0.1, -0.2, 0.05, 0.3, -0.5, 0.8, np.linspace(-0.5, 0.5, 7)]
+    with np.errstate(all="ignore"), pytest.raises(sd.SimulationError,
+                                                  match="fixed-point iteration diverged at t"):
+        sd.simulate(sat, 1.0, sat.neutral(), v0, torque=np.linspace(1.0, -1.0, 7),
+                    method="symplectic_euler", dt=1e-2)
 
 
 def test_the_group_steps_ask_only_the_chart():

@@ -580,8 +580,6 @@ class FloatingMimicRobot(Mimic, Floating, Robot):
     """A floating base with mimic joints (a humanoid's or a hand's fingers): mimic.py's
     reduction around floating.py's algorithms, q = [base pose; independent joints]."""
 
-    kinetic_energy_gradient = Floating.kinetic_energy_gradient    # refused, as Floating's
-
     def inverse_dynamics_derivatives(self, q, qd, qdd, wrench=None, base_motion=None):
         """G^T (d tau_all/d x_all) G, x = q (tangent), v (Mimic's forward derivatives solve
         with these and the reduced M)."""

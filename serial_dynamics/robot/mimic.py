@@ -331,9 +331,9 @@ class Mimic:
         return super().centroidal_momentum(q, qd)
 
     def kinetic_energy_gradient(self, q, qd):
-        """dT_r/dq_r = G^T dT/dq(G q_r + o, G qd_r)."""
-        return self._reduce(super().kinetic_energy_gradient(self.all_joint_positions(q),
-                                                            self.all_joint_velocities(qd)))
+        """dT_r/dq_r = G^T dT/dq(G q_r + o, G qd_r) (a floating base's rows: zeros)."""
+        _, _, (q, qd) = self._all(("q", q), ("qd", qd))
+        return self._reduce(super().kinetic_energy_gradient(q, qd))
 
     compiled_chain = None    # sim/'s whole-step kernels know no mimic constraint
 

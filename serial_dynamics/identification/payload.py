@@ -83,8 +83,9 @@ def estimate_payload(robot, t, q, tau, qd=None, qdd=None, link=None, cutoff=None
     known (any payload attached to it is ignored: the estimate replaces it). ``cutoff``,
     ``decimate``: the filter, as ``identify``. Module docstring for the method."""
     if robot.is_floating:
-        raise NotImplementedError("estimate_payload needs the regressor, which a floating "
-                                  "base does not have yet")
+        raise NotImplementedError("estimate_payload is for a fixed base: it fits the joints' "
+                                  "measured torques, and a floating base's own six rows "
+                                  "carry none (load the arm with a fixed base)")
     arm = robot.without_payload()
     link = robot.tip_link if link is None else link
     if link not in arm.model.frames or arm.model.frames[link][0] < 0:

@@ -10,10 +10,11 @@ A chart around a reference configuration q_ref gives coordinates phi (nv,) with
 Lubich & Wanner, *Geometric Numerical Integration*, 2006, Sec. IV.8). The joints' coordinates
 of phi are the joint positions themselves, so on R^n the chart is q = phi, C = 1.
 
-A Lagrangian step in the chart (the momentum form of symplectic Euler) needs more of C: its
-action C(0) v at the centre, C(0)^-T f on a force (or a momentum), C(phi)^T pi, and the chart's
-part of dT/dphi at phi = 0 (T = 1/2 v^T M v with v = C^-1 phi': what C's dependence on phi
-adds to ``robot.kinetic_energy_gradient``). Each method says its formula once.
+A Lagrangian step in the chart (the momentum form of symplectic Euler) needs more of C: at the
+centre (``at_centre(q)``, made once a step) C(0) v, C(0)^-T f on a force (or a momentum) and
+C(0)^T pi; C(phi)^T pi elsewhere; and the chart's part of dT/dphi at phi = 0 (T = 1/2 v^T M v
+with v = C^-1 phi': what C's dependence on phi adds to ``robot.kinetic_energy_gradient``).
+Each method says its formula once.
 """
 import math
 
@@ -44,16 +45,12 @@ class Euclidean:
         """d phi/dt = v."""
         return v.copy()
 
-    def vector(self, q, v):
-        """C(0) v = v."""
-        return v
-
-    def covector(self, q, f):
-        """C(0)^-T f = f."""
-        return f
+    def at_centre(self, q):
+        """C(0) = 1."""
+        return IDENTITY
 
     def transposed(self, q, phi, pi):
-        """C(phi)^T pi = pi (phi None: at the centre)."""
+        """C(phi)^T pi = pi."""
         return pi
 
     def gradient(self, v, h):
@@ -120,19 +117,14 @@ class FreeFlyer:
         out[6:] = v[6:]
         return out
 
-    def vector(self, q, v):
-        """C(0) v = [R v_O; omega; qd]."""
-        return np.concatenate([rotation(q) @ v[:3], v[3:]])
-
-    def covector(self, q, f):
-        """C(0)^-T f = [R f_lin; f_ang; f_joints] (R^-T = R)."""
-        return np.concatenate([rotation(q) @ f[:3], f[3:]])
+    def at_centre(self, q):
+        """C(0) = diag(R, 1, 1) at q (J_r(0) = 1)."""
+        return Rotated(rotation(q))
 
     def transposed(self, q, phi, pi):
-        """C(phi)^T pi = [R(q)^T pi_lin; J_r(dtheta)^-T pi_ang; pi_joints], q = q(phi);
-        phi None: at the centre (J_r = 1)."""
-        ang = pi[3:6] if phi is None else np.linalg.solve(right_jacobian(phi[3:6]).T, pi[3:6])
-        return np.concatenate([rotation(q).T @ pi[:3], ang, pi[6:]])
+        """C(phi)^T pi = [R(q)^T pi_lin; J_r(dtheta)^-T pi_ang; pi_joints], q = q(phi)."""
+        return np.concatenate([rotation(q).T @ pi[:3],
+                               np.linalg.solve(right_jacobian(phi[3:6]).T, pi[3:6]), pi[6:]])
 
     def gradient(self, v, h):
         """The chart's part of dT/dphi at phi = 0, h = M v: h_lin x v_O - omega x h_ang / 2
@@ -141,6 +133,38 @@ class FreeFlyer:
         out = np.zeros(v.shape[0])
         out[3:6] = np.cross(h[:3], v[:3]) - 0.5 * np.cross(v[3:6], h[3:6])
         return out
+
+
+class Identity:
+    """C(0) = 1: a vector, a covector and a transpose are what they act on."""
+
+    def vector(self, v):
+        return v
+
+    def covector(self, f):
+        return f
+
+    def transposed(self, pi):
+        return pi
+
+
+class Rotated:
+    """C(0) = diag(R, 1, 1) (a free-flyer chart at its centre, R the base's rotation)."""
+
+    def __init__(self, R):
+        self.R = R
+
+    def vector(self, v):
+        """C(0) v = [R v_O; omega; qd]."""
+        return np.concatenate([self.R @ v[:3], v[3:]])
+
+    def covector(self, f):
+        """C(0)^-T f = [R f_lin; f_ang; f_joints] (R^-T = R)."""
+        return np.concatenate([self.R @ f[:3], f[3:]])
+
+    def transposed(self, pi):
+        """C(0)^T pi = [R^T pi_lin; pi_ang; pi_joints]."""
+        return np.concatenate([self.R.T @ pi[:3], pi[3:]])
 
 
 def rotation(q):
@@ -161,4 +185,4 @@ def right_jacobian(x):
     return np.eye(3) - a * X + b * (X @ X)
 
 
-EUCLIDEAN, FREE_FLYER = Euclidean(), FreeFlyer()
+EUCLIDEAN, FREE_FLYER, IDENTITY = Euclidean(), FreeFlyer(), Identity()

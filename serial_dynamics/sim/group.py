@@ -176,14 +176,15 @@ class GroupStepIntegrator:
         f = tau if tau.shape[0] == v.shape[0] else np.concatenate([np.zeros(nb), tau])
         Q = f - eq.bias(q, np.zeros(v.shape[0]), w)            # f - g + J^T w
         M = robot.mass_matrix(q)
-        pi0 = chart.covector(q, M @ v)
+        C0 = chart.at_centre(q)
+        pi0 = C0.covector(M @ v)
 
         def velocity(vb):             # (M^-1 C^T pi1, pi1, delta) for the guess vb
             force = robot.kinetic_energy_gradient(q, vb) + chart.gradient(vb, M @ vb) + Q
             delta = eq.delta(vb[nb:], smooth=eq.coulomb_on)
             force[nb:] += delta
-            pi1 = pi0 + dt * chart.covector(q, force)
-            return np.linalg.solve(M, chart.transposed(q, None, pi1)), pi1, delta
+            pi1 = pi0 + dt * C0.covector(force)
+            return np.linalg.solve(M, C0.transposed(pi1)), pi1, delta
 
         # vb = velocity(vb) by simplified Newton, its Jacobian by forward differences at the
         # first iterate and again every 8 iterations (the plain fixed point contracts slowly
@@ -217,7 +218,7 @@ class GroupStepIntegrator:
                                   f"{t:.6g} s. {advice(self.method, dt)}", t, None, "newton")
         _, pi1, delta = velocity(vb)
         self.newton_iterations += k + 1
-        phi = dt * chart.vector(q, vb) + chart.centre(q)
+        phi = dt * C0.vector(vb) + chart.centre(q)
         q1 = chart.point(q, phi)
         v1 = np.linalg.solve(robot.mass_matrix(q1), chart.transposed(q1, phi, pi1))
         ext = 0.0 if w is None else float(eq.ext_power(q, vb, w))

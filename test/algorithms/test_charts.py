@@ -29,10 +29,10 @@ def test_the_free_flyer_chart():
     C, C0 = C_of(FREE_FLYER, q_ref, phi), C_of(FREE_FLYER, q_ref, FREE_FLYER.centre(q_ref))
     p = np.linspace(-1.0, 1.0, robot.nv)
     np.testing.assert_allclose(FREE_FLYER.transposed(q, phi, p), C.T @ p, rtol=0, atol=1e-14)
-    np.testing.assert_allclose(FREE_FLYER.transposed(q_ref, None, p), C0.T @ p, atol=1e-15)
-    np.testing.assert_allclose(FREE_FLYER.covector(q_ref, p), np.linalg.solve(C0.T, p),
-                               atol=1e-15)
-    np.testing.assert_allclose(FREE_FLYER.vector(q_ref, p), C0 @ p, atol=1e-15)
+    at = FREE_FLYER.at_centre(q_ref)
+    np.testing.assert_allclose(at.transposed(p), C0.T @ p, atol=1e-15)
+    np.testing.assert_allclose(at.covector(p), np.linalg.solve(C0.T, p), atol=1e-15)
+    np.testing.assert_allclose(at.vector(p), C0 @ p, atol=1e-15)
     # dT/dphi at the centre, fixed phi' (= C(0) v): the base's rows are the chart's part
     # (M does not depend on the base's pose: v is in the base frame)
     M = robot.mass_matrix(q_ref)
@@ -55,8 +55,9 @@ def test_the_euclidean_chart_is_the_identity():
     q, v = np.linspace(-1, 1, 5), np.linspace(2, 3, 5)
     assert np.array_equal(EUCLIDEAN.point(q * 0, q), q) and EUCLIDEAN.point(q, q) is not q
     assert np.array_equal(EUCLIDEAN.rate(q, q, v), v) and np.array_equal(EUCLIDEAN.centre(q), q)
-    for f in (EUCLIDEAN.vector, EUCLIDEAN.covector):
-        assert np.array_equal(f(q, v), v)
+    at = EUCLIDEAN.at_centre(q)
+    for f in (at.vector, at.covector, at.transposed):
+        assert np.array_equal(f(v), v)
     assert np.array_equal(EUCLIDEAN.transposed(q, q, v), v) and not EUCLIDEAN.gradient(v, v).any()
     assert not EUCLIDEAN.far(q * 1e9)
     assert sd.default_robot().chart is EUCLIDEAN

@@ -9,7 +9,9 @@ many floating-point operations each algorithm takes, and what the core can do at
 - ``flops``: the operations of each algorithm on a robot, counted by running plain
   versions of them (Newton-Euler; composite rigid bodies with 3-vectors; the Cholesky
   solve) in Python on numbers that count what is done to them (+, -, *, / and sqrt one
-  each; a sine or cosine one each, which flatters no one: libm's cost tens).
+  each; a sine or cosine one each, which flatters no one: libm's cost tens);
+  ``derivative_flops``: that Newton-Euler on dual numbers (``Dual``), the operations of
+  forward-mode differentiation along the directions alive.
 - ``peak``: the core's measured arithmetic rate, a dense matrix product (BLAS dgemm, one
   thread, pinned to the calling core) in a subprocess: 2 n^3 operations over its time.
 
@@ -269,6 +271,123 @@ class Flop:
     def cos(y):
         Flop.count += 1
         return Flop(math.cos(Flop._v(y)))
+
+
+class Dual:
+    """A number with its tangents along the directions it depends on (a dict: direction ->
+    tangent), counting the operations that forward-mode differentiation does: one for the
+    value as ``Flop``, and on each live direction those of the rule (a sum: one where both
+    terms have the direction; a product: a v' + b u' three, one where one factor has it; a
+    quotient (u' - r v') / b three, one or two; sin, cos: the other one for the derivative,
+    then one a direction). Directions never touched cost nothing: the count is that of the
+    sparse forward mode the library runs (``core/derivatives.py``: at body k only the
+    directions of joints 0..k are alive)."""
+    count = 0
+    __slots__ = ("x", "t")
+
+    def __init__(self, x, t=None):
+        self.x, self.t = float(x), ({} if t is None else t)
+
+    @staticmethod
+    def of(y):
+        return y if isinstance(y, Dual) else Dual(y)
+
+    def __add__(self, y):
+        y = Dual.of(y)
+        t = dict(self.t)
+        for d, v in y.t.items():
+            if d in t:
+                t[d] += v
+                Dual.count += 1
+            else:
+                t[d] = v
+        Dual.count += 1
+        return Dual(self.x + y.x, t)
+
+    __radd__ = __add__
+
+    def __neg__(self):
+        Dual.count += 1 + len(self.t)
+        return Dual(-self.x, {d: -v for d, v in self.t.items()})
+
+    def __sub__(self, y):
+        y = Dual.of(y)
+        t = dict(self.t)
+        for d, v in y.t.items():
+            t[d] = t[d] - v if d in t else -v
+            Dual.count += 1
+        Dual.count += 1
+        return Dual(self.x - y.x, t)
+
+    def __rsub__(self, y):
+        return Dual.of(y) - self
+
+    def __mul__(self, y):
+        y = Dual.of(y)
+        t = {}
+        for d in self.t.keys() | y.t.keys():
+            u, v = self.t.get(d), y.t.get(d)
+            if u is not None and v is not None:
+                t[d] = self.x * v + y.x * u
+                Dual.count += 3
+            else:
+                t[d] = y.x * u if v is None else self.x * v
+                Dual.count += 1
+        Dual.count += 1
+        return Dual(self.x * y.x, t)
+
+    __rmul__ = __mul__
+
+    def __truediv__(self, y):
+        y = Dual.of(y)
+        r = self.x / y.x
+        t = {}
+        for d in self.t.keys() | y.t.keys():
+            u, v = self.t.get(d, 0.0), y.t.get(d)
+            t[d] = (u - r * v) / y.x if v is not None else u / y.x
+            Dual.count += (3 if d in self.t else 2) if v is not None else 1
+        Dual.count += 1
+        return Dual(r, t)
+
+    def __rtruediv__(self, y):
+        return Dual.of(y) / self
+
+    @staticmethod
+    def sin(y):
+        y = Dual.of(y)
+        c = math.cos(y.x)
+        Dual.count += 2 + len(y.t)
+        return Dual(math.sin(y.x), {d: c * v for d, v in y.t.items()})
+
+    @staticmethod
+    def cos(y):
+        y = Dual.of(y)
+        s = math.sin(y.x)
+        Dual.count += 2 + len(y.t)
+        return Dual(math.cos(y.x), {d: -s * v for d, v in y.t.items()})
+
+
+def derivative_flops(robot, seed=0):
+    """Operations of one state of the derivatives of inverse dynamics: the plain Newton-Euler
+    on ``Dual`` numbers seeded along q_j and qd_j (2n directions), checked against the
+    library's d tau/d q and d tau/d qd first."""
+    parent, R0, p0, axis, prism, m, c, I, arm, g = model_arrays(robot)
+    n = len(parent)
+    rng = np.random.default_rng(seed)
+    q, qd, qdd = (rng.uniform(-1, 1, (1, n)) for _ in range(3))
+    seeded = lambda x, k: np.array([[Dual(x[0, j], {k * n + j: 1.0}) for j in range(n)]],   # noqa: E731
+                                   dtype=object)
+    const = lambda x: np.array([Dual(v) for v in np.ravel(x)], dtype=object).reshape(np.shape(x))  # noqa: E731,E501
+    rnea = _make_rnea(Dual.sin, Dual.cos, lambda shape: np.zeros(shape, dtype=object))
+    tau = np.empty((1, n), dtype=object)
+    Dual.count = 0
+    rnea(parent, *map(const, (R0, p0, axis)), prism, *map(const, (m, c, I, arm, g)),
+         seeded(q, 0), seeded(qd, 1), const(qdd), tau)
+    ops = Dual.count
+    D = np.array([[tau[0, i].t.get(d, 0.0) for d in range(2 * n)] for i in range(n)])
+    dq, dqd = robot.inverse_dynamics_derivatives(q[0], qd[0], qdd[0])
+    check("the counted derivatives", D, np.hstack([dq, dqd]))
+    return ops
 
 
 def model_arrays(robot):

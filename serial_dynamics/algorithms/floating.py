@@ -26,7 +26,6 @@ from .aba import _aba
 from .crba import crba
 from .kinematics import body_poses
 from .noc import _T, _geometry, body_velocities, twist_shaping_dot
-from . import regressor as reg
 from .rnea import _rnea, _wrench_batch, rigid_wrench
 
 LIN, ANG = slice(0, 3), slice(3, 6)       # the base's parts of v and tau (linear first)
@@ -129,27 +128,6 @@ def _rnea_fb(model, R, q, v, a, wrench, gravity):
     tau, (f, n) = _rnea(model, q[:, 7:], v[:, 6:], a[:, 6:], g, w, base, root=True)
     f0, n0 = rigid_wrench(model.base_mass, model.base_h, model.base_I_O, omega, alpha, acc - g)
     return np.concatenate([f + f0, n + n0, tau], axis=1)
-
-
-def regressor(model, q, v, a):
-    """Y (n+6, 10 (n+1)) or (N, ...): inverse_dynamics(q, v, a) == Y @ phi, phi the base's
-    ten parameters [m, mx, my, mz, Ixx, Ixy, Iyy, Ixz, Iyz, Izz] (base link frame, inertia
-    about its origin), then each body's (``regressor.py``, link frames). The bodies' blocks
-    reach the base's rows through the root joints; the base's own block is its Newton-Euler
-    wrench, linear in its parameters (Atkeson, An & Hollerbach 1986)."""
-    single, q, R, s = as_batch(model, q, v=v, a=a)
-    N = q.shape[0]
-    v = np.zeros((N, model.dof + 6)) if s["v"] is None else s["v"]
-    a = np.zeros((N, model.dof + 6)) if s["a"] is None else s["a"]
-    g = np.einsum("nji,j->ni", R, model.gravity)                 # gravity, base frame
-    omega, alpha = v[:, 3:6], a[:, 3:6]
-    acc = a[:, 0:3] + np.cross(omega, v[:, 0:3]) - g            # classical, with -g
-    Yb = reg._regressor_joint_frames(model, q[:, 7:], v[:, 6:], a[:, 6:], (omega, alpha, acc))
-    Yb = Yb @ reg._block_diagonal(reg.joint_frame_map(model.A))
-    Y0 = np.zeros((N, model.dof + 6, 10))
-    B = reg.body_block(omega, alpha, acc)                        # the base's (n; f)
-    Y0[:, 0:3], Y0[:, 3:6] = B[:, 3:], B[:, :3]
-    return unbatch(single, np.concatenate([Y0, Yb], axis=2))
 
 
 def mass_matrix(model, q):

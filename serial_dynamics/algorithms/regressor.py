@@ -108,35 +108,28 @@ def body_block(omega, alpha, acc):
     return A
 
 
-def _regressor_joint_frames(model, q, qd, qdd, base=None):
+def _regressor_joint_frames(model, q, qd, qdd):
     """Y (N, n, 10 n) for the parameters (m, h, I_O) of every body in its joint frame. On a
-    tree body i's block reaches the joints on its path to the base (its ancestors j).
-    ``base``: None (a fixed base, gravity from the model), or a floating base's motion
-    (omega, alpha, acc - g; base frame, (N, 3) each): then Y (N, 6 + n, 10 n), its first six
-    rows the wrench [f; n] each body's block puts on the base about its origin."""
+    tree body i's block reaches the joints on its path to the base (its ancestors j). (A
+    floating base: this on its instantaneous tree, ``robot/floating.py``.)"""
     N, n = q.shape
     R, p = joint_transforms(model, q)
-    root = base is not None
-    if not root:
-        base = (np.zeros((N, 3)), np.zeros((N, 3)),
-                np.broadcast_to(-model.gravity, (N, 3)))    # gravity as a base acceleration
+    base = (np.zeros((N, 3)), np.zeros((N, 3)),
+            np.broadcast_to(-model.gravity, (N, 3)))        # gravity as a base acceleration
     motion, blocks = [], []
     for i in range(n):                                   # outward, as rnea.py
         l = model.parent[i]
         omega, alpha, acc = into_body(R, p, i, *(base if l < 0 else motion[l]))
         motion.append(joint_rate(model.kind[i], omega, alpha, acc, qd[:, i], qdd[:, i]))
         blocks.append(body_block(*motion[i]))
-    b = 6 if root else 0                                 # the base's rows first
-    Y = np.zeros((N, b + n, 10 * n))
+    Y = np.zeros((N, n, 10 * n))
     row = axes(model.kind)                               # tau_j = S_j^T (n; f): n_z or f_z
     for i in range(n):                                   # inward: body i's block to joints j
         B = blocks[i]
         for j in model.ancestors(i)[::-1]:               # i, its parent, ..., up to the base
-            Y[:, b + j, 10 * i:10 * i + 10] = B[:, row[j]]
-            if model.parent[j] >= 0 or root:             # to the parent: f' = R f, n' = R n + p x f'
+            Y[:, j, 10 * i:10 * i + 10] = B[:, row[j]]
+            if model.parent[j] >= 0:                     # to the parent: f' = R f, n' = R n + p x f'
                 f = mv(R[:, j, None], np.swapaxes(B[:, 3:], 1, 2))             # (N, 10, 3)
                 m = mv(R[:, j, None], np.swapaxes(B[:, :3], 1, 2)) + np.cross(p[:, j, None], f)
                 B = np.concatenate([np.swapaxes(m, 1, 2), np.swapaxes(f, 1, 2)], axis=1)
-        if root:                                         # the floating base's rows: [f; n]
-            Y[:, 0:3, 10 * i:10 * i + 10], Y[:, 3:6, 10 * i:10 * i + 10] = B[:, 3:], B[:, :3]
     return Y

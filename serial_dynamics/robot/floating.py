@@ -232,7 +232,8 @@ class Floating:
         the columns. Compiled: the fixed-base regressor kernel (``core/regressor.py``) on the
         instantaneous chain or tree, as ``inverse_dynamics_derivatives`` uses it (its five
         massless virtual bodies' columns and the virtual joints' armature dropped); the NumPy
-        reference: ``algorithms/floating.regressor``."""
+        reference: the same algorithm, ``algorithms/regressor.regressor`` on the
+        instantaneous tree."""
         friction, arm = regressor.check_friction(friction), regressor.armature_on(self, armature)
         if self._compiled:
             flags, p = regressor.kernel_columns(self.model.dof, arm, friction)
@@ -247,8 +248,14 @@ class Floating:
                       [kernel_rows(x) for x in (q, s["v"], s["a"], self._gw[None])], (flags,),
                       (Y,), regressor.PARALLEL_MIN)
             return Y[0] if single else Y
-        single, q, _, s = fb.as_batch(self.model, q, False, v=qd, a=qdd)
-        Y = fb.regressor(self.model, q, s["v"], s["a"])
+        single, q, R, s = fb.as_batch(self.model, q, v=qd, a=qdd)
+        nv = self._nv
+        v = np.zeros((q.shape[0], nv)) if s["v"] is None else s["v"]
+        a = np.zeros((q.shape[0], nv)) if s["a"] is None else s["a"]
+        qv, v, rates, _ = _instantaneous(self.model, q, R, v, a)
+        # the fixed-base regressor of the instantaneous tree, its five massless virtual
+        # bodies' columns dropped: the base's ten (its sixth body) first, as the core's
+        Y = ref_regressor.regressor(virtual_chain(self.model), qv, v, rates)[..., 50:]
         extra = []
         if arm:
             extra.append(s["a"][:, 6:, None] * np.eye(self.model.dof))   # every joint's
@@ -295,11 +302,7 @@ class Floating:
                       DERIVATIVES_PARALLEL_MIN)
             return (dq[0], dv[0]) if single else (dq, dv)
         _no_reference_wrench(wrench)
-        v, a = np.broadcast_to(v, (N, nv)), np.array(np.broadcast_to(a, (N, nv)))
-        g_b = np.einsum("nji,j->ni", R, self.model.gravity)
-        a[:, :3] -= g_b                                             # gravity as acceleration
-        rates = a + _velocity_products(v)                           # the instantaneous tree's
-        qv = np.concatenate([np.zeros((N, 6)), q[:, 7:]], axis=1)
+        qv, v, rates, g_b = _instantaneous(self.model, q, R, v, a)
         dq, dv = derivatives_reference.inverse_dynamics_derivatives(
             virtual_chain(self.model), qv, v, rates)
         M = fb.mass_matrix(self.model, q)
@@ -488,6 +491,18 @@ def virtual_chain(model) -> Model:
         gravity=zero, tip_R=model.tip_R, tip_p=model.tip_p, frames=frames,
         armature=np.r_[np.zeros(6), model.armature],
         parent=velocity_parents(model.parent))
+
+
+def _instantaneous(model, q, R, v, a):
+    """(qv, v, rates, g_b): the instantaneous tree's joint positions (the virtual joints at
+    zero), rates (v) and accelerations (a + the virtual joints' velocity products, gravity
+    entering as the base acceleration -g_b, g_b = R^T g), N states (rows broadcast)."""
+    N, nv = q.shape[0], v.shape[-1]
+    v, a = np.broadcast_to(v, (N, nv)), np.array(np.broadcast_to(a, (N, nv)))
+    g_b = np.einsum("nji,j->ni", R, model.gravity)
+    a[:, :3] -= g_b                                             # gravity as acceleration
+    qv = np.concatenate([np.zeros((N, 6)), q[:, 7:]], axis=1)
+    return qv, v, a + _velocity_products(v), g_b
 
 
 def _velocity_products(v):

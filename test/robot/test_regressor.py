@@ -350,7 +350,8 @@ def test_a_floating_base_with_mimic_joints_has_the_reduced_regressor():
 def test_the_compiled_floating_regressor(tree):
     """A floating base in one compiled call (core/regressor.floating_regressor, on the
     instantaneous chain or tree): Y phi is inverse dynamics (less the friction torques), the
-    columns are the reference's (algorithms/floating.regressor) with armature and friction,
+    columns are the reference's (the NumPy regressor on the same instantaneous tree; both
+    against Pinocchio's in test/oracles/test_pinocchio_trees.py) with armature and friction,
     and a state gives the same bits alone or in a batch (a quaternion of any length)."""
     from serial_dynamics.robots.synthetic import two_arm_urdf
     source = two_arm_urdf(3, base_mass=4.0, kinds=["revolute", "prismatic", "revolute"]) if tree \

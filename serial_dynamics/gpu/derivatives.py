@@ -98,5 +98,5 @@ def inverse_dynamics_derivatives(robot, Q, QD, QDD):
     batch = Batch(op, [("Q", Q, dm.k), ("QD", QD, dm.k), ("QDD", QDD, dm.k)])
     q, qd, qdd = batch.to_card(2 * dm.k * dm.k, op)
     dq, dqd = cuda.device_array((batch.N, dm.k, dm.k)), cuda.device_array((batch.N, dm.k, dm.k))
-    launch(kernel(dm.n, dm.k, dm.mimic), batch.N, *dm.arrays[:5], q, qd, qdd, dq, dqd)
+    launch(kernel(dm.n, dm.k, dm.mimic), batch.N, *dm.structure, q, qd, qdd, dq, dqd)
     return batch.result(dq), batch.result(dqd)

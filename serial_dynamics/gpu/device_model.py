@@ -42,6 +42,12 @@ class DeviceModel:
         return tuple(cuda.to_device(a) for a in self.host)
 
     @property
+    def structure(self):
+        """(P, parent, src, mult, offset) on the card: ``arrays`` less gw, for the kernels
+        that take gravity from P (the derivatives')."""
+        return self.arrays[:5]
+
+    @property
     def key(self):
         """What the kernels are specialized on."""
         return self.n, self.k, self.chain, self.mimic, self.floating

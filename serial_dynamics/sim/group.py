@@ -81,7 +81,8 @@ class GroupStepIntegrator:
     wrench=None, servo=None)`` with q (nq,), v (nv,) and joint torques tau (n,);
     "semi_implicit_euler" (with the joint servo), "symplectic_euler", "rk4" or
     "implicit_midpoint"; ``position_limits``: the joints' stops. Its counters are
-    ``FixedStepIntegrator``'s."""
+    ``FixedStepIntegrator``'s; its Newton iterations use differences and this module's
+    tolerances (``jacobian``, ``newton_tol`` and ``max_newton`` are accepted, not read)."""
 
     METHODS = FIXED_STEP
     SERVO_METHODS = GROUP_SERVO_METHODS

@@ -74,7 +74,7 @@ SINGLE_STATE = ("rnea", "rnea_wrench", "crba", "fd", "planar_rnea", "planar_rnea
                 "planar_crba", "regressor", "floating_regressor", "rnea_derivatives",
                 "fd_derivatives",
                 *floating.SINGLE_STATE, *floating_derivatives.SINGLE_STATE, *tree.SINGLE_STATE,
-                *tree_derivatives.SINGLE_STATE, *mimic.SINGLE_STATE)
+                *tree_derivatives.SINGLE_STATE, *mimic.SINGLE_STATE, *kinematics.SINGLE_STATE)
 
 
 def check_hook(dispatcher_class=Dispatcher, version=numba.__version__):
@@ -194,6 +194,8 @@ class _Kernels:
     # kinematics (kinematics.py): one kernel each for chains and trees, batches of states
     frame_pose = _EntryPoint()
     frame_jacobian = _EntryPoint()
+    frame_pose_one = _EntryPoint()        # one state, without the batch's views
+    frame_jacobian_one = _EntryPoint()
     mass_moment = _EntryPoint()
     centroidal = _EntryPoint()
     coriolis = _EntryPoint()

@@ -19,6 +19,9 @@ move).
 
 Each entry point takes a batch (N, width) -- one state is N = 1 -- and computes row after
 row with nothing carried between rows, so a row's bits are those of the same state alone.
+A frame's pose and Jacobian also have single-state entry points (``frame_pose_one``,
+``frame_jacobian_one``: a vector q, a matrix out, the batch's per-state steps ``pose_of``,
+``jacobian_of``), which save a call the two views a batch of one needs.
 Status codes (``status.py``): BAD_LENGTH, NOT_FINITE (a NaN or Inf anywhere in the states,
 or a quaternion of zero length), OK.
 """
@@ -30,7 +33,7 @@ from .data import new_poses, stack_empty
 from .joint import (PRISMATIC, REVOLUTE, cross, joint_transforms, world_column, world_column_rate,
                     world_joint_rate, world_rate)
 from .layout import H, IO, KIND, MASS, PARENT
-from .signatures import In1, In2, Out2, Out3, Pm, i8, internal, row
+from .signatures import In1, In2, Mat, Out2, Out3, Pm, Vec, i8, internal, row
 from .status import BAD_LENGTH, NOT_FINITE, OK
 
 
@@ -41,6 +44,15 @@ def not_finite(x):
     for s in range(x.shape[0]):
         for i in range(x.shape[1]):
             chk += x[s, i] * 0.0
+    return chk != 0.0
+
+
+@njit(cache=True, inline="always")
+def not_finite_one(x):
+    """True if some entry of the vector x is NaN or Inf."""
+    chk = 0.0
+    for i in range(x.shape[0]):
+        chk += x[i] * 0.0
     return chk != 0.0
 
 
@@ -98,9 +110,26 @@ def rotate_t(R, x, y, z):
             R[0, 2] * x + R[1, 2] * y + R[2, 2] * z)
 
 
+@njit(cache=True, inline="always")
+def pose_of(P, ps, q, nb, body, F, X):
+    """X (4 x 4) of one state q: the pose in the world of the frame F = [R_f row-major, p_f]
+    fixed on joint frame ``body`` (-1: the base): R = R0_b R_f, x = o_b + R0_b p_f. False
+    for a quaternion of zero length."""
+    if not root_and_bodies(P, ps, q, nb, body + 1):
+        return False
+    Ri, oi = frame_of(ps.Rb, ps.pb, ps.R0, ps.o, body)
+    x = rotate(Ri, F[9], F[10], F[11])
+    for r in range(3):
+        for c in range(3):
+            X[r, c] = Ri[r, 0] * F[c] + Ri[r, 1] * F[3 + c] + Ri[r, 2] * F[6 + c]
+        X[r, 3] = oi[r] + x[r]
+        X[3, r] = 0.0
+    X[3, 3] = 1.0
+    return True
+
+
 def frame_pose(P, q, body, F, X):
-    """X[s] (4 x 4): the pose in the world of the frame F = [R_f row-major, p_f] fixed on
-    joint frame ``body`` (-1: the base): R = R0_b R_f, x = o_b + R0_b p_f."""
+    """X[s] (4 x 4): ``pose_of`` each state q[s]."""
     n = P.shape[0] - 1
     nb = q.shape[1] - n
     if nb not in (0, 7) or X.shape[0] != q.shape[0] or body >= n:
@@ -108,26 +137,59 @@ def frame_pose(P, q, body, F, X):
     if not_finite(q):
         return NOT_FINITE
     ps = new_poses(n)
-    R0, o, Rb, pb = ps.R0, ps.o, ps.Rb, ps.pb
     for s in range(q.shape[0]):
-        if not root_and_bodies(P, ps, q[s], nb, body + 1):
+        if not pose_of(P, ps, q[s], nb, body, F, X[s]):
             return NOT_FINITE
-        Ri, oi = frame_of(Rb, pb, R0, o, body)
-        x = rotate(Ri, F[9], F[10], F[11])
-        for r in range(3):
-            for c in range(3):
-                X[s, r, c] = Ri[r, 0] * F[c] + Ri[r, 1] * F[3 + c] + Ri[r, 2] * F[6 + c]
-            X[s, r, 3] = oi[r] + x[r]
-            X[s, 3, r] = 0.0
-        X[s, 3, 3] = 1.0
     return OK
 
 
+def frame_pose_one(P, q, body, F, X):
+    """``frame_pose`` of one state, q (width,) into X (4, 4): the same steps, without the
+    batch's views (a single-state entry point: other argument types answer OTHER_TYPES)."""
+    n = P.shape[0] - 1
+    nb = q.shape[0] - n
+    if nb not in (0, 7) or body >= n:
+        return BAD_LENGTH
+    if not_finite_one(q):
+        return NOT_FINITE
+    return OK if pose_of(P, new_poses(n), q, nb, body, F, X) else NOT_FINITE
+
+
+@njit(cache=True, inline="always")
+def jacobian_of(P, ps, q, nb, body, F, J):
+    """J (6 x nv) of one state q: the geometric Jacobian of frame F's origin x, [linear;
+    angular], world axes. Column j of an ancestor of ``body`` (the joints that move it),
+    z_j = R0_j e_z: revolute [z_j x (x - o_j); z_j], prismatic [z_j; 0]; zero for the
+    others. A free-flyer root's six columns, for v = [v_O; omega] in base axes: [R_b,
+    -[x - p_b]x R_b; 0, R_b]. False for a quaternion of zero length."""
+    n, nv = P.shape[0] - 1, J.shape[1]
+    jv = nv - n               # the first joint's column
+    if not root_and_bodies(P, ps, q, nb, body + 1):
+        return False
+    R0, o, Rb, pb = ps.R0, ps.o, ps.Rb, ps.pb
+    Ri, oi = frame_of(Rb, pb, R0, o, body)
+    fx, fy, fz = rotate(Ri, F[9], F[10], F[11])
+    x = (oi[0] + fx, oi[1] + fy, oi[2] + fz)
+    for r in range(6):
+        for j in range(nv):
+            J[r, j] = 0.0
+    if nb:
+        dx, dy, dz = x[0] - pb[0], x[1] - pb[1], x[2] - pb[2]
+        for c in range(3):
+            J[0, c], J[1, c], J[2, c] = Rb[0, c], Rb[1, c], Rb[2, c]
+            J[3, 3 + c], J[4, 3 + c], J[5, 3 + c] = Rb[0, c], Rb[1, c], Rb[2, c]
+            J[0, 3 + c], J[1, 3 + c], J[2, 3 + c] = cross(Rb[0, c], Rb[1, c], Rb[2, c], dx, dy, dz)
+    j = body
+    while j >= 0:
+        (J[0, jv + j], J[1, jv + j], J[2, jv + j], J[3, jv + j], J[4, jv + j],
+         J[5, jv + j]) = world_column(P[j, KIND], R0[j, 0, 2], R0[j, 1, 2], R0[j, 2, 2],
+                                      x[0] - o[j, 0], x[1] - o[j, 1], x[2] - o[j, 2])
+        j = int(P[j, PARENT])
+    return True
+
+
 def frame_jacobian(P, q, body, F, J):
-    """J[s] (6 x nv): the geometric Jacobian of frame F's origin x, [linear; angular], world
-    axes. Column j of an ancestor of ``body`` (the joints that move it), z_j = R0_j e_z:
-    revolute [z_j x (x - o_j); z_j], prismatic [z_j; 0]; zero for the others. A free-flyer
-    root's six columns, for v = [v_O; omega] in base axes: [R_b, -[x - p_b]x R_b; 0, R_b]."""
+    """J[s] (6 x nv): ``jacobian_of`` each state q[s]."""
     n = P.shape[0] - 1
     nb = q.shape[1] - n
     nv = n + (6 if nb else 0)
@@ -136,30 +198,21 @@ def frame_jacobian(P, q, body, F, J):
     if not_finite(q):
         return NOT_FINITE
     ps = new_poses(n)
-    R0, o, Rb, pb = ps.R0, ps.o, ps.Rb, ps.pb
-    jv = nv - n               # the first joint's column
     for s in range(q.shape[0]):
-        if not root_and_bodies(P, ps, q[s], nb, body + 1):
+        if not jacobian_of(P, ps, q[s], nb, body, F, J[s]):
             return NOT_FINITE
-        Ri, oi = frame_of(Rb, pb, R0, o, body)
-        fx, fy, fz = rotate(Ri, F[9], F[10], F[11])
-        x = (oi[0] + fx, oi[1] + fy, oi[2] + fz)
-        for r in range(6):
-            for j in range(nv):
-                J[s, r, j] = 0.0
-        if nb:
-            dx, dy, dz = x[0] - pb[0], x[1] - pb[1], x[2] - pb[2]
-            for c in range(3):
-                J[s, 0, c], J[s, 1, c], J[s, 2, c] = Rb[0, c], Rb[1, c], Rb[2, c]
-                J[s, 3, 3 + c], J[s, 4, 3 + c], J[s, 5, 3 + c] = Rb[0, c], Rb[1, c], Rb[2, c]
-                J[s, 0, 3 + c], J[s, 1, 3 + c], J[s, 2, 3 + c] = cross(Rb[0, c], Rb[1, c], Rb[2, c], dx, dy, dz)
-        j = body
-        while j >= 0:
-            (J[s, 0, jv + j], J[s, 1, jv + j], J[s, 2, jv + j], J[s, 3, jv + j], J[s, 4, jv + j],
-             J[s, 5, jv + j]) = world_column(P[j, KIND], R0[j, 0, 2], R0[j, 1, 2], R0[j, 2, 2],
-                                             x[0] - o[j, 0], x[1] - o[j, 1], x[2] - o[j, 2])
-            j = int(P[j, PARENT])
     return OK
+
+
+def frame_jacobian_one(P, q, body, F, J):
+    """``frame_jacobian`` of one state, q (width,) into J (6, nv)."""
+    n = P.shape[0] - 1
+    nb = q.shape[0] - n
+    if nb not in (0, 7) or J.shape[0] != 6 or J.shape[1] != n + (6 if nb else 0) or body >= n:
+        return BAD_LENGTH
+    if not_finite_one(q):
+        return NOT_FINITE
+    return OK if jacobian_of(P, new_poses(n), q, nb, body, F, J) else NOT_FINITE
 
 
 def mass_moment(P, q, base, mc):
@@ -453,9 +506,12 @@ def coriolis(P, q, qd, base, out):
     return OK
 
 
+SINGLE_STATE = ("frame_pose_one", "frame_jacobian_one")   # one signature each (dispatch.py)
 ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core functions it calls)
     "frame_pose": (frame_pose, i8(Pm, In2, i8, In1, Out3), False, ()),
     "frame_jacobian": (frame_jacobian, i8(Pm, In2, i8, In1, Out3), False, ()),
+    "frame_pose_one": (frame_pose_one, i8(Pm, Vec, i8, Vec, Mat), False, ()),
+    "frame_jacobian_one": (frame_jacobian_one, i8(Pm, Vec, i8, Vec, Mat), False, ()),
     "mass_moment": (mass_moment, i8(Pm, In2, In1, Out2), False, ()),
     "centroidal": (centroidal, i8(Pm, In2, In2, In1, Out2), False, ()),
     "coriolis": (coriolis, i8(Pm, In2, In2, In1, Out3), False, ()),

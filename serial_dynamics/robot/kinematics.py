@@ -4,8 +4,9 @@ frame poses, Jacobians and accelerations, the first moment of mass, the centroid
 momentum and the Coriolis matrix. ``Robot`` calls these on the numba backend; the numpy
 backend runs ``algorithms/``.
 
-Paths, as the dynamics': one state of float64 vectors goes straight to its kernel (as a
-one-row batch, ``x[None]``); anything else, or a state the kernel refuses (a length, a
+Paths, as the dynamics': one state of float64 vectors goes straight to its kernel (a pose
+or a Jacobian to a single-state entry point, the others as a one-row batch, ``x[None]``);
+anything else, or a state the kernel refuses (a length, a
 NaN, batch sizes to broadcast), takes ``general``: the robot's ``_states`` (which names the
 culprit and broadcasts) and a second run. The kernels read the robot's packed model ``P``,
 its ``_base`` (a floating base's inertia; zeros on a fixed base) and each link's placement
@@ -19,7 +20,8 @@ import numpy as np
 from ..algorithms.kinematics import frame_of
 from ..core import K, OK
 
-KINEMATICS_KERNELS = ("frame_pose", "frame_jacobian", "frame_acceleration")   # warmup(kinematics=True)
+KINEMATICS_KERNELS = ("frame_pose", "frame_jacobian", "frame_acceleration",   # warmup(kinematics=True)
+                      "frame_pose_one", "frame_jacobian_one")
 _empty = np.empty
 _F8 = np.dtype(float)
 
@@ -57,7 +59,7 @@ def frame_pose(robot, q, link):
     body, F = frame(robot, link)
     if one(q):
         X = _empty((4, 4))
-        if K.frame_pose(robot._P, q[None], body, F, X[None]) == OK:
+        if K.frame_pose_one(robot._P, q, body, F, X) == OK:
             return X
     return general(robot, lambda q, X: K.frame_pose(robot._P, q, body, F, X), (4, 4), ("q", q))
 
@@ -66,7 +68,7 @@ def frame_jacobian(robot, q, link):
     body, F = frame(robot, link)
     if one(q):
         J = _empty((6, robot._nv))
-        if K.frame_jacobian(robot._P, q[None], body, F, J[None]) == OK:
+        if K.frame_jacobian_one(robot._P, q, body, F, J) == OK:
             return J
     return general(robot, lambda q, J: K.frame_jacobian(robot._P, q, body, F, J),
                    (6, robot._nv), ("q", q))

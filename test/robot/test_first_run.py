@@ -29,7 +29,8 @@ def test_warmup_loads_only_the_single_state_kernels():
 
 
 def test_warmup_with_kinematics_loads_the_frame_kernels_too():
-    frames = {"frame_pose", "frame_jacobian", "frame_acceleration"}
+    frames = {"frame_pose", "frame_jacobian", "frame_acceleration", "frame_pose_one",
+              "frame_jacobian_one"}
     assert loaded_after("sd.default_robot().warmup(kinematics=True)") == set(SINGLE_KERNELS) | frames
     floating = loaded_after("sd.load_urdf(sd.builtin_path(), floating_base=True)"
                             ".warmup(batch=True, kinematics=True)")
@@ -40,8 +41,9 @@ def test_the_kernels_of_a_robot():
     robot = sd.default_robot()
     assert robot.kernels() == SINGLE_KERNELS
     assert robot.kernels(batch=True) == SINGLE_KERNELS + BATCH_KERNELS
-    assert robot.kernels(kinematics=True)[-3:] == ("frame_pose", "frame_jacobian",
-                                                   "frame_acceleration")
+    assert robot.kernels(kinematics=True)[-5:] == ("frame_pose", "frame_jacobian",
+                                                   "frame_acceleration", "frame_pose_one",
+                                                   "frame_jacobian_one")
     planar = sd.builtin_robot("planar_3r").kernels()
     assert "planar_rnea" in planar and not any(k.endswith("batch") for k in planar)
     assert sd.Robot(robot.model, backend="numpy").kernels() == ()

@@ -150,9 +150,11 @@ def physical_fit(Y, tau, weights, phi_start, names, bodies, max_nfev=2000):
         return np.vstack([R @ D, pull[:, None] * D])
 
     # Levenberg-Marquardt (MINPACK): phi is quadratic in the factors, so it converges in
-    # a few dozen iterations
-    res = least_squares(residual, x0, jac=jacobian, method="lm", x_scale="jac",
-                        max_nfev=max_nfev)
+    # a few dozen iterations. A trial step far out may overflow exp (an unphysical body);
+    # the fit goes on past it (test/identification), so it is not reported as a warning
+    with np.errstate(over="ignore", invalid="ignore"):
+        res = least_squares(residual, x0, jac=jacobian, method="lm", x_scale="jac",
+                            max_nfev=max_nfev)
     return phi_of(res.x), res
 
 

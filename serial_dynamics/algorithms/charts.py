@@ -1,6 +1,6 @@
 """Charts of a robot's configuration space: what an integrator needs to step q when q does not
 live in R^nv (a floating base's unit quaternion). The robot says which chart it has
-(``robot.chart``); ``sim/chart.py`` integrates in it without asking what kind of robot it is.
+(``robot.chart``); ``sim/group.py`` integrates in it without asking what kind of robot it is.
 
 A chart around a reference configuration q_ref gives coordinates phi (nv,) with
 
@@ -21,6 +21,7 @@ import math
 import numpy as np
 
 from ._batch import skew
+from .floating import quaternion_matrix
 
 
 class Euclidean:
@@ -158,9 +159,7 @@ class Rotated:
         """C(0) v = [R v_O; omega; qd]."""
         return np.concatenate([self.R @ v[:3], v[3:]])
 
-    def covector(self, f):
-        """C(0)^-T f = [R f_lin; f_ang; f_joints] (R^-T = R)."""
-        return np.concatenate([self.R @ f[:3], f[3:]])
+    covector = vector    # C(0)^-T f = C(0) f: R^-T = R
 
     def transposed(self, pi):
         """C(0)^T pi = [R^T pi_lin; pi_ang; pi_joints]."""
@@ -169,10 +168,7 @@ class Rotated:
 
 def rotation(q):
     """R (3, 3) of q's unit quaternion q[3:7] [x, y, z, w]: base axes to world axes."""
-    x, y, z, w = q[3:7].tolist()
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+    return quaternion_matrix(q[None, 3:7])[0]
 
 
 def right_jacobian(x):

@@ -260,6 +260,8 @@ def yardstick_rows(rounds):
             for what, f in [("inverse dynamics", lambda: robot.inverse_dynamics(Q, QD, QDD)),
                             ("mass matrix", lambda: robot.mass_matrix(Q)),
                             ("forward dynamics", lambda: robot.forward_dynamics(Q, QD, T)),
+                            ("forward dynamics (articulated bodies)",
+                             lambda: robot.forward_dynamics(Q, QD, T, method="aba")),
                             ("derivatives of inverse dynamics",
                              lambda: robot.inverse_dynamics_derivatives(Q, QD, QDD))]:
                 a, b = pair(f, scalar, 1, rounds)
@@ -291,7 +293,8 @@ def yardstick_lines(peak, rows, packed):
              "against ours to 1e-10 before it is timed, interleaved with each row. *Flops*: the "
              "operations of one state counted by running plain versions of the algorithm on "
              "numbers that count (Newton-Euler; composite rigid bodies; forward dynamics = mass "
-             "matrix + Newton-Euler at qdd = 0 + Cholesky solve; the derivatives of inverse dynamics "
+             "matrix + Newton-Euler at qdd = 0 + Cholesky solve; articulated bodies with 3 x 3 "
+             "blocks; the derivatives of inverse dynamics "
              "= that Newton-Euler on dual numbers along the 2n directions of q and qd, each "
              "operation counted on the directions alive, the sparse forward mode ours runs; a "
              "sine or cosine counts one); each is checked against ours first. *Peak*: a 1024 x 1024 dgemm on the same core, "

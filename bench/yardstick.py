@@ -142,12 +142,10 @@ def _minus(a, xs):
     return a - total
 
 
-def _crba(parent, R0, p0, axis, prism, m, c, I, arm, q, sin, cos):
-    """The mass matrix by composite rigid bodies (Walker and Orin 1982; Featherstone 2008,
-    Sec. 6.2) with 3-vectors: composite mass, first moment h and rotational inertia J
-    about each body's origin; then the unit-acceleration wrench of composite i carried
-    inward. For counting only (Python)."""
-    n = parent.shape[0]
+def _joint_transforms(R0, p0, axis, prism, q, sin, cos):
+    """Each joint's R (child axes in the parent's) and p (the child's origin): R0 Rot(u, q)
+    and p0 for a revolute joint about u, R0 and p0 + q R0 u for a prismatic one."""
+    n = len(q)
     R, p = [None] * n, [None] * n
     for i in range(n):
         u = axis[i]
@@ -162,14 +160,110 @@ def _crba(parent, R0, p0, axis, prism, m, c, I, arm, q, sin, cos):
                  [v * u[0] * u[2] - sq * u[1], v * u[1] * u[2] + sq * u[0], cq + v * u[2] * u[2]]]
             R[i] = [[_dot3(R0[i][r], [E[k][s] for k in range(3)]) for s in range(3)] for r in range(3)]
             p[i] = [p0[i][r] for r in range(3)]
-    mc = [m[i] for i in range(n)]
-    h = [[m[i] * c[i][r] for r in range(3)] for i in range(n)]
-    # J about the origin: I_c - m [c]x [c]x
-    J = []
-    for i in range(n):
+    return R, p
+
+
+def _origin_inertias(m, c, I):
+    """Each body's first moment h = m c and rotational inertia about its origin
+    J = I_c - m [c]x [c]x."""
+    h, J = [], []
+    for i in range(len(m)):
+        h.append([m[i] * c[i][r] for r in range(3)])
         cc = _dot3(c[i], c[i])
         J.append([[I[i][r][s] + m[i] * ((cc - c[i][r] * c[i][s]) if r == s else -(c[i][r] * c[i][s]))
                    for s in range(3)] for r in range(3)])
+    return h, J
+
+
+def _cross(a, b):
+    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+
+
+def _aba(parent, R0, p0, axis, prism, m, c, I, arm, g, q, qd, tau, sin, cos):
+    """Forward dynamics by articulated bodies (Featherstone 2008, Table 7.1) in joint frames,
+    spatial vectors as (angular; linear) 3-vector pairs, articulated inertias as 3 x 3 blocks
+    [[A, B], [B^T, C]] handed to the parent by rotating the blocks and shifting them by p
+    (eq. 7.23 with Xup = rot(R^T) xlt(p)); S = (u; 0) or (0; u). For counting only (Python)."""
+    n = len(parent)
+    R, p = _joint_transforms(R0, p0, axis, prism, q, sin, cos)
+    h, J = _origin_inertias(m, c, I)
+    Rt = lambda i, x: [R[i][0][r] * x[0] + R[i][1][r] * x[1] + R[i][2][r] * x[2] for r in range(3)]  # noqa: E731
+    Rx = lambda i, x: [_dot3(R[i][r], x) for r in range(3)]                                          # noqa: E731
+    hx = lambda x: [[0.0, -x[2], x[1]], [x[2], 0.0, -x[0]], [-x[1], x[0], 0.0]]                      # noqa: E731
+    v, cv, A, B, C, pA = [None] * n, [None] * n, [None] * n, [None] * n, [None] * n, [None] * n
+    for i in range(n):                   # pass 1: v_i = Xup v_l + S qd, c_i = v_i x S qd, pA
+        l, u = parent[i], axis[i]
+        w0, v0 = ([0.0] * 3, [0.0] * 3) if l < 0 else v[l]
+        w, vo = Rt(i, w0), Rt(i, [v0[r] + x for r, x in enumerate(_cross(w0, p[i]))])
+        su = [x * qd[i] for x in u]
+        cv[i] = ([0.0] * 3, _cross(w, su)) if prism[i] else (_cross(w, su), _cross(vo, su))
+        v[i] = (w, [vo[r] + su[r] for r in range(3)]) if prism[i] else ([w[r] + su[r] for r in range(3)], vo)
+        w, vo = v[i]
+        A[i], B[i] = [row[:] for row in J[i]], hx(h[i])
+        C[i] = [[m[i] if r == s else 0.0 for s in range(3)] for r in range(3)]
+        L = [a + b for a, b in zip([_dot3(J[i][r], w) for r in range(3)], _cross(h[i], vo))]
+        Pm = [m[i] * vo[r] + x for r, x in enumerate(_cross(w, h[i]))]
+        pA[i] = ([a + b for a, b in zip(_cross(w, L), _cross(vo, Pm))], _cross(w, Pm))
+    U, D, uu = [None] * n, [None] * n, [None] * n
+    for i in range(n - 1, -1, -1):       # pass 2: U = IA S, D = S^T U, u = tau - S^T pA
+        u, l = axis[i], parent[i]
+        if prism[i]:
+            U[i] = ([_dot3(B[i][r], u) for r in range(3)], [_dot3(C[i][r], u) for r in range(3)])
+        else:
+            U[i] = ([_dot3(A[i][r], u) for r in range(3)], [_dot3([B[i][k][r] for k in range(3)], u) for r in range(3)])
+        Us = U[i][1] if prism[i] else U[i][0]
+        D[i] = _dot3(u, Us) + arm[i]
+        uu[i] = tau[i] - _dot3(u, pA[i][1] if prism[i] else pA[i][0])
+        if l < 0:
+            continue
+        Ua, Ub = [x / D[i] for x in U[i][0]], [x / D[i] for x in U[i][1]]
+        Ia = [[A[i][r][s] - Ua[r] * U[i][0][s] for s in range(3)] for r in range(3)]
+        Ib = [[B[i][r][s] - Ua[r] * U[i][1][s] for s in range(3)] for r in range(3)]
+        Ic = [[C[i][r][s] - Ub[r] * U[i][1][s] for s in range(3)] for r in range(3)]
+        cw, cl = cv[i]                   # pa = pA + Ia c + U u / D
+        pa = ([pA[i][0][r] + _dot3(Ia[r], cw) + _dot3(Ib[r], cl) + Ua[r] * uu[i] for r in range(3)],
+              [pA[i][1][r] + _dot3([Ib[k][r] for k in range(3)], cw) + _dot3(Ic[r], cl) + Ub[r] * uu[i]
+               for r in range(3)])
+        # rotate the blocks: R X R^T; then shift by p: C' = C1, B' = B1 + [p]x C1,
+        # A' = A1 - B1 [p]x + [p]x B1^T - [p]x C1 [p]x  (written as B' and A1 - B1[p]x + [p]x B'^T)
+        rot = lambda X: [[_dot3(R[i][r], [_dot3(X[a], R[i][s]) for a in range(3)]) for s in range(3)] for r in range(3)]  # noqa: E731
+        A1, B1, C1 = rot(Ia), rot(Ib), rot(Ic)
+        P = hx(p[i])
+        PC = [[_dot3(P[r], [C1[k][s] for k in range(3)]) for s in range(3)] for r in range(3)]
+        Bp = [[B1[r][s] + PC[r][s] for s in range(3)] for r in range(3)]
+        BP = [[_dot3(B1[r], [P[k][s] for k in range(3)]) for s in range(3)] for r in range(3)]
+        PB = [[_dot3(P[r], [Bp[s][k] for k in range(3)]) for s in range(3)] for r in range(3)]
+        for r in range(3):
+            for s in range(3):
+                A[l][r][s] = A[l][r][s] + (A1[r][s] - BP[r][s] + PB[r][s])
+                B[l][r][s] = B[l][r][s] + Bp[r][s]
+                C[l][r][s] = C[l][r][s] + C1[r][s]
+        fn, ff = Rx(i, pa[0]), Rx(i, pa[1])          # pA_l += Xup^T pa
+        fn = [a + b for a, b in zip(fn, _cross(p[i], ff))]
+        pA[l] = ([pA[l][0][r] + fn[r] for r in range(3)], [pA[l][1][r] + ff[r] for r in range(3)])
+    acc, qdd = [None] * n, [0.0] * n
+    for i in range(n):                   # pass 3: a' = Xup a_l + c, qdd = (u - U^T a') / D
+        l, u = parent[i], axis[i]
+        a0, l0 = ([0.0] * 3, [-x for x in g]) if l < 0 else acc[l]
+        aw = Rt(i, a0)
+        al = Rt(i, [l0[r] + x for r, x in enumerate(_cross(a0, p[i]))])
+        aw = [aw[r] + cv[i][0][r] for r in range(3)]
+        al = [al[r] + cv[i][1][r] for r in range(3)]
+        qdd[i] = (uu[i] - (_dot3(U[i][0], aw) + _dot3(U[i][1], al))) / D[i]
+        su = [x * qdd[i] for x in u]
+        acc[i] = (aw, [al[r] + su[r] for r in range(3)]) if prism[i] else ([aw[r] + su[r] for r in range(3)], al)
+    return qdd
+
+
+def _crba(parent, R0, p0, axis, prism, m, c, I, arm, q, sin, cos):
+    """The mass matrix by composite rigid bodies (Walker and Orin 1982; Featherstone 2008,
+    Sec. 6.2) with 3-vectors: composite mass, first moment h and rotational inertia J
+    about each body's origin; then the unit-acceleration wrench of composite i carried
+    inward. For counting only (Python)."""
+    n = parent.shape[0]
+    R, p = _joint_transforms(R0, p0, axis, prism, q, sin, cos)
+    mc = [m[i] for i in range(n)]
+    h, J = _origin_inertias(m, c, I)
     for i in range(n - 1, -1, -1):            # composite i into its parent
         l = parent[i]
         if l < 0:
@@ -411,7 +505,7 @@ def _counted(x):
 def flops(robot, seed=0):
     """Operations of one state, by algorithm: inverse dynamics (Newton-Euler), the mass
     matrix (composite rigid bodies), forward dynamics (mass matrix, Newton-Euler at qdd = 0
-    for the bias, Cholesky solve)."""
+    for the bias, Cholesky solve) and forward dynamics by articulated bodies."""
     parent, R0, p0, axis, prism, m, c, I, arm, g = model_arrays(robot)
     n = len(parent)
     rng = np.random.default_rng(seed)
@@ -431,14 +525,22 @@ def flops(robot, seed=0):
     Flop.count = 0
     _cholesky_solve(M, list(_counted(np.ones(n))))
     solve_ops = Flop.count
+    Flop.count = 0
+    _aba(*model, list(_counted(q[0])), list(_counted(qd[0])), list(_counted(qdd[0])), Flop.sin, Flop.cos)
+    aba_ops = Flop.count
     # the counted algorithms give the library's answers (checked on plain floats)
     tau_f = np.empty((1, n))
     _make_rnea(math.sin, math.cos, np.zeros)(parent, R0, p0, axis, prism, m, c, I, arm, g, q, qd, qdd, tau_f)
     M_f = np.array(_crba(parent, R0, p0, axis, prism, m, c, I, arm, list(q[0]), math.sin, math.cos))
     check("the counted Newton-Euler", tau_f[0], robot.inverse_dynamics(q[0], qd[0], qdd[0]))
     check("the counted composite rigid bodies", M_f, robot.mass_matrix(q[0]))
+    a_f = _aba(parent, R0, p0, axis, prism, m, c, I, arm, g, list(q[0]), list(qd[0]), list(qdd[0]),
+               math.sin, math.cos)
+    check("the counted articulated bodies", np.array(a_f),
+          robot.forward_dynamics(q[0], qd[0], qdd[0], method="aba"))
     return {"inverse dynamics": id_ops, "mass matrix": m_ops,
-            "forward dynamics": m_ops + bias_ops + solve_ops}
+            "forward dynamics": m_ops + bias_ops + solve_ops,
+            "forward dynamics (articulated bodies)": aba_ops}
 
 
 # ------------------------------------------------------------------ timing the plain loop
@@ -486,10 +588,12 @@ def peak(cpu=None):
 # ------------------------------------------------------------------ packed instructions
 _ASM = """
 import collections, json, re, sys
-from serial_dynamics.core import crba_lanes, derivatives_lanes, forward_lanes, rnea_lanes, tree_lanes
+from serial_dynamics.core import (aba_lanes, crba_lanes, derivatives_lanes, forward_lanes, rnea_lanes,
+                                  tree_lanes)
 from serial_dynamics.core.signatures import compile_internal
 out = {}
 for mod, name in [(rnea_lanes, "rnea_block"), (crba_lanes, "crba_block"), (forward_lanes, "fd_block"),
+                  (aba_lanes, "aba_block"),
                   (derivatives_lanes, "derivatives_block"), (tree_lanes, "tree_rnea_block"),
                   (tree_lanes, "tree_crba_block"), (tree_lanes, "tree_fd_block")]:
     compile_internal([name])

@@ -43,23 +43,27 @@ from .spatial import finite, to_child, to_parent
 
 @internal
 def rot_block(R, i, X, a0, b0, Y):
-    """Y = R_i X_blk R_i^T for the 3x3 block of the 6x6 X at rows a0.., columns b0.."""
-    for a in range(3):
-        for b in range(3):
+    """Y = R_i X_blk R_i^T for the 3x3 block of the 6x6 X at rows a0.., columns b0..: column
+    c of T = X_blk R_i^T, then column c of R_i T (each sum from 0.0, in k's order)."""
+    for c in range(3):
+        t0, t1, t2 = 0.0, 0.0, 0.0
+        for m in range(3):
+            r = R[i, c, m]
+            t0 += X[a0, b0 + m] * r
+            t1 += X[a0 + 1, b0 + m] * r
+            t2 += X[a0 + 2, b0 + m] * r
+        for a in range(3):
             s = 0.0
-            for k in range(3):
-                t = 0.0
-                for m in range(3):
-                    t += X[a0 + k, b0 + m] * R[i, b, m]
-                s += R[i, a, k] * t
-            Y[a, b] = s
+            s += R[i, a, 0] * t0
+            s += R[i, a, 1] * t1
+            s += R[i, a, 2] * t2
+            Y[a, c] = s
 
 @njit(cache=True, inline="always")
-def rigid_body(P, i, I6, pA, wx, wy, wz, ux, uy, uz):
-    """Pass 1's start of body i moving with (omega; v_O) = (w*; u*): IA_i = I_i into I6 and
-    pA_i = v x* I_i v into pA[i]."""
-    # IA_i = I_i = [[I_O, [h]x], [[h]x^T, m 1]]  (Featherstone 2008, eq. 2.63)
-    m, hx, hy, hz, Ixx, Iyy, Izz, Ixy, Ixz, Iyz = inertia(P, i)
+def body_inertia(I10, I6):
+    """IA_i = I_i = [[I_O, [h]x], [[h]x^T, m 1]] into I6 (Featherstone 2008, eq. 2.63), from
+    the body's inertial parameters I10 (``rnea.inertia``)."""
+    m, hx, hy, hz, Ixx, Iyy, Izz, Ixy, Ixz, Iyz = I10
     I6[0, 0], I6[0, 1], I6[0, 2] = Ixx, Ixy, Ixz
     I6[1, 0], I6[1, 1], I6[1, 2] = Ixy, Iyy, Iyz
     I6[2, 0], I6[2, 1], I6[2, 2] = Ixz, Iyz, Izz
@@ -70,90 +74,140 @@ def rigid_body(P, i, I6, pA, wx, wy, wz, ux, uy, uz):
         for b in range(3):
             I6[3 + a, b] = I6[b, 3 + a]
             I6[3 + a, 3 + b] = m if a == b else 0.0
-    # pA = v x* (I v): momentum L = I_O omega + h x v_O, Pm = m v_O + omega x h;
-    # (omega, v_O) x* (L, Pm) = (omega x L + v_O x Pm, omega x Pm)
+
+
+@njit(cache=True, inline="always")
+def bias_force(I10, wx, wy, wz, ux, uy, uz):
+    """pA = v x* (I v) of a body moving with (omega; v_O) = (w*; u*), 6 numbers: momentum
+    L = I_O omega + h x v_O, Pm = m v_O + omega x h; (omega, v_O) x* (L, Pm) = (omega x L +
+    v_O x Pm, omega x Pm) (Featherstone 2008, eq. 2.68)."""
+    m, hx, hy, hz, Ixx, Iyy, Izz, Ixy, Ixz, Iyz = I10
     Lx = Ixx * wx + Ixy * wy + Ixz * wz + hy * uz - hz * uy
     Ly = Ixy * wx + Iyy * wy + Iyz * wz + hz * ux - hx * uz
     Lz = Ixz * wx + Iyz * wy + Izz * wz + hx * uy - hy * ux
     Px = m * ux + wy * hz - wz * hy
     Py = m * uy + wz * hx - wx * hz
     Pz = m * uz + wx * hy - wy * hx
-    pA[i, 0] = wy * Lz - wz * Ly + uy * Pz - uz * Py
-    pA[i, 1] = wz * Lx - wx * Lz + uz * Px - ux * Pz
-    pA[i, 2] = wx * Ly - wy * Lx + ux * Py - uy * Px
-    pA[i, 3] = wy * Pz - wz * Py
-    pA[i, 4] = wz * Px - wx * Pz
-    pA[i, 5] = wx * Py - wy * Px
+    return (wy * Lz - wz * Ly + uy * Pz - uz * Py, wz * Lx - wx * Lz + uz * Px - ux * Pz,
+            wx * Ly - wy * Lx + ux * Py - uy * Px, wy * Pz - wz * Py, wz * Px - wx * Pz,
+            wx * Py - wy * Px)
 
 
 @njit(cache=True, inline="always")
-def inertia_to_parent(R, p, i, I6, Y, PA):
-    """IA_l += Xup_i^T Ia Xup_i into PA = IA_l, Ia = I6 (Featherstone 2008, eq. 7.23): the
-    blocks rotated by R_i, then shifted by p_i. Y (3, 3) scratch."""
-    # A' = A1 - B1 [p]x + [p]x B1^T - [p]x C1 [p]x,  B' = B1 + [p]x C1,  C' = C1
-    px, py, pz = p[i, 0], p[i, 1], p[i, 2]
-    rot_block(R, i, I6, 3, 3, Y)                        # C1
-    C00, C01, C02, C11, C12, C22 = Y[0, 0], Y[0, 1], Y[0, 2], Y[1, 1], Y[1, 2], Y[2, 2]
-    # PC = [p]x C1
-    q00, q01, q02 = py * Y[2, 0] - pz * Y[1, 0], py * Y[2, 1] - pz * Y[1, 1], py * Y[2, 2] - pz * Y[1, 2]
-    q10, q11, q12 = pz * Y[0, 0] - px * Y[2, 0], pz * Y[0, 1] - px * Y[2, 1], pz * Y[0, 2] - px * Y[2, 2]
-    q20, q21, q22 = px * Y[1, 0] - py * Y[0, 0], px * Y[1, 1] - py * Y[0, 1], px * Y[1, 2] - py * Y[0, 2]
-    PA[3, 3] += C00
-    PA[3, 4] += C01
-    PA[3, 5] += C02
-    PA[4, 3] += C01
-    PA[4, 4] += C11
-    PA[4, 5] += C12
-    PA[5, 3] += C02
-    PA[5, 4] += C12
-    PA[5, 5] += C22
-    rot_block(R, i, I6, 0, 3, Y)                        # B1
-    B00, B01, B02, B10, B11, B12, B20, B21, B22 = (Y[0, 0], Y[0, 1], Y[0, 2], Y[1, 0], Y[1, 1],
-                                                   Y[1, 2], Y[2, 0], Y[2, 1], Y[2, 2])
-    # B' = B1 + PC, and its transpose in the lower-left block
+def rigid_body(P, i, I6, pA, wx, wy, wz, ux, uy, uz):
+    """Pass 1's start of body i moving with (omega; v_O) = (w*; u*): IA_i = I_i into I6 and
+    pA_i = v x* I_i v into pA[i]."""
+    I10 = inertia(P, i)
+    body_inertia(I10, I6)
+    pA[i, 0], pA[i, 1], pA[i, 2], pA[i, 3], pA[i, 4], pA[i, 5] = bias_force(
+        I10, wx, wy, wz, ux, uy, uz)
+
+
+# IA_l += Xup_i^T Ia Xup_i (Featherstone 2008, eq. 7.23), with Ia = [[A1, B1], [B1^T, C1]]
+# rotated by R_i (``rot_block``), then shifted by p_i:
+#     A' = A1 - B1 [p]x + [p]x B1^T - [p]x C1 [p]x,  B' = B1 + [p]x C1,  C' = C1.
+@njit(cache=True, inline="always")
+def block(Y):
+    """A 3 x 3 block as nine numbers, row-major."""
+    return Y[0, 0], Y[0, 1], Y[0, 2], Y[1, 0], Y[1, 1], Y[1, 2], Y[2, 0], Y[2, 1], Y[2, 2]
+
+
+@njit(cache=True, inline="always")
+def cross_block(px, py, pz, C):
+    """[p]x C1, nine numbers (C1 and the result row-major)."""
+    C00, C01, C02, C10, C11, C12, C20, C21, C22 = C
+    return (py * C20 - pz * C10, py * C21 - pz * C11, py * C22 - pz * C12,
+            pz * C00 - px * C20, pz * C01 - px * C21, pz * C02 - px * C22,
+            px * C10 - py * C00, px * C11 - py * C01, px * C12 - py * C02)
+
+
+@njit(cache=True, inline="always")
+def add_lower_right(T, r0, b, C):
+    """C' = C1 into rows 3.. and columns 3.. of the 6 x 6 whose entry (a, c) is T[r0 + 6a + c,
+    b] (its upper triangle, mirrored)."""
+    C00, C01, C02, C11, C12, C22 = C[0], C[1], C[2], C[4], C[5], C[8]
+    T[r0 + 21, b] += C00
+    T[r0 + 22, b] += C01
+    T[r0 + 23, b] += C02
+    T[r0 + 27, b] += C01
+    T[r0 + 28, b] += C11
+    T[r0 + 29, b] += C12
+    T[r0 + 33, b] += C02
+    T[r0 + 34, b] += C12
+    T[r0 + 35, b] += C22
+
+
+@njit(cache=True, inline="always")
+def add_off_diagonal(T, r0, b, B, Q):
+    """B' = B1 + [p]x C1 (Q) into rows 0.., columns 3.., and its transpose."""
+    B00, B01, B02, B10, B11, B12, B20, B21, B22 = B
+    q00, q01, q02, q10, q11, q12, q20, q21, q22 = Q
     b00, b01, b02 = B00 + q00, B01 + q01, B02 + q02
     b10, b11, b12 = B10 + q10, B11 + q11, B12 + q12
     b20, b21, b22 = B20 + q20, B21 + q21, B22 + q22
-    PA[0, 3] += b00
-    PA[0, 4] += b01
-    PA[0, 5] += b02
-    PA[1, 3] += b10
-    PA[1, 4] += b11
-    PA[1, 5] += b12
-    PA[2, 3] += b20
-    PA[2, 4] += b21
-    PA[2, 5] += b22
-    PA[3, 0] += b00
-    PA[4, 0] += b01
-    PA[5, 0] += b02
-    PA[3, 1] += b10
-    PA[4, 1] += b11
-    PA[5, 1] += b12
-    PA[3, 2] += b20
-    PA[4, 2] += b21
-    PA[5, 2] += b22
-    # Q = B1 [p]x  (column k of [p]x is e_k x ... : ([p]x)_{:,0} = (0, pz, -py), etc.)
+    T[r0 + 3, b] += b00
+    T[r0 + 4, b] += b01
+    T[r0 + 5, b] += b02
+    T[r0 + 9, b] += b10
+    T[r0 + 10, b] += b11
+    T[r0 + 11, b] += b12
+    T[r0 + 15, b] += b20
+    T[r0 + 16, b] += b21
+    T[r0 + 17, b] += b22
+    T[r0 + 18, b] += b00
+    T[r0 + 24, b] += b01
+    T[r0 + 30, b] += b02
+    T[r0 + 19, b] += b10
+    T[r0 + 25, b] += b11
+    T[r0 + 31, b] += b12
+    T[r0 + 20, b] += b20
+    T[r0 + 26, b] += b21
+    T[r0 + 32, b] += b22
+
+
+@njit(cache=True, inline="always")
+def add_upper_left(T, r0, b, px, py, pz, A, B, Q):
+    """A' = A1 - B1 [p]x + [p]x B1^T - [p]x C1 [p]x (B1, Q = [p]x C1 row-major) into rows
+    0.., columns 0.. (its upper triangle, mirrored)."""
+    B00, B01, B02, B10, B11, B12, B20, B21, B22 = B
+    q00, q01, q02, q10, q11, q12, q20, q21, q22 = Q
+    # E = B1 [p]x  (column k of [p]x is e_k x ... : ([p]x)_{:,0} = (0, pz, -py), etc.)
     e00, e01, e02 = B01 * pz - B02 * py, B02 * px - B00 * pz, B00 * py - B01 * px
     e10, e11, e12 = B11 * pz - B12 * py, B12 * px - B10 * pz, B10 * py - B11 * px
     e20, e21, e22 = B21 * pz - B22 * py, B22 * px - B20 * pz, B20 * py - B21 * px
-    # PCP = PC [p]x  (symmetric)
+    # F = [p]x C1 [p]x = Q [p]x  (symmetric)
     f00, f01, f02 = q01 * pz - q02 * py, q02 * px - q00 * pz, q00 * py - q01 * px
     f11, f12 = q12 * px - q10 * pz, q10 * py - q11 * px
     f22 = q20 * py - q21 * px
+    # A' = A1 - E - E^T - F
+    T[r0, b] += A[0] - 2.0 * e00 - f00
+    T[r0 + 7, b] += A[4] - 2.0 * e11 - f11
+    T[r0 + 14, b] += A[8] - 2.0 * e22 - f22
+    t01 = A[1] - e01 - e10 - f01
+    t02 = A[2] - e02 - e20 - f02
+    t12 = A[5] - e12 - e21 - f12
+    T[r0 + 1, b] += t01
+    T[r0 + 6, b] += t01
+    T[r0 + 2, b] += t02
+    T[r0 + 12, b] += t02
+    T[r0 + 8, b] += t12
+    T[r0 + 13, b] += t12
+
+
+@njit(cache=True, inline="always")
+def inertia_to_parent(R, p, i, I6, Y, T, r0):
+    """IA_l += Xup_i^T Ia Xup_i (the comment above), Ia = I6, IA_l the 6 x 6 whose entry
+    (a, c) is T[r0 + 6a + c, 0]. Y (3, 3) scratch."""
+    px, py, pz = p[i, 0], p[i, 1], p[i, 2]
+    rot_block(R, i, I6, 3, 3, Y)                        # C1
+    C = block(Y)
+    add_lower_right(T, r0, 0, C)
+    Q = cross_block(px, py, pz, C)
+    rot_block(R, i, I6, 0, 3, Y)                        # B1
+    B = block(Y)
+    add_off_diagonal(T, r0, 0, B, Q)
     rot_block(R, i, I6, 0, 0, Y)                        # A1
-    # A' = A1 - Q - Q^T - PCP
-    PA[0, 0] += Y[0, 0] - 2.0 * e00 - f00
-    PA[1, 1] += Y[1, 1] - 2.0 * e11 - f11
-    PA[2, 2] += Y[2, 2] - 2.0 * e22 - f22
-    t01 = Y[0, 1] - e01 - e10 - f01
-    t02 = Y[0, 2] - e02 - e20 - f02
-    t12 = Y[1, 2] - e12 - e21 - f12
-    PA[0, 1] += t01
-    PA[1, 0] += t01
-    PA[0, 2] += t02
-    PA[2, 0] += t02
-    PA[1, 2] += t12
-    PA[2, 1] += t12
+    add_upper_left(T, r0, 0, px, py, pz, block(Y), B, Q)
 
 
 @njit(cache=True, inline="always")
@@ -165,6 +219,7 @@ def articulated_bodies(P, sc, R, p, IA, pA, U, c, Du, Y, va, q, qd, tau, w, damp
     bodies are one free-flyer root joint (FDfb)."""
     n = out.shape[0]
     use_qd = (flags & F.QD) != 0
+    IA36 = IA.reshape((36 * n, 1))       # IA_l's entry (a, c) is IA36[36 l + 6 a + c, 0]
     chk = joint_transforms(P, sc, R, p, q, n, nb)
     # --- pass 1, outward: velocities, velocity-product accelerations c, bias forces pA
     vx = vy = vz = ux = uy = uz = 0.0    # (omega; v_O) of the parent: the base's at first
@@ -243,7 +298,7 @@ def articulated_bodies(P, sc, R, p, IA, pA, U, c, Du, Y, va, q, qd, tau, w, damp
                 I6[a, b] = I6[a, b] - Ua * U[i, b]
                 acc += I6[a, b] * c[i, b]
             pA[i, a] = acc
-        inertia_to_parent(R, p, i, I6, Y, IA[l])            # IA_l += Xup_i^T Ia Xup_i
+        inertia_to_parent(R, p, i, I6, Y, IA36, 36 * l)     # IA_l += Xup_i^T Ia Xup_i
         # pA_l += Xup_i^T pa
         nx, ny, nz, fx, fy, fz = to_parent(R, p, i, pA[i, 0], pA[i, 1], pA[i, 2],
                                            pA[i, 3], pA[i, 4], pA[i, 5])

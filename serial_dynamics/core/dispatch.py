@@ -48,7 +48,8 @@ ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core fu
     "fd": (forward.fd, i8(Pm, Vec, Vec, Vec, Vec, i8, Vec), False, FD_CALLS),
     "rnea_batch": (rnea_lanes.rnea_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True, ("rnea_block",)),
     "crba_batch": (crba_lanes.crba_batch, i8(Pm, In2, Out3), True, ("crba_block", "crba_core")),
-    "fd_batch": (forward.fd_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True, FD_CALLS),
+    "fd_batch": (forward.fd_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True,
+                 FD_CALLS + ("aba_block",)),
     # a floating base's virtual chain (its free-flyer root; their own kernels, so that a fixed
     # base's cold start compiles none of them)
     "floating_rnea_batch": (rnea_lanes.floating_rnea_batch, i8(Pm, In2, In2, In2, In2, i8, Out2),
@@ -56,7 +57,7 @@ ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core fu
     "floating_crba_batch": (crba_lanes.floating_crba_batch, i8(Pm, In2, Out3), True,
                             ("floating_crba_block", "floating_crba_core")),
     "floating_fd_batch": (forward.floating_fd_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True,
-                          FLOATING_FD_CALLS),
+                          FLOATING_FD_CALLS + ("aba_block",)),
     **planar.ENTRY_POINTS,   # the planar fast path (planar 3-vectors; Robot.is_planar),
     **planar_lanes.ENTRY_POINTS,   # and its batches
     **derivatives.ENTRY_POINTS,    # derivatives of inverse and forward dynamics

@@ -136,6 +136,25 @@ def test_a_chain_past_the_lanes_stack_gives_each_state_its_bits(n):
         assert rel(a[k], ref.forward_dynamics(q[k], qd[k], tau[k], method="cholesky")) <= 1e-9
 
 
+@pytest.mark.parametrize("n", [56, 57])
+def test_articulated_bodies_past_the_lanes_stack_give_each_state_its_bits(n):
+    """aba_lanes.aba_lanes_fit: a 56-joint chain's batch of forward dynamics by articulated
+    bodies runs in lanes (36 x 56 x 32 doubles of articulated inertias fit 512 KiB of stack),
+    a 57-joint one's one state at a time; either way, with a tip wrench per row or none, a
+    row is bitwise its single call and agrees with the reference."""
+    robot = sd.load_urdf(chain_urdf(n, kinds=(["revolute"] * 6 + ["prismatic"]) * 8 + ["revolute"] * (n - 56)))
+    ref = Robot(robot.model, backend="numpy")
+    q, qd, _, tau, _ = states(robot, seed=12, batch=35)
+    for wrench in (None, np.random.default_rng(13).normal(size=(35, 6)) * 5):
+        a = robot.forward_dynamics(q, qd, tau, wrench, method="aba")
+        for k in range(35):
+            one = None if wrench is None else wrench[k]
+            assert a[k].tobytes() == robot.forward_dynamics(q[k], qd[k], tau[k], one, method="aba").tobytes()
+        for k in (0, 34):
+            one = None if wrench is None else wrench[k]
+            assert rel(a[k], ref.forward_dynamics(q[k], qd[k], tau[k], one, method="aba")) <= 1e-9
+
+
 def test_inputs_of_any_kind(pair):
     _, robot, ref = pair
     q, qd, qdd, tau, _ = states(robot, seed=5)

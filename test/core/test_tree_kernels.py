@@ -58,9 +58,10 @@ def test_compiled_trees_match_the_reference(rel):
 
 @pytest.mark.parametrize("rel", ROBOTS)
 def test_tree_batches_in_lanes_are_the_single_calls_bits(rel):
-    """tree_lanes.py: 70 states (two blocks of 32 lanes and a short one), a block mixing
-    tiny and huge angles, a tip wrench per row, a base motion: each row of inverse dynamics,
-    mass matrix and forward dynamics is bitwise its single call."""
+    """tree_lanes.py and aba_lanes.py: 70 states (two blocks of 32 lanes and a short one), a
+    block mixing tiny and huge angles, a tip wrench per row, a base motion: each row of
+    inverse dynamics, mass matrix and forward dynamics (the sparse factor and articulated
+    bodies) is bitwise its single call."""
     fast, _ = pair(rel)
     rng = np.random.default_rng(8)
     q, qd = fast.random_state(rng, batch=70)
@@ -71,34 +72,42 @@ def test_tree_batches_in_lanes_are_the_single_calls_bits(rel):
     bm = sd.BaseMotion((0.1, -0.2, 0.3), (0.5, 0.1, -0.4), (0.2, 0.3, -1.0))
     for kw in ({}, {"wrench": w}, {"base_motion": bm}):
         one = lambda k: {a: (v[k] if a == "wrench" else v) for a, v in kw.items()}   # noqa: E731
-        t, a = fast.inverse_dynamics(q, qd, qdd, **kw), fast.forward_dynamics(q, qd, tau, **kw)
+        t = fast.inverse_dynamics(q, qd, qdd, **kw)
         for k in range(70):
             assert t[k].tobytes() == fast.inverse_dynamics(q[k], qd[k], qdd[k], **one(k)).tobytes()
-            assert a[k].tobytes() == fast.forward_dynamics(q[k], qd[k], tau[k], **one(k)).tobytes()
+        for method in ("cholesky", "aba"):
+            a = fast.forward_dynamics(q, qd, tau, **kw, method=method)
+            for k in range(70):
+                assert a[k].tobytes() == fast.forward_dynamics(q[k], qd[k], tau[k], **one(k),
+                                                               method=method).tobytes()
     M = fast.mass_matrix(q)
     for k in range(70):
         assert M[k].tobytes() == fast.mass_matrix(q[k]).tobytes()
 
 
-@pytest.mark.parametrize("n_each", [22, 23])
+@pytest.mark.parametrize("n_each", [22, 23, 28, 29])
 def test_a_tree_past_the_lanes_stack_gives_each_state_its_bits(n_each):
     """data.square_lanes_fit: a fixed-base tree of 44 joints runs its batches of M and
-    forward dynamics in lanes, one of 46 one state at a time; either way a row is bitwise
-    its single call and agrees with the reference."""
+    forward dynamics (the sparse factor) in lanes, one of 46 one state at a time;
+    aba_lanes.aba_lanes_fit: articulated bodies run in lanes up to 56 joints, one state at a
+    time from 58; either way a row is bitwise its single call and agrees with the reference."""
     fast = sd.load_urdf(two_arm_urdf(n_each))
     ref = sd.Robot(fast.model, backend="numpy")
     assert fast.dof == 2 * n_each and fast.kernels()[0].startswith("tree_")
     rng = np.random.default_rng(9)
     q, qd = fast.random_state(rng, batch=35)
     tau = rng.uniform(-20, 20, (35, fast.dof))
-    M, a = fast.mass_matrix(q), fast.forward_dynamics(q, qd, tau)
+    M = fast.mass_matrix(q)
+    a, b = (fast.forward_dynamics(q, qd, tau, method=m) for m in ("cholesky", "aba"))
     for k in range(35):
         assert M[k].tobytes() == fast.mass_matrix(q[k]).tobytes()
-        assert a[k].tobytes() == fast.forward_dynamics(q[k], qd[k], tau[k]).tobytes()
+        assert a[k].tobytes() == fast.forward_dynamics(q[k], qd[k], tau[k], method="cholesky").tobytes()
+        assert b[k].tobytes() == fast.forward_dynamics(q[k], qd[k], tau[k], method="aba").tobytes()
     for k in (0, 34):
         close(M[k], ref.mass_matrix(q[k]))
-        np.testing.assert_allclose(a[k], ref.forward_dynamics(q[k], qd[k], tau[k]), rtol=1e-9,
-                                   atol=1e-9 * np.max(np.abs(a[k])))
+        for x in (a[k], b[k]):
+            np.testing.assert_allclose(x, ref.forward_dynamics(q[k], qd[k], tau[k]), rtol=1e-9,
+                                       atol=1e-9 * np.max(np.abs(x)))
 
 
 @pytest.mark.parametrize("rel", ROBOTS)

@@ -28,7 +28,8 @@ The armature adds to D_i = S_i^T IA_i S_i + I_a,i (as it adds to M_ii); with the
 D_i += damping_i: (M + diag(damping)) qdd = tau - b. A base with known motion (flag BASE)
 starts pass 1 with v_{-1} = (omega_0, 0) and pass 3 with a_{-1} = (alpha_0, acc_0 - g): the
 spatial acceleration of a base origin at rest is its classical one.
-Ia and pa overwrite IA_i and pA_i once U_i, D_i, u_i are taken from them.
+Ia and pa overwrite IA_i and pA_i once U_i, D_i, u_i are taken from them. A batch runs
+these steps in SIMD lanes (``aba_lanes.py``).
 """
 
 from . import flags as F

@@ -9,10 +9,13 @@ through the same inline steps: pass 1 ``joint.velocity_product``, ``aba.body_ine
 ``aba.bias_force``; pass 2 the Ia and pa updates, then Xup^T Ia Xup by ``aba.rot_block``'s
 sums and ``aba.add_lower_right``, ``add_off_diagonal``, ``add_upper_left``; pass 3 the
 accelerations; so a sample's qdd is bitwise the same alone or in any batch
-(test/core/test_kernels.py, test_tree_kernels.py, test_reproducibility.py). A fixed base
-(or a moving one, flag BASE), with a tip wrench or without; a floating base's FDfb, and a
-model whose 36 n rows of articulated inertias do not fit the block's stack
-(``aba_lanes_fit``), run one state at a time (``forward.batch``, ``tree.tree_fd_batch``).
+(test/core/test_kernels.py, test_tree_kernels.py, test_reproducibility.py,
+test/robot/test_floating.py). A fixed base (or a moving one, flag BASE), with a tip wrench
+or without, and a floating base's virtual chain or tree with its six coordinates as one
+free-flyer root (FDfb, ``nb`` = 6: the root's 6 x 6 system solved by
+``forward_lanes.cholesky_lanes``, ``cholesky_factor``'s operations); a model whose 36 n rows
+of articulated inertias do not fit the block's stack (``aba_lanes_fit``) runs one state at
+a time (``forward.batch``, ``tree.tree_fd_batch``).
 """
 from numba import njit
 
@@ -20,6 +23,7 @@ from . import flags as F
 from .aba import (add_lower_right, add_off_diagonal, add_upper_left, bias_force, body_inertia,
                   cross_block)
 from .data import LANE_STACK_DOUBLES, stack_empty
+from .forward_lanes import cholesky_lanes
 from .joint import add_rate, axis, lane_transforms, velocity_product
 from .layout import ARM, G, KIND, LANES, PARENT, TIPP, TIPPATH, W_ACC, W_ALL, W_ALPHA, W_OMEGA
 from .rnea import inertia
@@ -75,17 +79,42 @@ def parent_motion(P, VA, VB, i, b):
 
 
 @njit(cache=True, inline="always")
-def velocity_pass(P, QV, WB, RB, PB, VB, VA, CB, IB, AB, flags, nl, small):
+def spatial_inertia_lanes(I10, I6, IB, i, nl):
+    """IA_i = I_i (``aba.body_inertia``, via the 6 x 6 scratch I6) into IB's rows 36i..,
+    the same in every lane."""
+    body_inertia(I10, I6)
+    for a in range(6):
+        for c in range(6):
+            x = I6[a, c]
+            for b in range(nl):
+                IB[36 * i + 6 * a + c, b] = x
+
+
+@njit(cache=True, inline="always")
+def velocity_pass(P, QV, WB, RB, PB, VB, VA, CB, IB, AB, flags, nl, small, nb):
     """Pass 1, outward: the joint transforms into RB, PB; v_i into VA, c_i into CB (rows 6i..),
     IA_i = I_i into IB (rows 36i + 6a + c), pA_i = v_i x* I_i v_i into AB (rows 6i..), less
-    the tip wrench on the last body (flag WRENCH)."""
+    the tip wrench on the last body (flag WRENCH); with nb = 6 the free-flyer root body
+    nb - 1 first, moving with v = (qd[3:6]; qd[:3])."""
     n = P.shape[0] - 1
     use_base = (flags & F.BASE) != 0
     for k in range(6):                   # the base's (omega; v_O): 0, or (omega_0; 0)
         for b in range(nl):
             VB[k, b] = WB[W_OMEGA + k, b] if use_base and k < 3 else 0.0
     I6 = stack_empty((6, 6))
-    for i in range(n):
+    if nb > 0:                           # FDfb (Featherstone 2008, Table 9.6): the root body
+        k = nb - 1
+        I10 = inertia(P, k)
+        ck = 6 * k
+        for b in range(nl):
+            vx, vy, vz = QV[n + 3, b], QV[n + 4, b], QV[n + 5, b]
+            ux, uy, uz = QV[n, b], QV[n + 1, b], QV[n + 2, b]
+            VA[ck, b], VA[ck + 1, b], VA[ck + 2, b], VA[ck + 3, b], VA[ck + 4, b], VA[ck + 5, b] = (
+                vx, vy, vz, ux, uy, uz)
+            (AB[ck, b], AB[ck + 1, b], AB[ck + 2, b], AB[ck + 3, b], AB[ck + 4, b],
+             AB[ck + 5, b]) = bias_force(I10, vx, vy, vz, ux, uy, uz)
+        spatial_inertia_lanes(I10, I6, IB, k, nl)
+    for i in range(nb, n):
         kind = P[i, KIND]                # the same in every lane: selects, not branches
         lane_transforms(P, i, QV, RB, PB, nl, small)
         I10 = inertia(P, i)
@@ -106,18 +135,13 @@ def velocity_pass(P, QV, WB, RB, PB, VB, VA, CB, IB, AB, flags, nl, small):
                 wx, wy, wz, ux, uy, uz)
             (AB[ci, b], AB[ci + 1, b], AB[ci + 2, b], AB[ci + 3, b], AB[ci + 4, b],
              AB[ci + 5, b]) = bias_force(I10, wx, wy, wz, ux, uy, uz)
-        body_inertia(I10, I6)            # IA_i = I_i, the same in every lane
-        for a in range(6):
-            for c in range(6):
-                x = I6[a, c]
-                for b in range(nl):
-                    IB[36 * i + 6 * a + c, b] = x
+        spatial_inertia_lanes(I10, I6, IB, i, nl)
     if (flags & F.WRENCH) != 0:          # pA_{n-1} -= the tip wrench, about the last origin
         tpx, tpy, tpz = P[n, TIPP], P[n, TIPP + 1], P[n, TIPP + 2]
         k = 6 * (n - 1)
         for b in range(nl):
             fx, fy, fz, mx, my, mz = WB[0, b], WB[1, b], WB[2, b], WB[3, b], WB[4, b], WB[5, b]
-            for i in range(n):           # base -> last body, along its path
+            for i in range(nb, n):       # base -> last body, along its path
                 if P[i, TIPPATH] != 0.0:
                     r = rotation_lane(RB, i, b)
                     fx, fy, fz = rotate_t(r, fx, fy, fz)
@@ -131,12 +155,12 @@ def velocity_pass(P, QV, WB, RB, PB, VB, VA, CB, IB, AB, flags, nl, small):
 
 
 @njit(cache=True, inline="always")
-def inertia_pass(P, QV, RB, PB, CB, IB, AB, UB, DB, YB, SB, nl):
+def inertia_pass(P, QV, RB, PB, CB, IB, AB, UB, DB, YB, SB, nl, nb):
     """Pass 2, inward: U_i = IA_i S_i, D_i = S_i^T U_i + I_a,i, u_i = tau_i - S_i^T pA_i
     into UB, DB; then Ia = IA_i - U_i U_i^T / D_i, pa = pA_i + Ia c_i + U_i u_i / D_i in
     place, and IA_{i-1} += Xup_i^T Ia Xup_i, pA_{i-1} += Xup_i^T pa. SB (2, B) scratch."""
     n = P.shape[0] - 1
-    for i in range(n - 1, -1, -1):
+    for i in range(n - 1, nb - 1, -1):
         s = axis(P[i, KIND])             # S = e_s
         arm = P[i, ARM]
         x0, ci = 36 * i, 6 * i
@@ -200,9 +224,12 @@ def inertia_to_parent_lanes(RB, PB, IB, YB, i, l, nl):
 
 
 @njit(cache=True, inline="always")
-def acceleration_pass(P, WB, RB, PB, VB, VA, CB, UB, DB, TB, flags, nl):
+def acceleration_pass(P, QV, WB, RB, PB, VB, VA, CB, IB, AB, UB, DB, MB, XB, SB, TB, flags, nl, nb):
     """Pass 3, outward: a'_i = Xup_i a_l + c_i, qdd_i = (u_i - U_i^T a'_i) / D_i into TB,
-    a_i = a'_i + S_i qdd_i into VA; the base's a = (0, -g), moving: (alpha_0, acc_0 - g)."""
+    a_i = a'_i + S_i qdd_i into VA; the base's a = (0, -g), moving: (alpha_0, acc_0 - g).
+    With nb = 6 first the root's IA_0 a_0 = tau_0 - pA_0 (``aba.articulated_bodies``' FDfb
+    step: its lower triangle into MB transposed, as ``forward_lanes.cholesky_lanes`` reads
+    it, XB the right-hand side, SB scratch)."""
     n = P.shape[0] - 1
     use_base = (flags & F.BASE) != 0
     for b in range(nl):
@@ -213,7 +240,32 @@ def acceleration_pass(P, WB, RB, PB, VB, VA, CB, UB, DB, TB, flags, nl):
             lx, ly, lz = (WB[W_ACC, b] - P[n, G], WB[W_ACC + 1, b] - P[n, G + 1],
                           WB[W_ACC + 2, b] - P[n, G + 2])
         VB[0, b], VB[1, b], VB[2, b], VB[3, b], VB[4, b], VB[5, b] = ax, ay, az, lx, ly, lz
-    for i in range(n):
+    if nb > 0:                           # the root: IA_0 a_0 = tau_0 - pA_0 (the base's [f; n]
+        k = nb - 1                       # as a spatial force (n; f))
+        x0, ck = 36 * k, 6 * k
+        for j in range(6):
+            for i in range(j, 6):
+                for b in range(nl):
+                    MB[6 * j + i, b] = IB[x0 + 6 * i + j, b]
+        for j in range(6):               # x = tau_0 - pA_0, tau_0 = [f; n] read as (n; f)
+            t = 2 * n + (j + 3) % 6
+            for b in range(nl):
+                XB[j, b] = QV[t, b] - AB[ck + j, b]
+        cholesky_lanes(6, MB, XB, SB, nl)
+        for b in range(nl):
+            ax, ay, az, lx, ly, lz = XB[0, b], XB[1, b], XB[2, b], XB[3, b], XB[4, b], XB[5, b]
+            VA[ck, b], VA[ck + 1, b], VA[ck + 2, b], VA[ck + 3, b], VA[ck + 4, b], VA[ck + 5, b] = (
+                ax, ay, az, lx, ly, lz)
+            # the six virtual joints' rates: a_0 - b = (alpha; a_O - omega x v_O) (aba.py)
+            wx, wy, wz = QV[n + 3, b], QV[n + 4, b], QV[n + 5, b]
+            vx, vy, vz = QV[n, b], QV[n + 1, b], QV[n + 2, b]
+            TB[0, b] = (lx - VB[3, b]) + (wy * vz - wz * vy)
+            TB[1, b] = (ly - VB[4, b]) + (wz * vx - wx * vz)
+            TB[2, b] = (lz - VB[5, b]) + (wx * vy - wy * vx)
+            TB[3, b] = (ax - VB[0, b]) - wy * wz
+            TB[4, b] = (ay - VB[1, b]) + wx * wz
+            TB[5, b] = (az - VB[2, b]) - wx * wy
+    for i in range(nb, n):
         kind = P[i, KIND]
         ci = 6 * i
         for b in range(nl):
@@ -236,14 +288,14 @@ def acceleration_pass(P, WB, RB, PB, VB, VA, CB, UB, DB, TB, flags, nl):
                 ax, ay, az, lx, ly, lz)
 
 
-@internal(i8(Pm, In2, In2, In2, In2, i8, Out2, i8))
-def aba_block(P, q, qd, tau, w, flags, out, k0):
+@njit(cache=True, inline="always")
+def lanes_block(P, q, qd, tau, w, flags, out, k0, nb):
     """qdd of the samples k0 .. k0 + B - 1 of the batch (fewer at its end) into the same rows
-    of ``out`` by articulated bodies (``aba.aba_core`` in every lane; flags QD, WRENCH,
-    BASE). Returns 1 if one of them has a NaN/Inf input, else 0. The lanes' scratch, on this
-    function's stack (~72 n rows of B): QV q, qd, tau (and the small-angle mask), WB w, RB,
-    PB the joint transforms, VB the parent's motion, CB c, IB IA, AB pA, UB U, DB (D, u),
-    YB, SB scratch, TB qdd."""
+    of ``out`` by articulated bodies (flags QD, WRENCH, BASE); ``nb``: 0, or 6 for a floating
+    base's virtual chain or tree (FDfb). Returns 1 if one of them has a NaN/Inf input, else
+    0. The lanes' scratch, on this function's stack (~78 n rows of B): QV q, qd, tau (and
+    the small-angle mask), WB w, RB, PB the joint transforms, VB the base's motion, VA each
+    body's, CB c, IB IA, AB pA, UB U, DB (D, u), YB, MB, XB, SB scratch, TB qdd."""
     n = P.shape[0] - 1
     L = int(P[n, LANES])                 # lanes (= B), read at run time on purpose
     nl = min(L, out.shape[0] - k0)
@@ -253,10 +305,23 @@ def aba_block(P, q, qd, tau, w, flags, out, k0):
     CB, IB, AB = stack_empty((6 * n, L)), stack_empty((36 * n, L)), stack_empty((6 * n, L))
     UB, DB, TB = stack_empty((6 * n, L)), stack_empty((2 * n, L)), stack_empty((n, L))
     YB, SB = stack_empty((27, L)), stack_empty((2, L))
+    MB, XB = stack_empty((36, L)), stack_empty((6, L))
     flags &= F.QD | F.WRENCH | F.BASE
     small, fin = gather(P, q, qd, tau, w, flags | F.QDD, QV, WB, k0, nl)   # tau as qdd's rows
-    velocity_pass(P, QV, WB, RB, PB, VB, VA, CB, IB, AB, flags, nl, small)
-    inertia_pass(P, QV, RB, PB, CB, IB, AB, UB, DB, YB, SB, nl)
-    acceleration_pass(P, WB, RB, PB, VB, VA, CB, UB, DB, TB, flags, nl)
+    velocity_pass(P, QV, WB, RB, PB, VB, VA, CB, IB, AB, flags, nl, small, nb)
+    inertia_pass(P, QV, RB, PB, CB, IB, AB, UB, DB, YB, SB, nl, nb)
+    acceleration_pass(P, QV, WB, RB, PB, VB, VA, CB, IB, AB, UB, DB, MB, XB, SB, TB, flags, nl, nb)
     scatter(TB, out, k0, nl)
     return OK if fin else NOT_FINITE
+
+
+@internal(i8(Pm, In2, In2, In2, In2, i8, Out2, i8))
+def aba_block(P, q, qd, tau, w, flags, out, k0):
+    """``lanes_block`` on a fixed base (``aba.aba_core``, ``tree_aba_core`` in every lane)."""
+    return lanes_block(P, q, qd, tau, w, flags, out, k0, 0)
+
+
+@internal(i8(Pm, In2, In2, In2, In2, i8, Out2, i8))
+def floating_aba_block(P, q, qd, tau, w, flags, out, k0):
+    """``lanes_block`` with a free-flyer root (``floating_aba_core``, ``floating_tree_aba_core``)."""
+    return lanes_block(P, q, qd, tau, w, flags, out, k0, 6)

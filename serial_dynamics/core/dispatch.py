@@ -57,7 +57,7 @@ ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core fu
     "floating_crba_batch": (crba_lanes.floating_crba_batch, i8(Pm, In2, Out3), True,
                             ("floating_crba_block", "floating_crba_core")),
     "floating_fd_batch": (forward.floating_fd_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True,
-                          FLOATING_FD_CALLS + ("aba_block",)),
+                          FLOATING_FD_CALLS + ("floating_aba_block",)),
     **planar.ENTRY_POINTS,   # the planar fast path (planar 3-vectors; Robot.is_planar),
     **planar_lanes.ENTRY_POINTS,   # and its batches
     **derivatives.ENTRY_POINTS,    # derivatives of inverse and forward dynamics

@@ -13,7 +13,7 @@ from numba import njit
 
 from . import flags as F
 from .aba import aba_core, floating_aba_core
-from .aba_lanes import aba_block, aba_lanes_fit
+from .aba_lanes import aba_block, aba_lanes_fit, floating_aba_block
 from .cholesky import cholesky_solve
 from .crba import crba_core, floating_crba_core
 from .data import new_art, new_chol, new_kin, square_lanes_fit
@@ -92,19 +92,18 @@ def fd(P, q, qd, tau, w, flags, out):
 
 
 @njit(cache=True, inline="always")
-def batch(P, q, qd, tau, w, flags, out, block, aba, cholesky, aba_lanes):
+def batch(P, q, qd, tau, w, flags, out, block, aba, cholesky, aba_block):
     """Forward dynamics of N states (rows broadcast as in ``rnea_batch``), B at a time in
-    SIMD lanes: the Cholesky route by ``block``, ABA by ``aba_block`` where ``aba_lanes``
-    (a fixed base's chain: aba_lanes.py); a chain too long for the lanes' stack
-    (``data.square_lanes_fit``, ``aba_lanes.aba_lanes_fit``), and ABA on a floating base, one
-    state at a time by ``cholesky`` or ``aba`` (the same bits). Returns OK, or NOT_FINITE
-    if some input had a NaN/Inf. The kernels are the caller's: a fixed base's or a floating
-    one's."""
+    SIMD lanes: the Cholesky route by ``block``, ABA by ``aba_block`` (aba_lanes.py); a chain
+    too long for the lanes' stack (``data.square_lanes_fit``, ``aba_lanes.aba_lanes_fit``)
+    one state at a time by ``cholesky`` or ``aba`` (the same bits). Returns OK, or
+    NOT_FINITE if some input had a NaN/Inf. The kernels are the caller's: a fixed base's or
+    a floating one's."""
     N, n = out.shape[0], P.shape[0] - 1
     L = int(P[n, LANES])
     flags &= ~F.DAMPING                  # tau stands in for the unread damping argument
     use_aba = (flags & F.ABA) != 0
-    if (aba_lanes and aba_lanes_fit(n, L)) if use_aba else square_lanes_fit(n, L):
+    if aba_lanes_fit(n, L) if use_aba else square_lanes_fit(n, L):
         bad = OK
         for k0 in range(0, N, L):
             if use_aba:
@@ -129,10 +128,10 @@ def batch(P, q, qd, tau, w, flags, out, block, aba, cholesky, aba_lanes):
 
 def fd_batch(P, q, qd, tau, w, flags, out):
     """``batch`` on a fixed base (or one with a known motion, flag BASE)."""
-    return batch(P, q, qd, tau, w, flags, out, fd_block, aba_core, cholesky_core, True)
+    return batch(P, q, qd, tau, w, flags, out, fd_block, aba_core, cholesky_core, aba_block)
 
 
 def floating_fd_batch(P, q, qd, tau, w, flags, out):
     """``batch`` on a floating base's virtual chain: the free-flyer root's kernels."""
     return batch(P, q, qd, tau, w, flags, out, floating_fd_block, floating_aba_core,
-                 floating_cholesky_core, False)
+                 floating_cholesky_core, floating_aba_block)

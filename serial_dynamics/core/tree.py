@@ -16,7 +16,7 @@ from numba import types
 
 from . import flags as F
 from .aba import floating_tree_aba_core, tree_aba_core
-from .aba_lanes import aba_block, aba_lanes_fit
+from .aba_lanes import aba_block, aba_lanes_fit, floating_aba_block
 from .cholesky import ltdl_factor, ltdl_solve_factored
 from .crba import add_in_parent, root_block
 from .floating import GW, _chain_inputs, _products, fd_inputs, rnea_inputs
@@ -273,19 +273,24 @@ def tree_crba_batch(P, q, out):
 
 def tree_fd_batch(P, q, qd, tau, w, flags, out):
     """Forward dynamics of N states, as ``tree_crba_batch`` splits them (a row of 1
-    broadcasts); with flag ABA by articulated bodies (B at a time in lanes on a fixed base,
-    ``aba_lanes.aba_block``; FDfb one state after the other). Returns OK or NOT_FINITE."""
+    broadcasts); with flag ABA by articulated bodies (``aba_lanes.py``, FDfb on a floating
+    base's virtual tree), B at a time in lanes where they fit. Returns OK or NOT_FINITE."""
     N, n = out.shape[0], P.shape[0] - 1
     L = int(P[n, LANES])
     flags &= ~F.DAMPING                  # tau stands in for the unread damping argument
     aba = (flags & F.ABA) != 0
-    if P[n, ROOT] == 0.0 and (aba_lanes_fit(n, L) if aba else square_lanes_fit(n, L)):
-        bad = OK                         # B at a time in lanes
+    if aba and aba_lanes_fit(n, L):      # B at a time in lanes
+        bad = OK
         for k0 in range(0, N, L):
-            if aba:
-                bad |= aba_block(P, q, qd, tau, w, flags, out, k0)
+            if P[n, ROOT] != 0.0:
+                bad |= floating_aba_block(P, q, qd, tau, w, flags, out, k0)
             else:
-                bad |= tree_fd_block(P, q, qd, tau, w, flags, out, k0)
+                bad |= aba_block(P, q, qd, tau, w, flags, out, k0)
+        return bad
+    if not aba and P[n, ROOT] == 0.0 and square_lanes_fit(n, L):
+        bad = OK
+        for k0 in range(0, N, L):
+            bad |= tree_fd_block(P, q, qd, tau, w, flags, out, k0)
         return bad
     d, c, mo, IC = new_kin(n), new_chol(n), stack_empty((n, 9)), stack_empty((n, 10))
     a, va = new_art(n), scratch((n, 6), 6 * n)
@@ -383,7 +388,7 @@ ENTRY_POINTS = {
                         ("tree_rnea_core", "tree_rnea_block")),
     "tree_crba_batch": (tree_crba_batch, i8(Pm, In2, Out3), True, ("tree_crba_core", "tree_crba_block")),
     "tree_fd_batch": (tree_fd_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True,
-                      _FD + ("tree_fd_block", "aba_block")),
+                      _FD + ("tree_fd_block", "aba_block", "floating_aba_block")),
     "floating_tree_rnea": (floating_tree_rnea, i8(Pm, Vec, Vec, Vec, Vec, i8, Vec), False,
                            ("tree_rnea_core",)),
     "floating_tree_fd": (floating_tree_fd, i8(Pm, Vec, Vec, Vec, Vec, i8, Vec), False, _FD),

@@ -236,12 +236,13 @@ def test_the_compiled_backend_is_the_reference():
         assert rel_err(got, want) <= 1e-12
 
 
-@pytest.mark.parametrize("n", [6, 41])
+@pytest.mark.parametrize("n", [6, 41, 51])
 def test_the_free_flyer_root_is_the_references_root_alone_and_in_batches(n):
     """The compiled recursions take a floating chain's six base coordinates as one free-flyer
-    joint (core/rnea.py, crba.py, forward.py and their lanes); 41 joints (47 coordinates)
-    are too many for the lanes' stack, and those batches run state by state: either way
-    each row is bitwise its single call, and both agree with the reference's 6-DoF root."""
+    joint (core/rnea.py, crba.py, forward.py, aba.py and their lanes); from 41 joints (47
+    coordinates) the mass matrix is too big for the lanes' stack, from 51 (57) the
+    articulated inertias too, and those batches run state by state: either way each row is
+    bitwise its single call, and both agree with the reference's 6-DoF root."""
     from serial_dynamics.robots.synthetic import chain_urdf
     base = ('<link name="base_link"><inertial><mass value="10"/><inertia ixx="0.2" iyy="0.3" '
             'izz="0.25" ixy="0" ixz="0" iyz="0"/></inertial></link>')
@@ -253,15 +254,16 @@ def test_the_free_flyer_root_is_the_references_root_alone_and_in_batches(n):
     a, w = rng.normal(size=(35, robot.nv)), rng.normal(size=6)
     tau = robot.inverse_dynamics(q, v, a, w)
     M = robot.mass_matrix(q)
-    qdd = robot.forward_dynamics(q, v, tau, w, method="cholesky")
+    qdd = {m: robot.forward_dynamics(q, v, tau, w, method=m) for m in ("cholesky", "aba")}
     assert rel_err(tau, ref.inverse_dynamics(q, v, a, w)) <= 1e-12
     assert rel_err(M, ref.mass_matrix(q)) <= 1e-12
-    assert rel_err(qdd, a) <= 1e-9
+    assert rel_err(qdd["cholesky"], a) <= 1e-9 and rel_err(qdd["aba"], a) <= 1e-9
     for k in (0, 31, 32, 34):                      # first, last of a block, next block, tail
         assert tau[k].tobytes() == robot.inverse_dynamics(q[k], v[k], a[k], w).tobytes()
         assert M[k].tobytes() == robot.mass_matrix(q[k]).tobytes()
-        assert qdd[k].tobytes() == robot.forward_dynamics(q[k], v[k], tau[k], w,
-                                                          method="cholesky").tobytes()
+        for m in ("cholesky", "aba"):
+            assert qdd[m][k].tobytes() == robot.forward_dynamics(q[k], v[k], tau[k], w,
+                                                                 method=m).tobytes()
 
 
 def test_armature_payload_and_warmup_as_for_a_fixed_base():

@@ -1,6 +1,6 @@
 """Forward dynamics of a batch by articulated bodies, compiled: B samples of a chain or a
-fixed-base tree at a time in SIMD lanes (``aba.articulated_bodies``' three passes, lane by
-lane; Featherstone 2008, Table 7.1).
+tree at a time in SIMD lanes (``aba.articulated_bodies``' three passes, lane by lane;
+Featherstone 2008, Table 7.1).
 
 Every quantity of ``aba.py`` is stored with the sample index (lane) last, shape (rows, B),
 and each step is a loop over the lanes (``rnea_lanes.py`` says why the lane count is read
@@ -158,7 +158,7 @@ def velocity_pass(P, QV, WB, RB, PB, VB, VA, CB, IB, AB, flags, nl, small, nb):
 def inertia_pass(P, QV, RB, PB, CB, IB, AB, UB, DB, YB, SB, nl, nb):
     """Pass 2, inward: U_i = IA_i S_i, D_i = S_i^T U_i + I_a,i, u_i = tau_i - S_i^T pA_i
     into UB, DB; then Ia = IA_i - U_i U_i^T / D_i, pa = pA_i + Ia c_i + U_i u_i / D_i in
-    place, and IA_{i-1} += Xup_i^T Ia Xup_i, pA_{i-1} += Xup_i^T pa. SB (2, B) scratch."""
+    place, and IA_l += Xup_i^T Ia Xup_i, pA_l += Xup_i^T pa (l = lambda(i)). SB (2, B) scratch."""
     n = P.shape[0] - 1
     for i in range(n - 1, nb - 1, -1):
         s = axis(P[i, KIND])             # S = e_s

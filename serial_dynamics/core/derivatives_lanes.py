@@ -15,9 +15,9 @@ from numba import njit
 
 from . import flags as F
 from .data import LANE_STACK_DOUBLES, heap_empty, new_chol, new_kin, scratch, stack_empty
-from .derivatives import (_body_tangent, _inertia_times, _torques, derivatives_core,
+from .derivatives import (_body_tangent, _inertia_times, derivatives_core,
                           fd_derivatives_core, solve_minus, tangent_through, tip_tangents)
-from .joint import joint_rate, lane_transforms, own_turn, rate_terms, seeds
+from .joint import axis, joint_rate, lane_transforms, own_turn, rate_terms, seeds
 from .layout import H, IO, KIND, LANES, MASS, W_ALL
 from .rnea import base_state, body_wrench, into_body, tip_load
 from .crba_lanes import composite_lanes
@@ -46,6 +46,17 @@ def _r(RB, i, b):
     k = 9 * i
     return (RB[k, b], RB[k + 1, b], RB[k + 2, b], RB[k + 3, b], RB[k + 4, b], RB[k + 5, b],
             RB[k + 6, b], RB[k + 7, b], RB[k + 8, b])
+
+
+@njit(cache=True, inline="always")
+def torques_lanes(P, Tf, i, dq, dqd, k0, nl):
+    """``derivatives._torques`` of every lane: d tau_i = S_i^T (d n; d f) of each direction
+    into row i of the states k0.. of dq, dqd (no view a lane)."""
+    r = axis(P[i, KIND])
+    for j in range(dq.shape[2]):
+        for b in range(nl):
+            dq[k0 + b, i, j] = Tf[r, 2 * j, b]
+            dqd[k0 + b, i, j] = Tf[r, 2 * j + 1, b]
 
 
 @internal(i8(Pm, In2, In2, In2, In2, i8, Out3, Out3, i8))
@@ -140,7 +151,7 @@ def derivatives_block(P, q, qd, qdd, w, flags, dq, dqd, k0):
             ST[13, b], ST[14, b])
         if use_w:
             tip_tangents(P, T[:, :, b], Tf[:, :, b])
-        _torques(P, Tf[:, :, b], k, dq[k0 + b], dqd[k0 + b])
+    torques_lanes(P, Tf, k, dq, dqd, k0, nl)
     for i in range(n - 2, -1, -1):
         j = i + 1
         kind = P[j, KIND]
@@ -166,7 +177,7 @@ def derivatives_block(P, q, qd, qdd, w, flags, dq, dqd, k0):
         for b in range(nl):
             Tf[0, a, b], Tf[1, a, b], Tf[2, a, b] = Tf[0, a, b] + OT[0, b], Tf[1, a, b] + OT[1, b], Tf[2, a, b] + OT[2, b]
             Tf[3, a, b], Tf[4, a, b], Tf[5, a, b] = Tf[3, a, b] + OT[3, b], Tf[4, a, b] + OT[4, b], Tf[5, a, b] + OT[5, b]
-            _torques(P, Tf[:, :, b], i, dq[k0 + b], dqd[k0 + b])
+        torques_lanes(P, Tf, i, dq, dqd, k0, nl)
     return OK if fin else NOT_FINITE
 
 

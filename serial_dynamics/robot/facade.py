@@ -284,7 +284,9 @@ class Robot:
         """qdd for applied torques tau (rigid body). ``method``: "auto" (Cholesky for short
         chains, articulated bodies from ``algorithms.aba.CROSSOVER`` joints on; on a tree
         by the depths of its joints: ``robot/common.aba_by_default``), "cholesky" (on a
-        tree the sparse factor), "aba" (O(n)) or "qr" (for ill-conditioned chains)."""
+        tree the sparse factor), "aba" (O(n)) or "qr" (for ill-conditioned chains). A batch
+        takes its single states' route, so that each row is its single call's bits; on a
+        floating tree "aba" is the faster batch (docs/speed.md)."""
         if wrenches is not None:     # wrenches on links: tau + sum_k J_k^T w_k
             return _into(out, self.forward_dynamics(
                 q, qd, np.asarray(tau, dtype=float) + generalized_forces(self, q, wrenches),

@@ -278,19 +278,16 @@ def tree_fd_batch(P, q, qd, tau, w, flags, out):
     N, n = out.shape[0], P.shape[0] - 1
     L = int(P[n, LANES])
     flags &= ~F.DAMPING                  # tau stands in for the unread damping argument
-    aba = (flags & F.ABA) != 0
-    if aba and aba_lanes_fit(n, L):      # B at a time in lanes
-        bad = OK
+    aba, floating = (flags & F.ABA) != 0, P[n, ROOT] != 0.0
+    if aba_lanes_fit(n, L) if aba else (not floating and square_lanes_fit(n, L)):
+        bad = OK                         # B at a time in lanes
         for k0 in range(0, N, L):
-            if P[n, ROOT] != 0.0:
+            if not aba:
+                bad |= tree_fd_block(P, q, qd, tau, w, flags, out, k0)
+            elif floating:
                 bad |= floating_aba_block(P, q, qd, tau, w, flags, out, k0)
             else:
                 bad |= aba_block(P, q, qd, tau, w, flags, out, k0)
-        return bad
-    if not aba and P[n, ROOT] == 0.0 and square_lanes_fit(n, L):
-        bad = OK
-        for k0 in range(0, N, L):
-            bad |= tree_fd_block(P, q, qd, tau, w, flags, out, k0)
         return bad
     d, c, mo, IC = new_kin(n), new_chol(n), stack_empty((n, 9)), stack_empty((n, 10))
     a, va = new_art(n), scratch((n, 6), 6 * n)
@@ -298,7 +295,7 @@ def tree_fd_batch(P, q, qd, tau, w, flags, out):
     bad = OK
     for k in range(N):
         qk, qdk, tk, wk = q[k if nq else 0], qd[k if nv else 0], tau[k if nt else 0], w[k if nw else 0]
-        if aba and P[n, ROOT] != 0.0:    # FDfb on a floating base's virtual tree
+        if aba and floating:             # FDfb on a floating base's virtual tree
             chk = floating_tree_aba_core(P, d.sc, d.R, d.p, a.IA, a.pA, a.U, a.c, a.Du, a.Y, va,
                                          qk, qdk, tk, wk, tk, flags, out[k])
         elif aba:

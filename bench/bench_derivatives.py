@@ -159,9 +159,9 @@ def main():
         f"output over {N_CHECK} states. Single calls: one state from Python (ours allocates "
         "its results; Pinocchio's live in its `data`). Batches: our one call, split over the "
         "cores, against Pinocchio called in a Python loop (and, for information, on one "
-        "thread); on a chain each core runs blocks of 32 states in SIMD lanes "
-        "(core/derivatives_lanes.py, bitwise the single-state results), on a tree one state "
-        "after the other (core/tree_derivatives.py). docs/derivatives.md.",
+        "thread); each core runs blocks of states in SIMD lanes, bitwise the single-state "
+        "results: 32 on a chain (core/derivatives_lanes.py), 16-32 on these trees "
+        "(core/tree_derivatives_lanes.py). docs/derivatives.md.",
         "",
         stamp(),
         table(rows),

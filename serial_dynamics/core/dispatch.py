@@ -30,7 +30,7 @@ from . import crba, crba_lanes, derivatives, derivatives_lanes, energy, floating
 from . import floating_derivatives
 from . import mimic, planar, planar_lanes
 from . import regressor
-from . import rnea, rnea_lanes, tree, tree_derivatives
+from . import rnea, rnea_lanes, tree, tree_derivatives, tree_derivatives_lanes
 from .signatures import In2, Mat, Out2, Out3, Pm, Vec, compile_internal, i8
 from .status import BAD_LENGTH, NOT_CONVERGED, NOT_FINITE, OK, OTHER_TYPES   # noqa: F401 (re-exported)
 
@@ -67,7 +67,8 @@ ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core fu
     **floating.ENTRY_POINTS,       # a free-floating base on the instantaneous chain
     **floating_derivatives.ENTRY_POINTS,   # and its derivatives (chains and trees)
     **tree.ENTRY_POINTS,           # kinematic trees on the parent array
-    **tree_derivatives.ENTRY_POINTS,   # and their derivatives
+    **tree_derivatives.ENTRY_POINTS,   # and their derivatives,
+    **tree_derivatives_lanes.ENTRY_POINTS,   # over a batch in SIMD lanes
     **mimic.ENTRY_POINTS,          # the reduced system of mimic joints, on any of the above
     **kinematics.ENTRY_POINTS,     # frames, Jacobians, center of mass, momentum (any robot)
 }

@@ -27,9 +27,9 @@ from .derivatives import (HAVE_TRANSFORMS, _bad_shapes, _body_tangent, _inertia_
 from .joint import joint_rate, joint_transforms, own_turn, rate_terms, seeds
 from .layout import H, IO, KIND, MASS, PARENT, TIPPATH
 from .rnea import base_state, body_wrench, into_body, joint_rates, tip_load
-from .signatures import D1, D2, D3, In1, In2, Out2, Out3, Pm, Vec, f8, i8, internal
+from .signatures import D1, D2, D3, In1, Out2, Pm, Vec, f8, i8, internal
 from .spatial import force_to_parent, rotate_t, rotation, to_parent
-from .status import BAD_LENGTH, NOT_FINITE, OK, status
+from .status import BAD_LENGTH, status
 from .tree import tree_fd_core
 
 
@@ -238,39 +238,6 @@ def tree_fd_derivatives(P, q, qd, tau, w, flags, out):
                                            last, X, q, qd, tau, w, flags, dq, dqd, Minv))
 
 
-def tree_rnea_derivatives_batch(P, q, qd, qdd, w, flags, dq, dqd):
-    """``tree_rnea_derivatives`` of N states (rows broadcast as in ``rnea_batch``) into
-    (N, n, n) arrays. Returns OK, or NOT_FINITE if some input had a NaN/Inf."""
-    N, n = dq.shape[0], P.shape[0] - 1
-    d = new_kin(n)
-    mo, TM, TE, TF, last = _scratch(n)
-    nq, nv, na, nw = q.shape[0] > 1, qd.shape[0] > 1, qdd.shape[0] > 1, w.shape[0] > 1
-    flags = (flags & (F.WRENCH | F.BASE)) | F.QD | F.QDD
-    bad = OK
-    for k in range(N):
-        if tree_derivatives_core(P, d.sc, d.R, d.p, d.f, mo, TM, TE, TF, last, q[k if nq else 0],
-                                 qd[k if nv else 0], qdd[k if na else 0], w[k if nw else 0],
-                                 flags, dq[k], dqd[k]) != 0.0:
-            bad = NOT_FINITE
-    return bad
-
-
-def tree_fd_derivatives_batch(P, q, qd, tau, w, flags, dq, dqd, Minv):
-    """``tree_fd_derivatives`` of N states into (N, n, n) arrays. Returns OK or NOT_FINITE."""
-    N, n = dq.shape[0], P.shape[0] - 1
-    d, c, x = new_kin(n), new_chol(n), stack_empty((n,))
-    mo, TM, TE, TF, last = _scratch(n)
-    IC, X = stack_empty((n, 10)), scratch((n, 3 * n), 3 * n * n)
-    nq, nv, nt, nw = q.shape[0] > 1, qd.shape[0] > 1, tau.shape[0] > 1, w.shape[0] > 1
-    bad = OK
-    for k in range(N):
-        if tree_fd_derivatives_core(P, d.sc, d.R, d.p, d.f, mo, IC, c.M, x, TM, TE, TF, last, X,
-                                    q[k if nq else 0], qd[k if nv else 0], tau[k if nt else 0],
-                                    w[k if nw else 0], flags, dq[k], dqd[k], Minv[k]) != 0.0:
-            bad = NOT_FINITE
-    return bad
-
-
 _CALLS = ("tree_derivatives_core", "tree_fd_derivatives_core")
 SINGLE_STATE = ("tree_rnea_derivatives", "tree_fd_derivatives")
 Mat3 = types.Array(f8, 3, "C")
@@ -279,8 +246,4 @@ ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core fu
                               _CALLS[:1]),
     "tree_fd_derivatives": (tree_fd_derivatives, i8(Pm, Vec, Vec, Vec, Vec, i8, Mat3), False,
                             _CALLS[1:]),
-    "tree_rnea_derivatives_batch": (tree_rnea_derivatives_batch,
-                                    i8(Pm, In2, In2, In2, In2, i8, Out3, Out3), True, _CALLS[:1]),
-    "tree_fd_derivatives_batch": (tree_fd_derivatives_batch,
-                                  i8(Pm, In2, In2, In2, In2, i8, Out3, Out3, Out3), True, _CALLS[1:]),
 }

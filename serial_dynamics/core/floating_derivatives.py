@@ -16,12 +16,13 @@ tree's derivatives d tau_t/d q, d tau_t/d qd (their base columns not used):
 (the q direction is the tangent of q, Pinocchio's q (+) dq: the base's [dp; dtheta] in the
 base frame, then the joints). Forward dynamics first solves for a by the Cholesky route
 (chains) or the sparse factor (trees), whose factor the solves then reuse; M itself is not
-needed there. A batch runs each state through the single-state code (the same bits).
+needed there. A chain's batch runs each state through the single-state code, a tree's
+runs blocks of states in SIMD lanes (``tree_derivatives_lanes.py``): the same bits.
 
 A tip wrench w given in the world (flag WRENCH) reaches the tree as w_b = R^T w, which the
 turn also turns, by w_b x dtheta: d tau/d dtheta_c gains tau's wrench part at [f_b x e_c;
 m_b x e_c], -J^T of it, one Newton-Euler pass at rest each (``_chain_wrench_turns``,
-``_tree_wrench_turns``; in the forward case added before the solves).
+``tree_wrench_turns``; in the forward case added before the solves).
 
 Entry points: as ``floating.py``'s (q (n+7), v, a (n+6), ``gw``: the tip wrench, read with
 flag WRENCH, and gravity; tau (n+6) or joint torques (n)); ``out`` (2, n+6, n+6) =
@@ -130,7 +131,7 @@ def _chain_wrench_turns(P, d, qv, w, y, col, dq):
 
 
 @njit(cache=True, inline="always")
-def _tree_wrench_turns(P, d, mo, qv, w, y, col, dq):
+def tree_wrench_turns(P, d, mo, qv, w, y, col, dq):
     """``_chain_wrench_turns`` on the instantaneous tree."""
     for c in range(3):
         turned_wrench(w, c, y)
@@ -203,7 +204,7 @@ def _tree_id(P, d, mo, TM, TE, TF, last, qv, w, qddv, IC, M, y, col, q, v, a, gw
     tree_crba_core(P, d.R, d.p, IC, M)
     base_columns(v, w, M, dq, dv)
     if wf != 0:
-        _tree_wrench_turns(P, d, mo, qv, w, y, col, dq)
+        tree_wrench_turns(P, d, mo, qv, w, y, col, dq)
     return chk
 
 
@@ -219,7 +220,7 @@ def _tree_fd(P, d, c, mo, TM, TE, TF, last, qv, w, tv, qddv, IC, X, y, q, v, tau
                                  ID_FLAGS | wf, X[:, :n], X[:, n:2 * n])
     _clear_base(X)
     if wf != 0:                          # before the solves (qddv: scratch now)
-        _tree_wrench_turns(P, d, mo, qv, w, y, qddv, X[:, :n])
+        tree_wrench_turns(P, d, mo, qv, w, y, qddv, X[:, :n])
     ltdl_solve_minus(P, c.M, X, dq, dv, Minv)
     base_columns_fd(v, w, dq, dv)
     return chk
@@ -320,9 +321,10 @@ def floating_tree_fd_derivatives(P, q, v, tau, gw, flags, out):
                            gw, flags, out[0], out[1], out[2]))
 
 
-def floating_tree_rnea_derivatives_batch(P, q, v, a, gw, flags, dq, dv):
-    if _bad_batch(P, q, v, a, gw, dq, False):
-        return BAD_LENGTH
+@njit(cache=True, inline="always")
+def tree_id_loop(P, q, v, a, gw, flags, dq, dv):
+    """``floating_tree_rnea_derivatives`` of N states one after the other (the batch of a
+    tree too big for lanes: ``tree_derivatives_lanes``)."""
     d, mo, TM, TE, TF, last, qv, w, qddv, IC, M, y, col = _tree_id_scratch(P.shape[0] - 1)
     bad = OK
     for k in range(dq.shape[0]):
@@ -332,9 +334,9 @@ def floating_tree_rnea_derivatives_batch(P, q, v, a, gw, flags, dq, dv):
     return bad
 
 
-def floating_tree_fd_derivatives_batch(P, q, v, tau, gw, flags, dq, dv, Minv):
-    if _bad_batch(P, q, v, tau, gw, dq, True):
-        return BAD_LENGTH
+@njit(cache=True, inline="always")
+def tree_fd_loop(P, q, v, tau, gw, flags, dq, dv, Minv):
+    """``floating_tree_fd_derivatives`` of N states one after the other."""
     d, c, mo, TM, TE, TF, last, qv, w, tv, qddv, IC, X, y = _tree_fd_scratch(P.shape[0] - 1)
     bad = OK
     for k in range(dq.shape[0]):
@@ -361,10 +363,6 @@ ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core fu
     "floating_fd_derivatives_batch": (floating_fd_derivatives_batch, _FD_BATCH, True, _CHAIN_FD),
     "floating_tree_rnea_derivatives": (floating_tree_rnea_derivatives, _ID, False, _TREE_ID),
     "floating_tree_fd_derivatives": (floating_tree_fd_derivatives, _ID, False, _TREE_FD),
-    "floating_tree_rnea_derivatives_batch": (floating_tree_rnea_derivatives_batch, _ID_BATCH,
-                                             True, _TREE_ID),
-    "floating_tree_fd_derivatives_batch": (floating_tree_fd_derivatives_batch, _FD_BATCH, True,
-                                           _TREE_FD),
 }
 SINGLE_STATE = ("floating_rnea_derivatives", "floating_fd_derivatives",
                 "floating_tree_rnea_derivatives", "floating_tree_fd_derivatives")

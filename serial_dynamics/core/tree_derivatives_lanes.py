@@ -34,9 +34,13 @@ from .joint import axis, joint_rate, lane_transforms, own_turn, rate_terms, seed
 from .layout import H, IO, KIND, LANES, MASS, PARENT, TIPP, TIPPATH, W_ALL
 from .rnea import base_state, body_wrench, into_body, tip_load
 from .rnea_lanes import gather, scatter, tau_minus_bias
-from .signatures import D2, In2, Out3, Pm, i8, internal
+from .signatures import D2, In2, Out3, Pm, i8, internal, row
 from .spatial import force_to_parent, rotate_t
-from .status import NOT_FINITE, OK
+from .status import BAD_LENGTH, NOT_FINITE, OK
+from .floating import fd_inputs, rnea_inputs
+from .floating_derivatives import (ID_FLAGS, _bad_batch, _clear_base, base_columns,
+                                   base_columns_fd, tree_fd_loop, tree_id_loop,
+                                   tree_wrench_turns)
 from .tree_derivatives import (_scratch, ltdl_solve_minus, tree_derivatives_core,
                                tree_fd_derivatives_core)
 from .tree_lanes import ancestor_rows, ltdl_lanes, tree_composite_lanes, tree_newton_euler_lanes
@@ -118,12 +122,13 @@ def _walk(P, T, i, t):
 def tree_derivative_lanes(P, TM0, TM1, TF0, TF1, D):
     """The lanes of a block: at most P[n, LANES] and DLANES, as many as keep its scratch
     (the levels' rows + 12 D + 30 n + W_ALL + 40 doubles a lane) within
-    data.LANE_STACK_DOUBLES, rounded down to a multiple of 8 from 8 on (a loop over 8 + 6
-    lanes runs its last 6 one by one). 0: too big, one state at a time."""
+    data.LANE_STACK_DOUBLES, rounded down to a multiple of 8 (a loop over 8 + 6 lanes runs
+    its last 6 one by one). 0, fewer than 8: one state at a time (on Talos, 4 lanes ran 1.2x
+    slower than that, 8 lanes 1.3x faster: one core, 2026-11-28)."""
     n = P.shape[0] - 1
     per = TM0 + TM1 + TF0 + TF1 + 12 * D + 30 * n + W_ALL + 40
     m = min(int(P[n, LANES]), DLANES, LANE_STACK_DOUBLES // per)
-    return m - m % 8 if m >= 8 else m
+    return m - m % 8
 
 
 @njit(cache=True, inline="always")
@@ -403,31 +408,18 @@ def tree_fd_derivatives_batch(P, q, qd, tau, w, flags, dq, dqd, Minv):
                                         dqd[k], Minv[k]) != 0.0:
                 bad = NOT_FINITE
         return bad
-    qdd = heap_empty((N, n))
-    MF = scratch((n, n), n * n)          # a state's factor, out of the lanes
+    qdd, MF = heap_empty((N, n)), scratch((n, n), n * n)
     off, dep, rows = ancestor_rows(P)
-    QV, WB, RB, PB = stack_empty((3 * n + 1, L)), stack_empty((W_ALL, L)), stack_empty((9 * n, L)), stack_empty((3 * n, L))
-    MO, FB, EB, BS = stack_empty((9 * n, L)), stack_empty((6 * n, L)), stack_empty((6, L)), stack_empty((9, L))
-    TB, IC, MB = stack_empty((n, L)), stack_empty((10 * n, L)), stack_empty((rows, L))
+    S = fd_scratch(n, L, rows)
     flags = (flags & (F.WRENCH | F.BASE)) | F.QD
     for k0 in range(0, N, L):
         nl = min(L, N - k0)
-        small, fin = gather(P, q, qd, q, w, flags, QV, WB, k0, nl)    # tree_fd_block's steps
-        tree_newton_euler_lanes(P, flags, QV, WB, RB, PB, MO, FB, EB, BS, TB, nl, small)
-        fin = tau_minus_bias(tau, TB, k0, nl, fin)
-        tree_composite_lanes(P, off, RB, PB, IC, FB, MB, nl)
-        ltdl_lanes(P, off, dep, MB, TB, BS, nl)
-        if not fin:
+        if not fd_lanes(P, off, dep, S, q, qd, tau, w, flags, k0, nl, qdd):
             bad = NOT_FINITE
-        scatter(TB, qdd, k0, nl)
         bad |= tree_derivatives_block(P, T, q, qd, qdd, w, flags | F.QDD, dq, dqd, k0)
         for b in range(nl):
             k = k0 + b
-            for i in range(n):           # the factor's entries the solves read: i's ancestors
-                j, row = i, off[i]
-                while j >= 0:
-                    MF[i, j] = MB[row, b]
-                    j, row = int(P[j, PARENT]), row + 1
+            factor(P, off, S[-1], b, MF)
             for i in range(n):
                 for j in range(n):
                     X[i, j], X[i, n + j] = dq[k, i, j], dqd[k, i, j]
@@ -435,6 +427,140 @@ def tree_fd_derivatives_batch(P, q, qd, tau, w, flags, dq, dqd, Minv):
     return bad
 
 
+@njit(cache=True, inline="always")
+def fd_scratch(n, L, rows):
+    """The lanes' scratch of ``fd_lanes``: QV, WB, RB, PB, MO, FB, EB, BS, TB, IC, MB."""
+    return (stack_empty((3 * n + 1, L)), stack_empty((W_ALL, L)), stack_empty((9 * n, L)),
+            stack_empty((3 * n, L)), stack_empty((9 * n, L)), stack_empty((6 * n, L)),
+            stack_empty((6, L)), stack_empty((9, L)), stack_empty((n, L)),
+            stack_empty((10 * n, L)), stack_empty((rows, L)))
+
+
+@njit(cache=True, inline="always")
+def fd_lanes(P, off, dep, S, q, qd, tau, w, flags, k0, nl, qdd):
+    """``tree_lanes.tree_fd_block``'s steps on the states k0 .. k0 + nl - 1: their qdd
+    into the same rows of ``qdd``, M's sparse factor left in S's MB (``ancestor_rows``).
+    Returns whether every input was finite."""
+    QV, WB, RB, PB, MO, FB, EB, BS, TB, IC, MB = S
+    small, fin = gather(P, q, qd, q, w, flags, QV, WB, k0, nl)
+    tree_newton_euler_lanes(P, flags, QV, WB, RB, PB, MO, FB, EB, BS, TB, nl, small)
+    fin = tau_minus_bias(tau, TB, k0, nl, fin)
+    tree_composite_lanes(P, off, RB, PB, IC, FB, MB, nl)
+    ltdl_lanes(P, off, dep, MB, TB, BS, nl)
+    scatter(TB, qdd, k0, nl)
+    return fin
+
+
+@njit(cache=True, inline="always")
+def factor(P, off, MB, b, MF):
+    """Lane b's sparse factor (or M) from MB into the entries of MF the solves read: each
+    i's row at i and its ancestors."""
+    for i in range(P.shape[0] - 1):
+        j, r = i, off[i]
+        while j >= 0:
+            MF[i, j] = MB[r, b]
+            j, r = int(P[j, PARENT]), r + 1
+
+
+# ------------------------------------------------------------------ a floating base
+# floating_derivatives.py's floating_tree_* on the instantaneous tree, a block at a time:
+# each state's tree inputs (floating.rnea_inputs, fd_inputs) into the block's rows, the
+# tree's derivatives (and qdd, M or its factor) in lanes as above, then each state's base
+# columns, wrench turns and solves as there (the same operations, so the same bits).
+def floating_tree_rnea_derivatives_batch(P, q, v, a, gw, flags, dq, dv):
+    """``floating_derivatives.floating_tree_rnea_derivatives`` of N states (rows
+    broadcast) into (N, n+6, n+6) arrays. Returns OK, NOT_FINITE or BAD_LENGTH."""
+    if _bad_batch(P, q, v, a, gw, dq, False):
+        return BAD_LENGTH
+    nv, N = P.shape[0] - 1, dq.shape[0]
+    T = stack_empty((5, 2 * nv + 5))
+    M0, M1, F0, F1, D = tree_walk(P, T)
+    L = tree_derivative_lanes(P, M0, M1, F0, F1, D)
+    if L == 0:
+        return tree_id_loop(P, q, v, a, gw, flags, dq, dv)
+    wf = flags & F.WRENCH
+    Qt, Vt, At, Wt = stack_empty((L, nv)), stack_empty((L, nv)), stack_empty((L, nv)), stack_empty((L, W_ALL))
+    off, dep, rows = ancestor_rows(P)
+    QV, WB, RB, PB = stack_empty((3 * nv + 1, L)), stack_empty((W_ALL, L)), stack_empty((9 * nv, L)), stack_empty((3 * nv, L))
+    IC, FB, MB = stack_empty((10 * nv, L)), stack_empty((6, L)), stack_empty((rows, L))
+    M = scratch((nv, nv), nv * nv)
+    d, mo, y, col = new_kin(nv), stack_empty((nv, 9)), stack_empty((W_ALL,)), stack_empty((nv,))
+    bad = OK
+    for k0 in range(0, N, L):
+        nl = min(L, N - k0)
+        for b in range(nl):              # the tree's q, qd = v, qdd = a + p(v), w
+            k = k0 + b
+            if rnea_inputs(row(q, k), row(v, k), row(a, k), row(gw, k), F.QD | F.QDD | wf,
+                           Qt[b], Wt[b], At[b]) != 0.0:
+                bad = NOT_FINITE
+            for i in range(nv):
+                Vt[b, i] = row(v, k)[i]
+        bad |= tree_derivatives_block(P, T, Qt, Vt, At, Wt, ID_FLAGS | wf, dq[k0:k0 + nl],
+                                      dv[k0:k0 + nl], 0)
+        small, fin = gather(P, Qt, Qt, Qt, Qt, 0, QV, WB, 0, nl)   # M, as tree_crba_core
+        for i in range(nv):
+            lane_transforms(P, i, QV, RB, PB, nl, small)
+        tree_composite_lanes(P, off, RB, PB, IC, FB, MB, nl)
+        for b in range(nl):
+            k = k0 + b
+            factor(P, off, MB, b, M)     # M[i, j], j = i and its ancestors: the virtual
+            for i in range(6):           # joints 0..5 for every i >= 6; the rest by symmetry
+                for j in range(i + 1, 6):
+                    M[i, j] = M[j, i]
+            base_columns(row(v, k), Wt[b], M, dq[k], dv[k])
+            if wf != 0:
+                tree_wrench_turns(P, d, mo, Qt[b], Wt[b], y, col, dq[k])
+    return bad
+
+
+def floating_tree_fd_derivatives_batch(P, q, v, tau, gw, flags, dq, dv, Minv):
+    """``floating_derivatives.floating_tree_fd_derivatives`` of N states into (N, n+6,
+    n+6) arrays: per block, the tree's qdd and sparse factor in lanes (``fd_lanes``), its
+    d tau in lanes, then each state's base columns, wrench turns and solves."""
+    if _bad_batch(P, q, v, tau, gw, dq, True):
+        return BAD_LENGTH
+    nv, N = P.shape[0] - 1, dq.shape[0]
+    T = stack_empty((5, 2 * nv + 5))
+    M0, M1, F0, F1, D = tree_walk(P, T)
+    L = tree_derivative_lanes(P, M0, M1, F0, F1, D)
+    if L == 0:
+        return tree_fd_loop(P, q, v, tau, gw, flags, dq, dv, Minv)
+    wf = flags & F.WRENCH
+    Qt, Vt, Tt, Wt = stack_empty((L, nv)), stack_empty((L, nv)), stack_empty((L, nv)), stack_empty((L, W_ALL))
+    At = heap_empty((L, nv))
+    off, dep, rows = ancestor_rows(P)
+    S = fd_scratch(nv, L, rows)
+    MF, X = scratch((nv, nv), nv * nv), scratch((nv, 3 * nv), 3 * nv * nv)
+    d, mo, y = new_kin(nv), stack_empty((nv, 9)), stack_empty((W_ALL,))
+    bad = OK
+    for k0 in range(0, N, L):
+        nl = min(L, N - k0)
+        for b in range(nl):              # the tree's q, qd = v, generalized forces, w
+            k = k0 + b
+            if fd_inputs(row(q, k), row(tau, k), row(gw, k), wf, Qt[b], Wt[b], Tt[b]) != 0.0:
+                bad = NOT_FINITE
+            for i in range(nv):
+                Vt[b, i] = row(v, k)[i]
+        if not fd_lanes(P, off, dep, S, Qt, Vt, Tt, Wt, F.QD | F.BASE | wf, 0, nl, At):
+            bad = NOT_FINITE
+        bad |= tree_derivatives_block(P, T, Qt, Vt, At, Wt, ID_FLAGS | wf, dq[k0:k0 + nl],
+                                      dv[k0:k0 + nl], 0)
+        for b in range(nl):
+            k = k0 + b
+            factor(P, off, S[-1], b, MF)
+            for i in range(nv):
+                for j in range(nv):
+                    X[i, j], X[i, nv + j] = dq[k, i, j], dv[k, i, j]
+            _clear_base(X)
+            if wf != 0:                  # before the solves
+                tree_wrench_turns(P, d, mo, Qt[b], Wt[b], y, At[b], X[:, :nv])
+            ltdl_solve_minus(P, MF, X, dq[k], dv[k], Minv[k])
+            base_columns_fd(row(v, k), Wt[b], dq[k], dv[k])
+    return bad
+
+
+_FLOATING = ("tree_derivatives_block", "tree_derivatives_core", "tree_crba_core",
+             "tree_rnea_core")
 ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core functions it calls)
     "tree_rnea_derivatives_batch": (tree_rnea_derivatives_batch,
                                     i8(Pm, In2, In2, In2, In2, i8, Out3, Out3), True,
@@ -443,4 +569,10 @@ ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core fu
                                   i8(Pm, In2, In2, In2, In2, i8, Out3, Out3, Out3), True,
                                   ("tree_derivatives_block", "tree_fd_derivatives_core",
                                    "ltdl_solve_matrix")),
+    "floating_tree_rnea_derivatives_batch": (floating_tree_rnea_derivatives_batch,
+                                             i8(Pm, In2, In2, In2, In2, i8, Out3, Out3), True,
+                                             _FLOATING),
+    "floating_tree_fd_derivatives_batch": (floating_tree_fd_derivatives_batch,
+                                           i8(Pm, In2, In2, In2, In2, i8, Out3, Out3, Out3), True,
+                                           _FLOATING + ("tree_fd_core", "ltdl_solve_matrix")),
 }

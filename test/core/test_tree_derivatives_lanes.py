@@ -1,6 +1,7 @@
 """core/tree_derivatives_lanes.py: the SIMD-lane batches of d tau/d (q, qd) and d qdd/d (q,
-qd, tau) on a fixed-base tree give every row bitwise what the single-state kernels give
-that state alone (core/tree_derivatives.py), whatever its place in a block: trees of the
+qd, tau) on a fixed-base tree, and on a floating base's instantaneous tree, give every
+row bitwise what the single-state kernels give that state alone (core/tree_derivatives.py,
+core/floating_derivatives.py), whatever its place in a block: trees of the
 example-robot-data, a tree whose bodies are not in depth-first order, trees too big for
 a full block (fewer lanes) or for any (one state at a time)."""
 import warnings
@@ -117,11 +118,11 @@ def test_a_tree_not_in_depth_first_order():
                                        atol=1e-12 * np.max(np.abs(w)))
 
 
-@pytest.mark.parametrize("n_each, L", [(22, 5), (40, 1), (60, 0)])
+@pytest.mark.parametrize("n_each, L", [(12, 16), (17, 8), (18, 0)])
 def test_big_trees_fewer_lanes_or_one_state_at_a_time(n_each, L):
-    """tree_derivative_lanes: 5 lanes at 44 joints, 1 at 80, none at 120 (one state at a
-    time); every row still the single call's bits, and the numbers right (central
-    differences of inverse dynamics)."""
+    """tree_derivative_lanes: two arms of 12 joints run 16 lanes a block, of 17 joints 8,
+    of 18 one state at a time (fewer than 8 lanes would be slower); every row still the
+    single call's bits, and the numbers right (central differences of inverse dynamics)."""
     robot = sd.load_urdf(two_arm_urdf(n_each))
     assert lanes(robot) == L
     rng = np.random.default_rng(n_each)
@@ -131,3 +132,36 @@ def test_big_trees_fewer_lanes_or_one_state_at_a_time(n_each, L):
     fdiff = (robot.inverse_dynamics(Q[0], V[0] + e * np.eye(robot.dof)[j], A[0])
              - robot.inverse_dynamics(Q[0], V[0] - e * np.eye(robot.dof)[j], A[0])) / (2 * e)
     assert np.max(np.abs(fdiff - dqd[0][:, j])) <= 1e-6 * max(1.0, np.max(np.abs(dqd[0])))
+
+
+@pytest.mark.parametrize("rel, L", [(TREES[0], 16), (TREES[1], 0)])
+def test_a_floating_tree_is_the_single_state_bitwise(rel, L):
+    """floating_tree_*_derivatives_batch: the instantaneous tree's inputs per state, its
+    derivatives (and qdd, M's factor) in lanes, the base's columns, the tip wrench turned
+    with the base and the solves per state: each row its single call's bits (Solo12 in
+    blocks of 16, Talos' 38 coordinates one state at a time)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", sd.HeldJointsWarning)
+        robot = sd.load_urdf(erd(rel), floating_base=True)
+    k, P = robot._k, robot._chain
+    nv = P.shape[0] - 1
+    assert tree_derivative_lanes.py_func(P, *tree_walk.py_func(P, np.empty((5, 2 * nv + 5)))) == L
+    rng = np.random.default_rng(3)
+    N = 2 * max(L, 8) + 5
+    q, v = robot.random_state(rng, batch=N)
+    q = np.ascontiguousarray(q)
+    q[N // 2, 9] = 3.0e5                         # a huge joint angle in one lane
+    a, tau = rng.normal(size=(N, nv)), rng.normal(size=(N, nv)) * 5
+    for flags in (0, F.WRENCH):
+        gw = rng.normal(size=(N, 9))
+        gw[:, 6:] = (0.3, -0.2, -9.8)             # the world's gravity
+        dq, dv = np.full((N, nv, nv), np.nan), np.full((N, nv, nv), np.nan)
+        assert k.floating_rnea_derivatives_batch(P, q, v, a, gw, flags, dq, dv) == 0
+        fq, fv, fm = (np.full((N, nv, nv), np.nan) for _ in range(3))
+        assert k.floating_fd_derivatives_batch(P, q, v, tau, gw, flags, fq, fv, fm) == 0
+        o2, o3 = np.empty((2, nv, nv)), np.empty((3, nv, nv))
+        for i in range(N):
+            assert k.floating_rnea_derivatives(P, q[i], v[i], a[i], gw[i], flags, o2) == 0
+            assert dq[i].tobytes() == o2[0].tobytes() and dv[i].tobytes() == o2[1].tobytes()
+            assert k.floating_fd_derivatives(P, q[i], v[i], tau[i], gw[i], flags, o3) == 0
+            assert all(x.tobytes() == y.tobytes() for x, y in zip((fq[i], fv[i], fm[i]), o3))

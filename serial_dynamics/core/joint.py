@@ -108,12 +108,17 @@ def joint_transforms(P, sc, R, p, q, n, first=0):
 def lane_transforms(P, i, QV, RB, PB, nl, small):
     """Joint i's transform in every lane (``joint_transforms``' operations): R_i into
     RB rows 9i..9i+8 (row-major), p_i into PB rows 3i..3i+2."""
+    lane_transforms_at(P, i, QV, RB, PB, nl, small, 9 * i, 3 * i)
+
+
+@njit(cache=True, inline="always")
+def lane_transforms_at(P, i, QV, RB, PB, nl, small, ri, pi):
+    """``lane_transforms`` into RB rows ri..ri+8 and PB rows pi..pi+2."""
     n = P.shape[0] - 1
     rp0, rp1, rp2, rp3, rp4, rp5, rp6, rp7, rp8 = (P[i, XR], P[i, XR + 1], P[i, XR + 2],
                                                    P[i, XR + 3], P[i, XR + 4], P[i, XR + 5],
                                                    P[i, XR + 6], P[i, XR + 7], P[i, XR + 8])
     pp0, pp1, pp2 = P[i, XP], P[i, XP + 1], P[i, XP + 2]
-    ri, pi = 9 * i, 3 * i
     # joint transform R = Rp' Rz(q) | Rp',  p = p' | p' + q Rp' e_z
     if P[i, KIND] == REVOLUTE:
         # sin q, cos q of every lane into PB's rows of p_i (written last): the polynomial

@@ -30,7 +30,7 @@ from .crba_lanes import lane_rotation
 from .data import LANE_STACK_DOUBLES, heap_empty, new_chol, new_kin, scratch, stack_empty
 from .derivatives import _body_tangent, _inertia_times, tangent_through
 from .derivatives_lanes import DLANES
-from .joint import axis, joint_rate, lane_transforms, own_turn, rate_terms, seeds
+from .joint import axis, joint_rate, lane_transforms, lane_transforms_at, own_turn, rate_terms, seeds
 from .layout import H, IO, KIND, LANES, MASS, PARENT, TIPP, TIPPATH, W_ALL
 from .rnea import base_state, body_wrench, into_body, tip_load
 from .rnea_lanes import gather, scatter, tau_minus_bias
@@ -121,12 +121,12 @@ def _walk(P, T, i, t):
 @njit(cache=True, inline="always")
 def tree_derivative_lanes(P, TM0, TM1, TF0, TF1, D):
     """The lanes of a block: at most P[n, LANES] and DLANES, as many as keep its scratch
-    (the levels' rows + 12 D + 30 n + W_ALL + 40 doubles a lane) within
+    (the levels' rows + 39 D + 3 n + W_ALL + 40 doubles a lane) within
     data.LANE_STACK_DOUBLES, rounded down to a multiple of 8 (a loop over 8 + 6 lanes runs
     its last 6 one by one). 0, fewer than 8: one state at a time (on Talos, 4 lanes ran 1.2x
     slower than that, 8 lanes 1.3x faster: one core, 2026-11-28)."""
     n = P.shape[0] - 1
-    per = TM0 + TM1 + TF0 + TF1 + 12 * D + 30 * n + W_ALL + 40
+    per = TM0 + TM1 + TF0 + TF1 + 39 * D + 3 * n + W_ALL + 40
     m = min(int(P[n, LANES]), DLANES, LANE_STACK_DOUBLES // per)
     return m - m % 8
 
@@ -145,8 +145,8 @@ def tree_derivatives_block(P, T, q, qd, qdd, w, flags, dq, dqd, k0):
     the batch's end) into the same rows of dq, dqd (N, n, n); T the walk (``tree_walk``);
     flags as ``tree_derivatives_core`` (QD, QDD always set). Returns NOT_FINITE if one of
     them has a NaN/Inf input, else OK. Scratch, lane last: QV, WB as ``rnea_lanes.gather``;
-    RB, PB the joint transforms; MO each body's (omega, alpha, acc); FB its body wrench,
-    then its joint wrench; ST the base's motion, then the tip wrench (e; m); AUX the
+    by level (as TM, TF: a body's from entering it to leaving it), RB, PB its joint
+    transform, MO its (omega, alpha, acc), FB its body wrench, then its joint wrench; ST the base's motion, then the tip wrench (e; m); AUX the
     current body's parent omega, w0.p, rate terms, omega, I_O omega, omega.h; SD a body's
     seeds; TM0, TM1 and TF0, TF1 the levels (module docstring; even and odd depths); TE
     the tip wrench's tangents along the tip's path (columns by depth); OT a joint's own
@@ -158,11 +158,12 @@ def tree_derivatives_block(P, T, q, qd, qdd, w, flags, dq, dqd, k0):
                               int(T[DEPTH, 2 * n + 4]))
     nl = min(L, N - k0)
     QV, WB, ST = stack_empty((3 * n + 1, L)), stack_empty((W_ALL, L)), stack_empty((15, L))
-    RB, PB, MO = stack_empty((9 * n, L)), stack_empty((3 * n, L)), stack_empty((9 * n, L))
-    FB, AUX, OT = stack_empty((6 * n, L)), stack_empty((13, L)), stack_empty((6, L))
+    D = int(T[DEPTH, 2 * n + 4])
+    RB, PB, MO = stack_empty((9 * D, L)), stack_empty((3 * D, L)), stack_empty((9 * D, L))
+    FB, AUX, OT = stack_empty((6 * D, L)), stack_empty((13, L)), stack_empty((6, L))
     TM0, TM1 = stack_empty((int(T[DEPTH, 2 * n]), L)), stack_empty((int(T[DEPTH, 2 * n + 1]), L))
     TF0, TF1 = stack_empty((int(T[DEPTH, 2 * n + 2]), L)), stack_empty((int(T[DEPTH, 2 * n + 3]), L))
-    TE, SD = stack_empty((6, 2 * int(T[DEPTH, 2 * n + 4]), L)), stack_empty((15, 2))
+    TE, SD = stack_empty((6, 2 * D, L)), stack_empty((15, 2))
     SL = stack_empty((n,))
     use_w = (flags & F.WRENCH) != 0
     small, fin = gather(P, q, qd, qdd, w, flags, QV, WB, k0, nl)
@@ -193,13 +194,13 @@ def enter(P, T, k, QV, RB, PB, MO, FB, ST, AUX, SD, TE, TM, TMP, TF, use_w, smal
     ancestors' directions, zero on its subtree's."""
     n = P.shape[0] - 1
     l, dk = int(P[k, PARENT]), int(T[DEPTH, k])
-    lane_transforms(P, k, QV, RB, PB, nl, small)
+    rk, pk, fk = 9 * dk, 3 * dk, 6 * dk   # body k's rows of its level's RB, PB, MO, FB
+    lane_transforms_at(P, k, QV, RB, PB, nl, small, rk, pk)
     kind, m = P[k, KIND], P[k, MASS]
     hx, hy, hz = P[k, H], P[k, H + 1], P[k, H + 2]
     I6 = (P[k, IO], P[k, IO + 1], P[k, IO + 2], P[k, IO + 3], P[k, IO + 4], P[k, IO + 5])
     on_path = use_w and P[k, TIPPATH] != 0.0
-    S, si = (MO, 9 * l) if l >= 0 else (ST, 0)          # the parent's motion, or the base's
-    rk, pk, fk = 9 * k, 3 * k, 6 * k
+    S, si = (MO, rk - 9) if l >= 0 else (ST, 0)         # the parent's motion, or the base's
     v = 2 * (dk + 1)                     # TM's columns at level dk
     own = _tm(dk, 0, 2 * dk)
     for b in range(nl):                  # the state through body k, and its seeds
@@ -276,7 +277,7 @@ def leave(P, T, i, RB, PB, FB, ST, OT, SL, TE, TF, TFP, dq, dqd, k0, use_w, nl):
     n = P.shape[0] - 1
     l, di, li = int(P[i, PARENT]), int(T[DEPTH, i]), int(T[LAST, i])
     f0, wd = int(T[OFFSET, di]), int(T[WIDTH, di])
-    ri, pi, fi = 9 * i, 3 * i, 6 * i
+    ri, pi, fi = 9 * di, 3 * di, 6 * di
     if use_w and i == n - 1:             # the tip load -w on the last body (a leaf)
         for b in range(nl):
             (FB[fi, b], FB[fi + 1, b], FB[fi + 2, b], FB[fi + 3, b], FB[fi + 4, b],
@@ -301,7 +302,7 @@ def leave(P, T, i, RB, PB, FB, ST, OT, SL, TE, TF, TFP, dq, dqd, k0, use_w, nl):
             dqd[k0 + b, i, j] = TF[c + 1, b] if c >= 0 else 0.0
     if l < 0:
         return
-    kind, fl = P[i, KIND], 6 * l
+    kind, fl = P[i, KIND], fi - 6
     g0, wp = int(T[OFFSET, di - 1]), int(T[WIDTH, di - 1])
     for b in range(nl):                  # joint i's own turn, from its joint wrench
         (OT[0, b], OT[1, b], OT[2, b], OT[3, b], OT[4, b],
@@ -311,9 +312,9 @@ def leave(P, T, i, RB, PB, FB, ST, OT, SL, TE, TF, TFP, dq, dqd, k0, use_w, nl):
     # the tangent carried into the parent's columns: directions i .. last(i) from column
     # 2 di to 2 di - 2 + 2 (i - l), the ancestors' (l's among them) at the same columns
     for c in range(2 * di, 2 * di + 2 * (li - i + 1)):
-        _carry(TF, f0 + c, wd, TFP, g0 + c - 2 + 2 * (i - l), wp, RB, PB, i, nl)
+        _carry(TF, f0 + c, wd, TFP, g0 + c - 2 + 2 * (i - l), wp, RB, PB, di, nl)
     for c in range(2 * di):
-        _carry(TF, f0 + c, wd, TFP, g0 + c, wp, RB, PB, i, nl)
+        _carry(TF, f0 + c, wd, TFP, g0 + c, wp, RB, PB, di, nl)
     a = g0 + 2 * di - 2 + 2 * (i - l)
     for s in range(6):
         for b in range(nl):
@@ -327,10 +328,11 @@ def leave(P, T, i, RB, PB, FB, ST, OT, SL, TE, TF, TFP, dq, dqd, k0, use_w, nl):
 
 
 @njit(cache=True, inline="always")
-def _carry(TF, x, wx, TFP, y, wy, RB, PB, i, nl):
+def _carry(TF, x, wx, TFP, y, wy, RB, PB, d, nl):
     """``tree_derivatives.carry_tangent`` in every lane: the column at row x (stride wx) of
-    body i's tangent TF carried into its parent's TFP at row y (stride wy): += Xup_i^T."""
-    ri, pi = 9 * i, 3 * i
+    a body's tangent TF carried into its parent's TFP at row y (stride wy): += Xup^T, its
+    transform at level d of RB, PB."""
+    ri, pi = 9 * d, 3 * d
     for b in range(nl):
         ux, uy, uz, cx, cy, cz = force_to_parent(
             lane_rotation(RB, ri, b), PB[pi, b], PB[pi + 1, b], PB[pi + 2, b], TF[x, b],

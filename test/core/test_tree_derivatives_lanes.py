@@ -58,7 +58,7 @@ def check_rows(robot, N, flags, rng, rows=None):
 def test_every_row_is_the_single_state_bitwise(rel, flags):
     robot = load(rel)
     L = lanes(robot)
-    assert L >= 16 and L % 8 == 0                # Talos reduced: 16, Baxter 24, Solo12 32
+    assert L >= 16 and L % 8 == 0                # Talos reduced: 16, Baxter and Solo12 32
     check_rows(robot, 2 * L + 5, flags, np.random.default_rng(5))
 
 
@@ -118,10 +118,10 @@ def test_a_tree_not_in_depth_first_order():
                                        atol=1e-12 * np.max(np.abs(w)))
 
 
-@pytest.mark.parametrize("n_each, L", [(12, 16), (17, 8), (18, 0)])
+@pytest.mark.parametrize("n_each, L", [(12, 16), (18, 8), (19, 0)])
 def test_big_trees_fewer_lanes_or_one_state_at_a_time(n_each, L):
-    """tree_derivative_lanes: two arms of 12 joints run 16 lanes a block, of 17 joints 8,
-    of 18 one state at a time (fewer than 8 lanes would be slower); every row still the
+    """tree_derivative_lanes: two arms of 12 joints run 16 lanes a block, of 18 joints 8,
+    of 19 one state at a time (fewer than 8 lanes would be slower); every row still the
     single call's bits, and the numbers right (central differences of inverse dynamics)."""
     robot = sd.load_urdf(two_arm_urdf(n_each))
     assert lanes(robot) == L
@@ -134,15 +134,17 @@ def test_big_trees_fewer_lanes_or_one_state_at_a_time(n_each, L):
     assert np.max(np.abs(fdiff - dqd[0][:, j])) <= 1e-6 * max(1.0, np.max(np.abs(dqd[0])))
 
 
-@pytest.mark.parametrize("rel, L", [(TREES[0], 16), (TREES[1], 0)])
+@pytest.mark.parametrize("rel, L", [(TREES[0], 16), (TREES[1], 8), (12, 0)])
 def test_a_floating_tree_is_the_single_state_bitwise(rel, L):
     """floating_tree_*_derivatives_batch: the instantaneous tree's inputs per state, its
     derivatives (and qdd, M's factor) in lanes, the base's columns, the tip wrench turned
     with the base and the solves per state: each row its single call's bits (Solo12 in
-    blocks of 16, Talos' 38 coordinates one state at a time)."""
+    blocks of 16, Talos' 38 coordinates in blocks of 8, two arms of 12 joints on a
+    floating base one state at a time)."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", sd.HeldJointsWarning)
-        robot = sd.load_urdf(erd(rel), floating_base=True)
+        robot = sd.load_urdf(erd(rel) if isinstance(rel, str) else two_arm_urdf(rel, base_mass=3.0),
+                             floating_base=True)
     k, P = robot._k, robot._chain
     nv = P.shape[0] - 1
     assert tree_derivative_lanes.py_func(P, *tree_walk.py_func(P, np.empty((5, 2 * nv + 5)))) == L

@@ -589,13 +589,14 @@ def peak(cpu=None):
 _ASM = """
 import collections, json, re, sys
 from serial_dynamics.core import (aba_lanes, crba_lanes, derivatives_lanes, forward_lanes, rnea_lanes,
-                                  tree_lanes)
+                                  tree_derivatives_lanes, tree_lanes)
 from serial_dynamics.core.signatures import compile_internal
 out = {}
 for mod, name in [(rnea_lanes, "rnea_block"), (crba_lanes, "crba_block"), (forward_lanes, "fd_block"),
                   (aba_lanes, "aba_block"),
                   (derivatives_lanes, "derivatives_block"), (tree_lanes, "tree_rnea_block"),
-                  (tree_lanes, "tree_crba_block"), (tree_lanes, "tree_fd_block")]:
+                  (tree_lanes, "tree_crba_block"), (tree_lanes, "tree_fd_block"),
+                  (tree_derivatives_lanes, "tree_derivatives_block")]:
     compile_internal([name])
     f = getattr(mod, name)
     asm = f.inspect_asm(f.signatures[0])

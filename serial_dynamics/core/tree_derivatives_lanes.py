@@ -14,6 +14,8 @@ entering body k, its outward step; leaving it (its subtree done), its inward ste
   its depth in TF: its ancestors' columns by depth as in TM, then directions k .. last(k)
   (the index range of its subtree, which ``tree_derivatives_core`` carries) from column
   2 depth on. Every other direction's entry is zero there as here.
+- A body's joint transform, motion and wrench live from entering it to leaving it too,
+  one level per depth.
 - Children are walked in descending index, so that each parent sums its children's
   wrenches and tangents in ``tree_derivatives_core``'s order.
 
@@ -21,7 +23,9 @@ Each lane does ``tree_derivatives_core``'s operations in its order for each body
 direction, so a state's derivatives are bitwise its single call's, alone or in any batch.
 Forward dynamics: qdd and M's sparse factor in lanes (``tree_lanes``, bitwise
 ``tree.tree_fd_core``), d tau at (q, qd, qdd) in lanes, then each state's solves
-(``tree_derivatives.ltdl_solve_minus``), as ``tree_fd_derivatives_core``.
+(``tree_derivatives.ltdl_solve_minus``), as ``tree_fd_derivatives_core``. A floating
+base's instantaneous tree (``floating_derivatives.py``) runs the same blocks on each
+state's tree inputs, then its base columns per state.
 """
 from numba import njit
 
@@ -30,17 +34,18 @@ from .crba_lanes import lane_rotation
 from .data import LANE_STACK_DOUBLES, heap_empty, new_chol, new_kin, scratch, stack_empty
 from .derivatives import _body_tangent, _inertia_times, tangent_through
 from .derivatives_lanes import DLANES
-from .joint import axis, joint_rate, lane_transforms, lane_transforms_at, own_turn, rate_terms, seeds
+from .floating import fd_inputs, rnea_inputs
+from .floating_derivatives import (ID_FLAGS, _bad_batch, _clear_base, base_columns,
+                                   base_columns_fd, tree_fd_loop, tree_id_loop,
+                                   tree_wrench_turns)
+from .joint import (axis, joint_rate, lane_transforms, lane_transforms_at, own_turn, rate_terms,
+                    seeds)
 from .layout import H, IO, KIND, LANES, MASS, PARENT, TIPP, TIPPATH, W_ALL
 from .rnea import base_state, body_wrench, into_body, tip_load
 from .rnea_lanes import gather, scatter, tau_minus_bias
 from .signatures import D2, In2, Out3, Pm, i8, internal, row
 from .spatial import force_to_parent, rotate_t
 from .status import BAD_LENGTH, NOT_FINITE, OK
-from .floating import fd_inputs, rnea_inputs
-from .floating_derivatives import (ID_FLAGS, _bad_batch, _clear_base, base_columns,
-                                   base_columns_fd, tree_fd_loop, tree_id_loop,
-                                   tree_wrench_turns)
 from .tree_derivatives import (_scratch, ltdl_solve_minus, tree_derivatives_core,
                                tree_fd_derivatives_core)
 from .tree_lanes import ancestor_rows, ltdl_lanes, tree_composite_lanes, tree_newton_euler_lanes
@@ -145,12 +150,13 @@ def tree_derivatives_block(P, T, q, qd, qdd, w, flags, dq, dqd, k0):
     the batch's end) into the same rows of dq, dqd (N, n, n); T the walk (``tree_walk``);
     flags as ``tree_derivatives_core`` (QD, QDD always set). Returns NOT_FINITE if one of
     them has a NaN/Inf input, else OK. Scratch, lane last: QV, WB as ``rnea_lanes.gather``;
-    by level (as TM, TF: a body's from entering it to leaving it), RB, PB its joint
-    transform, MO its (omega, alpha, acc), FB its body wrench, then its joint wrench; ST the base's motion, then the tip wrench (e; m); AUX the
-    current body's parent omega, w0.p, rate terms, omega, I_O omega, omega.h; SD a body's
-    seeds; TM0, TM1 and TF0, TF1 the levels (module docstring; even and odd depths); TE
-    the tip wrench's tangents along the tip's path (columns by depth); OT a joint's own
-    turn; SL the TF row of each direction of the body left (-1: zero)."""
+    by level (a body's from entering it to leaving it) RB, PB its joint transform, MO its
+    (omega, alpha, acc), FB its body wrench, then its joint wrench; TM0, TM1 and TF0, TF1
+    the tangents' levels (module docstring; even and odd depths); ST the base's motion,
+    then the tip wrench (e; m); AUX the current body's parent omega, w0.p, rate terms,
+    omega, I_O omega, omega.h; SD a body's seeds; TE the tip wrench's tangents along the
+    tip's path (columns by depth); OT a joint's own turn; SL the TF row of each direction
+    of the body left (-1: zero)."""
     N = dq.shape[0]
     n = P.shape[0] - 1
     L = tree_derivative_lanes(P, int(T[DEPTH, 2 * n]), int(T[DEPTH, 2 * n + 1]),

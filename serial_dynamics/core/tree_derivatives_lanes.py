@@ -42,13 +42,13 @@ from .joint import (axis, joint_rate, lane_transforms, lane_transforms_at, own_t
                     seeds)
 from .layout import H, IO, KIND, LANES, MASS, PARENT, TIPP, TIPPATH, W_ALL
 from .rnea import base_state, body_wrench, into_body, tip_load
-from .rnea_lanes import gather, scatter, tau_minus_bias
+from .rnea_lanes import gather
 from .signatures import D2, In2, Out3, Pm, i8, internal, row
 from .spatial import force_to_parent, rotate_t
 from .status import BAD_LENGTH, NOT_FINITE, OK
 from .tree_derivatives import (_scratch, ltdl_solve_minus, tree_derivatives_core,
                                tree_fd_derivatives_core)
-from .tree_lanes import ancestor_rows, ltdl_lanes, tree_composite_lanes, tree_newton_euler_lanes
+from .tree_lanes import ancestor_rows, factor, fd_lanes, tree_composite_lanes, tree_scratch
 
 WALK, DEPTH, LAST, WIDTH, OFFSET = range(5)     # rows of the walk's table (``tree_walk``)
 
@@ -134,6 +134,13 @@ def tree_derivative_lanes(P, TM0, TM1, TF0, TF1, D):
     per = TM0 + TM1 + TF0 + TF1 + 39 * D + 3 * n + W_ALL + 40
     m = min(int(P[n, LANES]), DLANES, LANE_STACK_DOUBLES // per)
     return m - m % 8
+
+
+@njit(cache=True, inline="always")
+def walk_lanes(P, T):
+    """The walk into T (5, 2n + 5: ``tree_walk``) and the lanes of its blocks."""
+    M0, M1, F0, F1, D = tree_walk(P, T)
+    return tree_derivative_lanes(P, M0, M1, F0, F1, D)
 
 
 @njit(cache=True, inline="always")
@@ -375,8 +382,7 @@ def tree_rnea_derivatives_batch(P, q, qd, qdd, w, flags, dq, dqd):
     N, n = dq.shape[0], P.shape[0] - 1
     flags = (flags & (F.WRENCH | F.BASE)) | F.QD | F.QDD
     T = stack_empty((5, 2 * n + 5))
-    M0, M1, F0, F1, D = tree_walk(P, T)
-    L = tree_derivative_lanes(P, M0, M1, F0, F1, D)
+    L = walk_lanes(P, T)
     bad = OK
     if L == 0:
         d = new_kin(n)
@@ -395,13 +401,12 @@ def tree_rnea_derivatives_batch(P, q, qd, qdd, w, flags, dq, dqd):
 
 def tree_fd_derivatives_batch(P, q, qd, tau, w, flags, dq, dqd, Minv):
     """``tree_derivatives.tree_fd_derivatives`` of N states into (N, n, n) arrays: per
-    block, qdd and M's sparse factor in lanes (``tree_lanes.tree_fd_block``'s steps), d tau
+    block, qdd and M's sparse factor in lanes (``tree_lanes.fd_lanes``), d tau
     at (q, qd, qdd) in lanes, then each state's solves (``ltdl_solve_minus``) on its
     factor. Returns OK or NOT_FINITE."""
     N, n = dq.shape[0], P.shape[0] - 1
     T = stack_empty((5, 2 * n + 5))
-    M0, M1, F0, F1, D = tree_walk(P, T)
-    L = tree_derivative_lanes(P, M0, M1, F0, F1, D)
+    L = walk_lanes(P, T)
     X = scratch((n, 3 * n), 3 * n * n)
     bad = OK
     if L == 0:
@@ -418,56 +423,31 @@ def tree_fd_derivatives_batch(P, q, qd, tau, w, flags, dq, dqd, Minv):
         return bad
     qdd, MF = heap_empty((N, n)), scratch((n, n), n * n)
     off, dep, rows = ancestor_rows(P)
-    S = fd_scratch(n, L, rows)
+    QV, WB, RB, PB, MO, FB, EB, BS, TB = tree_scratch(n, L)
+    IC, MB = stack_empty((10 * n, L)), stack_empty((rows, L))
     flags = (flags & (F.WRENCH | F.BASE)) | F.QD
     for k0 in range(0, N, L):
         nl = min(L, N - k0)
-        if not fd_lanes(P, off, dep, S, q, qd, tau, w, flags, k0, nl, qdd):
+        if not fd_lanes(P, off, dep, QV, WB, RB, PB, MO, FB, EB, BS, TB, IC, MB, q, qd, tau, w,
+                        flags, k0, nl, qdd):
             bad = NOT_FINITE
         bad |= tree_derivatives_block(P, T, q, qd, qdd, w, flags | F.QDD, dq, dqd, k0)
         for b in range(nl):
             k = k0 + b
-            factor(P, off, S[-1], b, MF)
-            for i in range(n):
-                for j in range(n):
-                    X[i, j], X[i, n + j] = dq[k, i, j], dqd[k, i, j]
+            lane_system(P, off, MB, b, dq[k], dqd[k], MF, X)
             ltdl_solve_minus(P, MF, X, dq[k], dqd[k], Minv[k])
     return bad
 
 
 @njit(cache=True, inline="always")
-def fd_scratch(n, L, rows):
-    """The lanes' scratch of ``fd_lanes``: QV, WB, RB, PB, MO, FB, EB, BS, TB, IC, MB."""
-    return (stack_empty((3 * n + 1, L)), stack_empty((W_ALL, L)), stack_empty((9 * n, L)),
-            stack_empty((3 * n, L)), stack_empty((9 * n, L)), stack_empty((6 * n, L)),
-            stack_empty((6, L)), stack_empty((9, L)), stack_empty((n, L)),
-            stack_empty((10 * n, L)), stack_empty((rows, L)))
-
-
-@njit(cache=True, inline="always")
-def fd_lanes(P, off, dep, S, q, qd, tau, w, flags, k0, nl, qdd):
-    """``tree_lanes.tree_fd_block``'s steps on the states k0 .. k0 + nl - 1: their qdd
-    into the same rows of ``qdd``, M's sparse factor left in S's MB (``ancestor_rows``).
-    Returns whether every input was finite."""
-    QV, WB, RB, PB, MO, FB, EB, BS, TB, IC, MB = S
-    small, fin = gather(P, q, qd, q, w, flags, QV, WB, k0, nl)
-    tree_newton_euler_lanes(P, flags, QV, WB, RB, PB, MO, FB, EB, BS, TB, nl, small)
-    fin = tau_minus_bias(tau, TB, k0, nl, fin)
-    tree_composite_lanes(P, off, RB, PB, IC, FB, MB, nl)
-    ltdl_lanes(P, off, dep, MB, TB, BS, nl)
-    scatter(TB, qdd, k0, nl)
-    return fin
-
-
-@njit(cache=True, inline="always")
-def factor(P, off, MB, b, MF):
-    """Lane b's sparse factor (or M) from MB into the entries of MF the solves read: each
-    i's row at i and its ancestors."""
-    for i in range(P.shape[0] - 1):
-        j, r = i, off[i]
-        while j >= 0:
-            MF[i, j] = MB[r, b]
-            j, r = int(P[j, PARENT]), r + 1
+def lane_system(P, off, MB, b, dq, dqd, MF, X):
+    """Lane b's solves' inputs: its sparse factor from MB into MF (``tree_lanes.factor``),
+    its d tau/d q, d tau/d qd (dq, dqd) into X's first 2n columns."""
+    factor(P, off, MB, b, MF)
+    n = dq.shape[0]
+    for i in range(n):
+        for j in range(n):
+            X[i, j], X[i, n + j] = dq[i, j], dqd[i, j]
 
 
 # ------------------------------------------------------------------ a floating base
@@ -478,15 +458,12 @@ def factor(P, off, MB, b, MF):
 def floating_tree_rnea_derivatives_batch(P, q, v, a, gw, flags, dq, dv):
     """``floating_derivatives.floating_tree_rnea_derivatives`` of N states (rows
     broadcast) into (N, n+6, n+6) arrays. Returns OK, NOT_FINITE or BAD_LENGTH."""
+    nv, N, T = P.shape[0] - 1, dq.shape[0], stack_empty((5, 2 * P.shape[0] + 3))
     if _bad_batch(P, q, v, a, gw, dq, False):
         return BAD_LENGTH
-    nv, N = P.shape[0] - 1, dq.shape[0]
-    T = stack_empty((5, 2 * nv + 5))
-    M0, M1, F0, F1, D = tree_walk(P, T)
-    L = tree_derivative_lanes(P, M0, M1, F0, F1, D)
+    L, wf = walk_lanes(P, T), flags & F.WRENCH
     if L == 0:
         return tree_id_loop(P, q, v, a, gw, flags, dq, dv)
-    wf = flags & F.WRENCH
     Qt, Vt, At, Wt = stack_empty((L, nv)), stack_empty((L, nv)), stack_empty((L, nv)), stack_empty((L, W_ALL))
     off, dep, rows = ancestor_rows(P)
     QV, WB, RB, PB = stack_empty((3 * nv + 1, L)), stack_empty((W_ALL, L)), stack_empty((9 * nv, L)), stack_empty((3 * nv, L))
@@ -525,19 +502,17 @@ def floating_tree_fd_derivatives_batch(P, q, v, tau, gw, flags, dq, dv, Minv):
     """``floating_derivatives.floating_tree_fd_derivatives`` of N states into (N, n+6,
     n+6) arrays: per block, the tree's qdd and sparse factor in lanes (``fd_lanes``), its
     d tau in lanes, then each state's base columns, wrench turns and solves."""
+    nv, N, T = P.shape[0] - 1, dq.shape[0], stack_empty((5, 2 * P.shape[0] + 3))
     if _bad_batch(P, q, v, tau, gw, dq, True):
         return BAD_LENGTH
-    nv, N = P.shape[0] - 1, dq.shape[0]
-    T = stack_empty((5, 2 * nv + 5))
-    M0, M1, F0, F1, D = tree_walk(P, T)
-    L = tree_derivative_lanes(P, M0, M1, F0, F1, D)
+    L, wf = walk_lanes(P, T), flags & F.WRENCH
     if L == 0:
         return tree_fd_loop(P, q, v, tau, gw, flags, dq, dv, Minv)
-    wf = flags & F.WRENCH
     Qt, Vt, Tt, Wt = stack_empty((L, nv)), stack_empty((L, nv)), stack_empty((L, nv)), stack_empty((L, W_ALL))
     At = heap_empty((L, nv))
     off, dep, rows = ancestor_rows(P)
-    S = fd_scratch(nv, L, rows)
+    QV, WB, RB, PB, MO, FB, EB, BS, TB = tree_scratch(nv, L)
+    IC, MB = stack_empty((10 * nv, L)), stack_empty((rows, L))
     MF, X = scratch((nv, nv), nv * nv), scratch((nv, 3 * nv), 3 * nv * nv)
     d, mo, y = new_kin(nv), stack_empty((nv, 9)), stack_empty((W_ALL,))
     bad = OK
@@ -549,16 +524,14 @@ def floating_tree_fd_derivatives_batch(P, q, v, tau, gw, flags, dq, dv, Minv):
                 bad = NOT_FINITE
             for i in range(nv):
                 Vt[b, i] = row(v, k)[i]
-        if not fd_lanes(P, off, dep, S, Qt, Vt, Tt, Wt, F.QD | F.BASE | wf, 0, nl, At):
+        if not fd_lanes(P, off, dep, QV, WB, RB, PB, MO, FB, EB, BS, TB, IC, MB, Qt, Vt, Tt, Wt,
+                        F.QD | F.BASE | wf, 0, nl, At):
             bad = NOT_FINITE
         bad |= tree_derivatives_block(P, T, Qt, Vt, At, Wt, ID_FLAGS | wf, dq[k0:k0 + nl],
                                       dv[k0:k0 + nl], 0)
         for b in range(nl):
             k = k0 + b
-            factor(P, off, S[-1], b, MF)
-            for i in range(nv):
-                for j in range(nv):
-                    X[i, j], X[i, nv + j] = dq[k, i, j], dv[k, i, j]
+            lane_system(P, off, MB, b, dq[k], dv[k], MF, X)
             _clear_base(X)
             if wf != 0:                  # before the solves
                 tree_wrench_turns(P, d, mo, Qt[b], Wt[b], y, At[b], X[:, :nv])

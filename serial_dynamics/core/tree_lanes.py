@@ -264,20 +264,40 @@ def ltdl_lanes(P, off, dep, MB, XB, AB, nl):
 @internal(i8(Pm, In2, In2, In2, In2, i8, Out2, i8))
 def tree_fd_block(P, q, qd, tau, w, flags, out, k0):
     """``tree.tree_fd_core`` (fixed base) of the samples k0 .. k0 + B - 1 into the same rows
-    of ``out``: b by Newton-Euler at qdd = 0, x = tau - b, M on the same transforms, its
-    sparse factor and solves, lane by lane. Returns 1 on a NaN/Inf input, else 0."""
+    of ``out`` (``fd_lanes``). Returns 1 on a NaN/Inf input, else 0."""
     N = out.shape[0]
     n = P.shape[0] - 1
     L = int(P[n, LANES])
-    nl = min(L, N - k0)
     QV, WB, RB, PB, MO, FB, EB, BS, TB = tree_scratch(n, L)
     off, dep, rows = ancestor_rows(P)
     IC, MB = stack_empty((10 * n, L)), stack_empty((rows, L))   # rows <= n (n + 1) / 2: it fits
-    flags = flags & (F.QD | F.WRENCH | F.BASE)
+    fin = fd_lanes(P, off, dep, QV, WB, RB, PB, MO, FB, EB, BS, TB, IC, MB, q, qd, tau, w,
+                   flags & (F.QD | F.WRENCH | F.BASE), k0, min(L, N - k0), out)
+    return OK if fin else NOT_FINITE
+
+
+@njit(cache=True, inline="always")
+def fd_lanes(P, off, dep, QV, WB, RB, PB, MO, FB, EB, BS, TB, IC, MB, q, qd, tau, w, flags, k0,
+             nl, qdd):
+    """``tree.tree_fd_core`` on the states k0 .. k0 + nl - 1, lane by lane (the scratch of
+    ``tree_scratch``, IC (10 n, B), MB (rows of ``ancestor_rows``, B)): b by Newton-Euler
+    at qdd = 0, x = tau - b, M on the same transforms, its sparse factor (left in MB) and
+    solves; qdd into the same rows of ``qdd``. Returns whether every input was finite."""
     small, fin = gather(P, q, qd, q, w, flags, QV, WB, k0, nl)
     tree_newton_euler_lanes(P, flags, QV, WB, RB, PB, MO, FB, EB, BS, TB, nl, small)
     fin = tau_minus_bias(tau, TB, k0, nl, fin)
     tree_composite_lanes(P, off, RB, PB, IC, FB, MB, nl)
     ltdl_lanes(P, off, dep, MB, TB, BS, nl)
-    scatter(TB, out, k0, nl)
-    return OK if fin else NOT_FINITE
+    scatter(TB, qdd, k0, nl)
+    return fin
+
+
+@njit(cache=True, inline="always")
+def factor(P, off, MB, b, MF):
+    """Lane b's sparse factor (or M) from MB into the entries of MF the solves read: each
+    i's row at i and its ancestors."""
+    for i in range(P.shape[0] - 1):
+        j, r = i, off[i]
+        while j >= 0:
+            MF[i, j] = MB[r, b]
+            j, r = int(P[j, PARENT]), r + 1

@@ -3,12 +3,15 @@
 The same algorithm, frames and symbols as ``algorithms/aba.py`` (Featherstone 2008,
 Table 7.1); spatial vectors angular first, S = e_z (index 2 revolute, 5 prismatic):
 
-    pass 1 (outward)  v_i = Xup_i v_l + S_i qd_i         c_i = v_i x S_i qd_i
+    pass 1 (outward, ``velocities``; ``minus_tip_wrench``)
+                      v_i = Xup_i v_l + S_i qd_i         c_i = v_i x S_i qd_i
                       IA_i = I_i                          pA_i = v_i x* I_i v_i - f_ext_i
-    pass 2 (inward)   U_i = IA_i S_i   D_i = S_i^T U_i    u_i = tau_i - S_i^T pA_i
+    pass 2 (inward, ``articulated_inertias``)
+                      U_i = IA_i S_i   D_i = S_i^T U_i    u_i = tau_i - S_i^T pA_i
                       Ia = IA_i - U_i U_i^T / D_i         pa = pA_i + Ia c_i + U_i u_i / D_i
                       IA_l += Xup_i^T Ia Xup_i            pA_l += Xup_i^T pa
-    pass 3 (outward)  a'_i = Xup_i a_l + c_i              qdd_i = (u_i - U_i^T a'_i) / D_i
+    pass 3 (outward, ``accelerations``)
+                      a'_i = Xup_i a_l + c_i              qdd_i = (u_i - U_i^T a'_i) / D_i
                       a_i = a'_i + S_i qdd_i              with a_base = (0, -g)
 
 on the parent array l = lambda(i) (``P[i, PARENT]``; i - 1 in a chain), so one kernel serves
@@ -217,15 +220,25 @@ def articulated_bodies(P, sc, R, p, IA, pA, U, c, Du, Y, va, q, qd, tau, w, damp
     """qdd into ``out``. Returns 0.0, or NaN if an input has a NaN/Inf entry. ``tree`` and
     ``nb``, constants of the caller (aba_core, tree_aba_core and their floating_ twins): read
     lambda(i) (else i - 1); 6: a floating base's virtual chain or tree, whose first six
-    bodies are one free-flyer root joint (FDfb)."""
+    bodies are one free-flyer root joint (FDfb). The module docstring's three passes:"""
     n = out.shape[0]
-    use_qd = (flags & F.QD) != 0
-    IA36 = IA.reshape((36 * n, 1))       # IA_l's entry (a, c) is IA36[36 l + 6 a + c, 0]
     chk = joint_transforms(P, sc, R, p, q, n, nb)
-    # --- pass 1, outward: velocities, velocity-product accelerations c, bias forces pA
+    chk += velocities(P, R, p, IA, pA, c, va, qd, tau, w, flags, n, tree, nb)        # pass 1
+    if (flags & F.WRENCH) != 0:
+        chk += minus_tip_wrench(P, R, pA, w, n, tree, nb)
+    articulated_inertias(P, R, p, IA, pA, U, c, Du, Y, tau, damping, flags, n, tree, nb)  # 2
+    return chk + accelerations(P, R, p, IA, pA, U, c, Du, va, qd, tau, w, flags, out,
+                               n, tree, nb)                                           # 3
+
+
+@njit(cache=True, inline="always")
+def velocities(P, R, p, IA, pA, c, va, qd, tau, w, flags, n, tree, nb):
+    """Pass 1, outward: each body's twist, its velocity product c and its bias force pA
+    (IA_i = I_i). Returns the inputs' check (0.0 or NaN)."""
+    use_qd = (flags & F.QD) != 0
+    chk = 0.0
     vx = vy = vz = ux = uy = uz = 0.0    # (omega; v_O) of the parent: the base's at first
-    use_base = (flags & F.BASE) != 0
-    if use_base:                         # a moving base: v_base = (omega_0, 0)
+    if (flags & F.BASE) != 0:            # a moving base: v_base = (omega_0, 0)
         vx, vy, vz = w[W_OMEGA], w[W_OMEGA + 1], w[W_OMEGA + 2]
         chk += finite(vx) + finite(vy) + finite(vz)
     bx, by, bz = vx, vy, vz
@@ -256,23 +269,36 @@ def articulated_bodies(P, sc, R, p, IA, pA, U, c, Du, Y, va, q, qd, tau, w, damp
         vx, vy, vz = wx, wy, wz
         if tree:
             va[i, 0], va[i, 1], va[i, 2], va[i, 3], va[i, 4], va[i, 5] = wx, wy, wz, ux, uy, uz
-        rigid_body(P, i, IA[i], pA, wx, wy, wz, ux, uy, uz)
-    if (flags & F.WRENCH) != 0:          # pA_{n-1} -= the tip wrench, about the last origin
-        fx, fy, fz, mx, my, mz = w[0], w[1], w[2], w[3], w[4], w[5]
-        chk += finite(fx) + finite(fy) + finite(fz) + finite(mx) + finite(my) + finite(mz)
-        for i in range(nb, n):           # base -> last body, along its path
-            if not tree or P[i, TIPPATH] != 0.0:
-                fx, fy, fz = to_child(R, i, fx, fy, fz)
-                mx, my, mz = to_child(R, i, mx, my, mz)
-        tpx, tpy, tpz = P[n, TIPP], P[n, TIPP + 1], P[n, TIPP + 2]
-        k = n - 1
-        pA[k, 0] -= mx + tpy * fz - tpz * fy
-        pA[k, 1] -= my + tpz * fx - tpx * fz
-        pA[k, 2] -= mz + tpx * fy - tpy * fx
-        pA[k, 3] -= fx
-        pA[k, 4] -= fy
-        pA[k, 5] -= fz
-    # --- pass 2, inward: articulated inertias and bias forces
+        rigid_body(P, i, IA[i], pA, wx, wy, wz, ux, uy, uz)   # pA = v x* I v
+    return chk
+
+
+@njit(cache=True, inline="always")
+def minus_tip_wrench(P, R, pA, w, n, tree, nb):
+    """pA_{n-1} -= the tip wrench (world axes, about the tip point), rotated along the
+    tip's path into the last body's frame. Returns its check (0.0 or NaN)."""
+    fx, fy, fz, mx, my, mz = w[0], w[1], w[2], w[3], w[4], w[5]
+    chk = finite(fx) + finite(fy) + finite(fz) + finite(mx) + finite(my) + finite(mz)
+    for i in range(nb, n):               # base -> last body, along its path
+        if not tree or P[i, TIPPATH] != 0.0:
+            fx, fy, fz = to_child(R, i, fx, fy, fz)
+            mx, my, mz = to_child(R, i, mx, my, mz)
+    tpx, tpy, tpz = P[n, TIPP], P[n, TIPP + 1], P[n, TIPP + 2]
+    k = n - 1
+    pA[k, 0] -= mx + tpy * fz - tpz * fy
+    pA[k, 1] -= my + tpz * fx - tpx * fz
+    pA[k, 2] -= mz + tpx * fy - tpy * fx
+    pA[k, 3] -= fx
+    pA[k, 4] -= fy
+    pA[k, 5] -= fz
+    return chk
+
+
+@njit(cache=True, inline="always")
+def articulated_inertias(P, R, p, IA, pA, U, c, Du, Y, tau, damping, flags, n, tree, nb):
+    """Pass 2, inward: U, D, u of each joint, then its articulated inertia Ia and bias
+    force pa (over IA_i, pA_i) carried into the parent's."""
+    IA36 = IA.reshape((36 * n, 1))       # IA_l's entry (a, c) is IA36[36 l + 6 a + c, 0]
     for i in range(n - 1, nb - 1, -1):
         I6 = IA[i]
         s = axis(P[i, KIND])                                # S = e_s
@@ -303,17 +329,23 @@ def articulated_bodies(P, sc, R, p, IA, pA, U, c, Du, Y, va, q, qd, tau, w, damp
         # pA_l += Xup_i^T pa
         nx, ny, nz, fx, fy, fz = to_parent(R, p, i, pA[i, 0], pA[i, 1], pA[i, 2],
                                            pA[i, 3], pA[i, 4], pA[i, 5])
-        k = l
-        pA[k, 0] += nx
-        pA[k, 1] += ny
-        pA[k, 2] += nz
-        pA[k, 3] += fx
-        pA[k, 4] += fy
-        pA[k, 5] += fz
-    # --- pass 3, outward: accelerations; base acceleration (0, -g), moving: (alpha_0, acc_0 - g)
+        pA[l, 0] += nx
+        pA[l, 1] += ny
+        pA[l, 2] += nz
+        pA[l, 3] += fx
+        pA[l, 4] += fy
+        pA[l, 5] += fz
+
+
+@njit(cache=True, inline="always")
+def accelerations(P, R, p, IA, pA, U, c, Du, va, qd, tau, w, flags, out, n, tree, nb):
+    """Pass 3, outward: qdd (into ``out``) and each body's acceleration, from the base's
+    (0, -g), or (alpha_0, acc_0 - g) on a moving base, or the free-flyer root's
+    IA_0 a_0 = f_0 - pA_0. Returns the base motion's check (0.0 or NaN)."""
+    chk = 0.0
     ax = ay = az = 0.0
     lx, ly, lz = -P[n, G], -P[n, G + 1], -P[n, G + 2]
-    if use_base:
+    if (flags & F.BASE) != 0:
         ax, ay, az = w[W_ALPHA], w[W_ALPHA + 1], w[W_ALPHA + 2]
         lx, ly, lz = w[W_ACC] - P[n, G], w[W_ACC + 1] - P[n, G + 1], w[W_ACC + 2] - P[n, G + 2]
         chk += finite(ax) + finite(ay) + finite(az) + finite(lx) + finite(ly) + finite(lz)
@@ -330,6 +362,7 @@ def articulated_bodies(P, sc, R, p, IA, pA, U, c, Du, Y, va, q, qd, tau, w, damp
             va[k, 0], va[k, 1], va[k, 2], va[k, 3], va[k, 4], va[k, 5] = ax, ay, az, lx, ly, lz
         # the six virtual joints' rates: a_0 - b = (alpha; a_O - omega x v_O) for the
         # caller's a = dv/dt plus the velocity products (core/floating.py's _products)
+        use_qd = (flags & F.QD) != 0
         wx, wy, wz = (qd[3], qd[4], qd[5]) if use_qd else (0.0, 0.0, 0.0)
         vx, vy, vz = (qd[0], qd[1], qd[2]) if use_qd else (0.0, 0.0, 0.0)
         out[0] = (lx - b3) + (wy * vz - wz * vy)

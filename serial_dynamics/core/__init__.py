@@ -22,11 +22,16 @@
     mimic.py      mimic joints: the reduced system of one state in one call
     regressor.py  the torque regressor                energy.py      dT/dq, the symplectic step
     kinematics.py frame poses, Jacobians, center of mass, momentum (chains and trees)
+    stale_cache.py  deletes cached kernels that include a changed source (run on import)
 
 Each algorithm is the same as its NumPy reference in ``algorithms/`` (same frames and
 symbols; docs/conventions.md). Entry points, ``K`` and the status codes: ``dispatch.py``.
 No fast-math flag anywhere: IEEE arithmetic, so results do not depend on what was compiled
-or inlined where (bitwise the same in every process, whatever the cache holds).
+or inlined where (bitwise the same in every process, whatever the cache holds), and
+no cached kernel built from older sources (``stale_cache``).
 """
+from .stale_cache import clear_stale
+
+clear_stale()            # before any kernel compiles or loads (they do on first use)
 from .dispatch import (BAD_LENGTH, ENTRY_POINTS, FD_CALLS, K, NOT_CONVERGED, NOT_FINITE,  # noqa: F401
                        NUMBA_SUPPORTED, OK, OTHER_TYPES, SINGLE_STATE)

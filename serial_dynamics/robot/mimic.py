@@ -88,6 +88,15 @@ class Mimic:
         self._Pk = self._chain if model.floating else self._P
         self._gwk = self._gw if model.floating else np.zeros(GW)
         self._rest = np.zeros(self.nv)     # gravity_torques' rates (read, never written)
+        # a batch of inverse dynamics (bias, gravity torques) through the whole model's batch
+        # kernel in SIMD lanes between NumPy's gather and sum (``_all``, ``_reduce``), where it
+        # has one: 646 -> 221-264 ns a state (the Panda with its fingers) and 1110 -> 489-505
+        # (Baxter with its grippers) against each state in one compiled call (``_batch``),
+        # 10,000 states, one core, 2026-11-29; a floating base's tree runs its batches one state at a time
+        # (core/tree.py), so there, and for M and forward dynamics (whose whole-model M is
+        # written out and read back), ``_batch`` is faster. Each row is its single call's bits
+        # either way (test_mimic.py).
+        self._whole_lanes = not (model.floating and not model.is_chain)
 
     # ------------------------------------------------------------- description
     dof = property(lambda self: self._view.dof)
@@ -207,9 +216,10 @@ class Mimic:
             o = _empty(self.nv) if out is None else out
             if self._k.mimic_rnea(self._Pk, self._Gm, q, qd, qdd, self._gwk, _QD_QDD, o) == OK:
                 return o
-            return _into(out, self._batch(self._k.mimic_rnea_batch,
-                                          (("q", q), ("qd", qd), ("qdd", qdd)), (_QD_QDD,),
-                                          (self.nv,)))
+            if not self._whole_lanes:
+                return _into(out, self._batch(self._k.mimic_rnea_batch,
+                                              (("q", q), ("qd", qd), ("qdd", qdd)),
+                                              (_QD_QDD,), (self.nv,)))
         _, _, (q, qd, qdd) = self._all(("q", q), ("qd", qd), ("qdd", qdd))
         tau = super().inverse_dynamics(q, qd, qdd, wrench, base_motion)
         return _into(out, self._reduce(tau))             # tau = G^T tau_all
@@ -222,9 +232,10 @@ class Mimic:
             o = _empty(self.nv) if out is None else out
             if self._k.mimic_rnea(self._Pk, self._Gm, q, qd, qd, self._gwk, F.QD, o) == OK:
                 return o
-            return _into(out, self._batch(self._k.mimic_rnea_batch,
-                                          (("q", q), ("qd", qd), ("qdd", qd)), (F.QD,),
-                                          (self.nv,)))
+            if not self._whole_lanes:
+                return _into(out, self._batch(self._k.mimic_rnea_batch,
+                                              (("q", q), ("qd", qd), ("qdd", qd)), (F.QD,),
+                                              (self.nv,)))
         _, _, (q, qd) = self._all(("q", q), ("qd", qd))
         return _into(out, self._reduce(super().bias_torques(q, qd, wrench, base_motion)))
 
@@ -234,9 +245,10 @@ class Mimic:
             o = _empty(self.nv) if out is None else out
             if self._k.mimic_rnea(self._Pk, self._Gm, q, rest, rest, self._gwk, 0, o) == OK:
                 return o
-            return _into(out, self._batch(self._k.mimic_rnea_batch,
-                                          (("q", q), ("qd", rest), ("qdd", rest)), (0,),
-                                          (self.nv,)))
+            if not self._whole_lanes:
+                return _into(out, self._batch(self._k.mimic_rnea_batch,
+                                              (("q", q), ("qd", rest), ("qdd", rest)), (0,),
+                                              (self.nv,)))
         _, _, (q,) = self._all(("q", q))
         return _into(out, self._reduce(super().gravity_torques(q)))
 

@@ -213,3 +213,31 @@ def test_a_follower_that_couples_two_branches_makes_the_reduced_system_dense():
     assert rel_err(robot.forward_dynamics(q, qd, tau), ref.forward_dynamics(q, qd, tau)) <= 1e-10
     L, d = robot.mass_matrix_factor(q)
     assert rel_err(L.T @ (d[:, None] * L), M) <= 1e-12
+
+
+@pytest.mark.parametrize("urdf, floating", [("panda_description/urdf/panda.urdf", False),
+                                            ("baxter_description/urdf/baxter.urdf", False),
+                                            ("talos_data/robots/talos_full_v2.urdf", True)])
+def test_every_batch_row_is_its_single_call(urdf, floating):
+    """A batch runs the whole model's batch kernels (SIMD lanes) between NumPy's gather and
+    sum, and the reduced M and qdd state by state: each row bitwise its single call, rows
+    given or broadcast (the Panda's fingers: one coordinate on two branches; Baxter's
+    grippers; Talos's on a floating base)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        r = sd.load_urdf(erd(urdf), floating_base=floating)
+    assert r.nv < len(r.all_joint_names) + (6 if floating else 0)    # reduced
+    rng = np.random.default_rng(5)
+    Q, V = r.random_state(rng, batch=9)
+    A = rng.normal(size=(9, r.nv))
+    calls = {"inverse_dynamics": lambda q, v, a: r.inverse_dynamics(q, v, a),
+             "bias_torques": lambda q, v, a: r.bias_torques(q, v),
+             "gravity_torques": lambda q, v, a: r.gravity_torques(q),
+             "mass_matrix": lambda q, v, a: r.mass_matrix(q),
+             "forward_dynamics": lambda q, v, a: r.forward_dynamics(q, v, a)}
+    for name, f in calls.items():
+        for v, a in ((V, A), (V[3], A[3])):                          # rows, one row broadcast
+            B = f(Q, v, a)
+            for k in range(len(Q)):
+                row = f(Q[k], V[k] if v.ndim == 2 else v, A[k] if a.ndim == 2 else a)
+                np.testing.assert_array_equal(B[k], row, err_msg=f"{name}, state {k}")

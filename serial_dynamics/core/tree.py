@@ -28,7 +28,7 @@ from .rnea import base_state, body_wrench, free_flyer_motion, joint_rates, outwa
 from .signatures import D2, D3, In1, In2, Mat, Out1, Out2, Out3, Pm, Vec, f8, i8, internal
 from .spatial import finite, rotation, to_child, to_parent
 from .status import BAD_LENGTH, NOT_FINITE, OK, status
-from .tree_lanes import tree_crba_block, tree_fd_block, tree_rnea_block
+from .tree_lanes import floating_tree_rnea_block, tree_crba_block, tree_fd_block, tree_rnea_block
 
 
 def tree_rnea_core(P, sc, R, p, f, mo, q, qd, qdd, w, flags, tau):
@@ -233,21 +233,16 @@ def tree_fd(P, q, qd, tau, w, flags, out):
 
 
 def tree_rnea_batch(P, q, qd, qdd, w, flags, out):
-    """Inverse dynamics of N states (a row of 1 broadcasts): on a fixed base B at a time
-    in SIMD lanes (``tree_lanes.py``). Returns OK or NOT_FINITE."""
+    """Inverse dynamics of N states (a row of 1 broadcasts), B at a time in SIMD lanes
+    (``tree_lanes.py``; on a floating base's virtual tree with its free-flyer root). Returns
+    OK or NOT_FINITE."""
     N, n = out.shape[0], P.shape[0] - 1
-    if P[n, ROOT] == 0.0:
-        bad = OK
-        for k0 in range(0, N, int(P[n, LANES])):
-            bad |= tree_rnea_block(P, q, qd, qdd, w, flags, out, k0)
-        return bad
-    d, mo = new_kin(n), stack_empty((n, 9))
-    nq, nv, na, nw = q.shape[0] > 1, qd.shape[0] > 1, qdd.shape[0] > 1, w.shape[0] > 1
     bad = OK
-    for k in range(N):
-        if tree_rnea_core(P, d.sc, d.R, d.p, d.f, mo, q[k if nq else 0], qd[k if nv else 0],
-                          qdd[k if na else 0], w[k if nw else 0], flags, out[k]) != 0.0:
-            bad = NOT_FINITE
+    for k0 in range(0, N, int(P[n, LANES])):
+        if P[n, ROOT] == 0.0:
+            bad |= tree_rnea_block(P, q, qd, qdd, w, flags, out, k0)
+        else:
+            bad |= floating_tree_rnea_block(P, q, qd, qdd, w, flags, out, k0)
     return bad
 
 
@@ -382,7 +377,7 @@ ENTRY_POINTS = {
     "tree_crba": (tree_crba, i8(Pm, Vec, Mat), False, ("tree_crba_core",)),
     "tree_fd": (tree_fd, i8(Pm, Vec, Vec, Vec, Vec, i8, Vec), False, _FD),
     "tree_rnea_batch": (tree_rnea_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True,
-                        ("tree_rnea_core", "tree_rnea_block")),
+                        ("tree_rnea_block", "floating_tree_rnea_block")),
     "tree_crba_batch": (tree_crba_batch, i8(Pm, In2, Out3), True, ("tree_crba_core", "tree_crba_block")),
     "tree_fd_batch": (tree_fd_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True,
                       _FD + ("tree_fd_block", "aba_block", "floating_aba_block")),

@@ -1,5 +1,7 @@
-"""Inverse dynamics of a batch on a fixed-base kinematic tree, compiled: B samples at a time
-in SIMD lanes (``rnea_lanes.py``'s layout: every quantity (rows, B), the lane innermost).
+"""Inverse dynamics of a batch on a kinematic tree (a fixed base, or a floating base's
+virtual tree with its free-flyer root), its mass matrices and forward dynamics on a fixed
+base, compiled: B samples at a time in SIMD lanes (``rnea_lanes.py``'s layout: every
+quantity (rows, B), the lane innermost).
 
 ``tree.tree_rnea_core``'s steps, called lane by lane on the lanes' rows: ``into_body`` and
 ``joint_rate`` from the parent's motion (kept per body, MO, as ``mo`` there), ``body_wrench``,
@@ -15,8 +17,8 @@ from . import flags as F
 from .crba_lanes import lane_rotation
 from .data import stack_empty
 from .crba import add_in_parent
-from .joint import (armature_torques_lanes, has_armature, joint_momentum, joint_rate, lane_transforms,
-                    project)
+from .joint import (armature_torques_lanes, free_flyer, has_armature, joint_momentum, joint_rate,
+                    lane_transforms, project)
 from .layout import ARM, G, H, IO, KIND, LANES, MASS, PARENT, TIPPATH, W_ACC, W_ALL, W_OMEGA
 from .rnea import body_wrench, into_body, tip_load
 from .rnea_lanes import gather, scatter, tau_minus_bias
@@ -25,10 +27,11 @@ from .spatial import force_to_parent, rotate_t
 from .status import NOT_FINITE, OK
 
 
-@internal(i8(Pm, In2, In2, In2, In2, i8, Out2, i8))
-def tree_rnea_block(P, q, qd, qdd, w, flags, out, k0):
-    """Inverse dynamics of the samples k0 .. k0 + B - 1 of a fixed-base tree (fewer at the
-    batch's end) into the same rows of ``out``. Returns 1 if one of them has a NaN/Inf
+@njit(cache=True, inline="always")
+def tree_lanes_block(P, q, qd, qdd, w, flags, out, k0, nb):
+    """Inverse dynamics of the samples k0 .. k0 + B - 1 of a tree (fewer at the batch's end)
+    into the same rows of ``out``; ``nb``: 0 (a fixed base) or 6 (a floating base's virtual
+    tree, its first six bodies one free-flyer root). Returns 1 if one of them has a NaN/Inf
     input, else 0."""
     N = out.shape[0]
     n = P.shape[0] - 1
@@ -36,9 +39,21 @@ def tree_rnea_block(P, q, qd, qdd, w, flags, out, k0):
     nl = min(L, N - k0)
     QV, WB, RB, PB, MO, FB, EB, BS, TB = tree_scratch(n, L)
     small, fin = gather(P, q, qd, qdd, w, flags, QV, WB, k0, nl)
-    tree_newton_euler_lanes(P, flags, QV, WB, RB, PB, MO, FB, EB, BS, TB, nl, small)
+    tree_newton_euler_lanes(P, flags, QV, WB, RB, PB, MO, FB, EB, BS, TB, nl, small, nb)
     scatter(TB, out, k0, nl)
     return OK if fin else NOT_FINITE
+
+
+@internal(i8(Pm, In2, In2, In2, In2, i8, Out2, i8))
+def tree_rnea_block(P, q, qd, qdd, w, flags, out, k0):
+    """``tree_lanes_block`` on a fixed base (``tree.tree_rnea_core`` in every lane)."""
+    return tree_lanes_block(P, q, qd, qdd, w, flags, out, k0, 0)
+
+
+@internal(i8(Pm, In2, In2, In2, In2, i8, Out2, i8))
+def floating_tree_rnea_block(P, q, qd, qdd, w, flags, out, k0):
+    """``tree_lanes_block`` on a floating base's virtual tree (``P[n, ROOT]`` = 6)."""
+    return tree_lanes_block(P, q, qd, qdd, w, flags, out, k0, 6)
 
 
 @njit(cache=True, inline="always")
@@ -51,9 +66,10 @@ def tree_scratch(n, L):
 
 
 @njit(cache=True, inline="always")
-def tree_newton_euler_lanes(P, flags, QV, WB, RB, PB, MO, FB, EB, BS, TB, nl, small):
+def tree_newton_euler_lanes(P, flags, QV, WB, RB, PB, MO, FB, EB, BS, TB, nl, small, nb):
     """``tree_rnea_core`` on gathered lanes: the torques into TB (n, B), the joint transforms
-    left in RB, PB. Scratch: MO each body's (omega, alpha, acc), BS the base's, FB each
+    left in RB, PB (bodies nb ..; nb, the caller's constant: 0, or 6 on a floating base's
+    virtual tree, whose first six bodies are one free-flyer root joint, as there). Scratch: MO each body's (omega, alpha, acc), BS the base's, FB each
     body's wrench (n; f), then its joint wrench; EB the tip wrench [f; m] carried along
     the tip's path; PM (on this stack) a copy of the parent's motion, then of the child's
     wrench carried in: each lane loop then reads rows of one array and writes another's,
@@ -72,7 +88,20 @@ def tree_newton_euler_lanes(P, flags, QV, WB, RB, PB, MO, FB, EB, BS, TB, nl, sm
                 BS[s, b] = (WB[W_OMEGA + s, b] if s < 6 else WB[W_ACC + s - 6, b] - P[n, G + s - 6])
             else:
                 BS[s, b] = 0.0 if s < 6 else -P[n, G + s - 6]
-    for i in range(n):
+    if nb > 0:                           # the free-flyer root: its body's motion at once
+        k = nb - 1                       # (rnea.free_flyer_motion) and its wrench
+        rk, fk = 9 * k, 6 * k
+        for b in range(nl):
+            wx, wy, wz, ax, ay, az, lx, ly, lz = free_flyer(
+                QV[n + 3, b], QV[n + 4, b], QV[n + 5, b], QV[2 * n, b], QV[2 * n + 1, b],
+                QV[2 * n + 2, b], QV[2 * n + 3, b], QV[2 * n + 4, b], QV[2 * n + 5, b],
+                BS[6, b], BS[7, b], BS[8, b])
+            (MO[rk, b], MO[rk + 1, b], MO[rk + 2, b], MO[rk + 3, b], MO[rk + 4, b],
+             MO[rk + 5, b], MO[rk + 6, b], MO[rk + 7, b], MO[rk + 8, b]) = (wx, wy, wz, ax, ay, az,
+                                                                          lx, ly, lz)
+            (FB[fk, b], FB[fk + 1, b], FB[fk + 2, b], FB[fk + 3, b], FB[fk + 4, b],
+             FB[fk + 5, b]) = body_wrench(P, k, wx, wy, wz, ax, ay, az, lx, ly, lz)
+    for i in range(nb, n):
         lane_transforms(P, i, QV, RB, PB, nl, small)
         l, ri, pi, fi = int(P[i, PARENT]), 9 * i, 3 * i, 6 * i
         for s in range(9):               # the parent's motion, or the base's (a copy: LLVM
@@ -103,7 +132,7 @@ def tree_newton_euler_lanes(P, flags, QV, WB, RB, PB, MO, FB, EB, BS, TB, nl, sm
                                        FB[fi + 4, b], FB[fi + 5, b], EB[0, b], EB[1, b], EB[2, b],
                                        EB[3, b], EB[4, b], EB[5, b])
     # inward: tau_i = S_i^T f_i;  f_lambda(i) += Xup_i^T f_i
-    for i in range(n - 1, -1, -1):
+    for i in range(n - 1, nb - 1, -1):
         l, fi, ri, pi = int(P[i, PARENT]), 6 * i, 9 * i, 3 * i
         kind, li = P[i, KIND], 6 * int(P[i, PARENT])
         for b in range(nl):
@@ -119,7 +148,12 @@ def tree_newton_euler_lanes(P, flags, QV, WB, RB, PB, MO, FB, EB, BS, TB, nl, sm
                 FB[li, b], FB[li + 1, b] = FB[li, b] + nx, FB[li + 1, b] + ny
                 FB[li + 2, b], FB[li + 3, b] = FB[li + 2, b] + nz, FB[li + 3, b] + fx
                 FB[li + 4, b], FB[li + 5, b] = FB[li + 4, b] + fy, FB[li + 5, b] + fz
-    armature_torques_lanes(P, QV, TB, nl, 0)         # tau_i += I_a,i qdd_i
+    if nb > 0:                           # the free-flyer's generalized forces: [f; n] on the base
+        fk = 6 * (nb - 1)
+        for b in range(nl):
+            TB[0, b], TB[1, b], TB[2, b] = FB[fk + 3, b], FB[fk + 4, b], FB[fk + 5, b]
+            TB[3, b], TB[4, b], TB[5, b] = FB[fk, b], FB[fk + 1, b], FB[fk + 2, b]
+    armature_torques_lanes(P, QV, TB, nl, nb)        # tau_i += I_a,i qdd_i
 
 
 @njit(cache=True, inline="always")
@@ -284,7 +318,7 @@ def fd_lanes(P, off, dep, QV, WB, RB, PB, MO, FB, EB, BS, TB, IC, MB, q, qd, tau
     at qdd = 0, x = tau - b, M on the same transforms, its sparse factor (left in MB) and
     solves; qdd into the same rows of ``qdd``. Returns whether every input was finite."""
     small, fin = gather(P, q, qd, q, w, flags, QV, WB, k0, nl)
-    tree_newton_euler_lanes(P, flags, QV, WB, RB, PB, MO, FB, EB, BS, TB, nl, small)
+    tree_newton_euler_lanes(P, flags, QV, WB, RB, PB, MO, FB, EB, BS, TB, nl, small, 0)
     fin = tau_minus_bias(tau, TB, k0, nl, fin)
     tree_composite_lanes(P, off, RB, PB, IC, FB, MB, nl)
     ltdl_lanes(P, off, dep, MB, TB, BS, nl)

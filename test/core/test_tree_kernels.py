@@ -189,6 +189,35 @@ def test_a_floating_tree_compiled_matches_the_reference():
             assert batch[k].tobytes() == getattr(fast, name)(*(x[k] for x in args), **kw).tobytes()
 
 
+@pytest.mark.parametrize("rel", ROBOTS[:2])
+def test_a_floating_trees_inverse_dynamics_in_lanes_are_the_single_calls_bits(rel):
+    """tree_lanes.floating_tree_rnea_block (the free-flyer root in lanes): 70 floating states
+    (blocks of 32 lanes and a short one), a state of tiny joint angles, one of a huge angle,
+    a world wrench per row: each row of inverse dynamics, bias and gravity torques is
+    bitwise its single call (tree_rnea_core with P[n, ROOT] = 6), rows given or broadcast."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", sd.HeldJointsWarning)
+        fast = sd.load_urdf(erd(rel), floating_base=True)
+    rng = np.random.default_rng(11)
+    q, v = fast.random_state(rng, batch=70)
+    a = rng.uniform(-2, 2, (70, fast.nv))
+    q[3, 7:] *= 1e-9
+    q[40, 9] += 2 * np.pi * 3e5
+    w = rng.uniform(-5, 5, (70, 6))
+    calls = (("inverse_dynamics", lambda q, v, a, **k: fast.inverse_dynamics(q, v, a, **k)),
+             ("bias_torques", lambda q, v, a, **k: fast.bias_torques(q, v, **k)),
+             ("gravity_torques", lambda q, v, a: fast.gravity_torques(q)))
+    for name, f in calls:
+        for kw in ({}, {"wrench": w}) if name != "gravity_torques" else ({},):
+            batch = f(q, v, a, **kw)
+            for k in range(70):
+                one = {"wrench": w[k]} if kw else {}
+                assert batch[k].tobytes() == f(q[k], v[k], a[k], **one).tobytes(), (name, k)
+        batch = f(q, v[5], a[5])                          # one row broadcast
+        for k in range(0, 70, 9):
+            assert batch[k].tobytes() == f(q[k], v[5], a[5]).tobytes(), (name, k)
+
+
 @pytest.mark.parametrize("n_each, floating, method", [(6, False, "cholesky"), (20, False, "aba"),
                                                       (6, True, "cholesky"), (12, True, "aba")])
 def test_auto_forward_dynamics_on_a_tree_follows_its_depths(n_each, floating, method):

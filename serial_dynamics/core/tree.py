@@ -28,7 +28,8 @@ from .rnea import base_state, body_wrench, free_flyer_motion, joint_rates, outwa
 from .signatures import D2, D3, In1, In2, Mat, Out1, Out2, Out3, Pm, Vec, f8, i8, internal
 from .spatial import finite, rotation, to_child, to_parent
 from .status import BAD_LENGTH, NOT_FINITE, OK, status
-from .tree_lanes import floating_tree_rnea_block, tree_crba_block, tree_fd_block, tree_rnea_block
+from .tree_lanes import (floating_tree_fd_block, floating_tree_rnea_block, tree_crba_block,
+                         tree_fd_block, tree_rnea_block)
 
 
 def tree_rnea_core(P, sc, R, p, f, mo, q, qd, qdd, w, flags, tau):
@@ -268,16 +269,20 @@ def tree_crba_batch(P, q, out):
 
 def tree_fd_batch(P, q, qd, tau, w, flags, out):
     """Forward dynamics of N states, as ``tree_crba_batch`` splits them (a row of 1
-    broadcasts); with flag ABA by articulated bodies (``aba_lanes.py``, FDfb on a floating
-    base's virtual tree), B at a time in lanes where they fit. Returns OK or NOT_FINITE."""
+    broadcasts): the sparse factor (``tree_lanes.fd_lanes``, with the free-flyer root on a
+    floating base's virtual tree), or with flag ABA articulated bodies (``aba_lanes.py``, FDfb
+    on a floating base's virtual tree), B at a time in lanes where they fit. Returns OK or
+    NOT_FINITE."""
     N, n = out.shape[0], P.shape[0] - 1
     L = int(P[n, LANES])
     flags &= ~F.DAMPING                  # tau stands in for the unread damping argument
     aba, floating = (flags & F.ABA) != 0, P[n, ROOT] != 0.0
-    if aba_lanes_fit(n, L) if aba else (not floating and square_lanes_fit(n, L)):
+    if aba_lanes_fit(n, L) if aba else square_lanes_fit(n, L):
         bad = OK                         # B at a time in lanes
         for k0 in range(0, N, L):
-            if not aba:
+            if not aba and floating:
+                bad |= floating_tree_fd_block(P, q, qd, tau, w, flags, out, k0)
+            elif not aba:
                 bad |= tree_fd_block(P, q, qd, tau, w, flags, out, k0)
             elif floating:
                 bad |= floating_aba_block(P, q, qd, tau, w, flags, out, k0)
@@ -380,7 +385,8 @@ ENTRY_POINTS = {
                         ("tree_rnea_block", "floating_tree_rnea_block")),
     "tree_crba_batch": (tree_crba_batch, i8(Pm, In2, Out3), True, ("tree_crba_core", "tree_crba_block")),
     "tree_fd_batch": (tree_fd_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True,
-                      _FD + ("tree_fd_block", "aba_block", "floating_aba_block")),
+                      _FD + ("tree_fd_block", "floating_tree_fd_block", "aba_block",
+                             "floating_aba_block")),
     "floating_tree_rnea": (floating_tree_rnea, i8(Pm, Vec, Vec, Vec, Vec, i8, Vec), False,
                            ("tree_rnea_core",)),
     "floating_tree_fd": (floating_tree_fd, i8(Pm, Vec, Vec, Vec, Vec, i8, Vec), False, _FD),

@@ -429,7 +429,7 @@ def tree_fd_derivatives_batch(P, q, qd, tau, w, flags, dq, dqd, Minv):
     for k0 in range(0, N, L):
         nl = min(L, N - k0)
         if not fd_lanes(P, off, dep, QV, WB, RB, PB, MO, FB, EB, BS, TB, IC, MB, q, qd, tau, w,
-                        flags, k0, nl, qdd):
+                        flags, k0, nl, qdd, 0):
             bad = NOT_FINITE
         bad |= tree_derivatives_block(P, T, q, qd, qdd, w, flags | F.QDD, dq, dqd, k0)
         for b in range(nl):
@@ -485,7 +485,7 @@ def floating_tree_rnea_derivatives_batch(P, q, v, a, gw, flags, dq, dv):
         small, fin = gather(P, Qt, Qt, Qt, Qt, 0, QV, WB, 0, nl)   # M, as tree_crba_core
         for i in range(nv):
             lane_transforms(P, i, QV, RB, PB, nl, small)
-        tree_composite_lanes(P, off, RB, PB, IC, FB, MB, nl)
+        tree_composite_lanes(P, off, RB, PB, IC, FB, MB, nl, 0)
         for b in range(nl):
             k = k0 + b
             factor(P, off, MB, b, M)     # M[i, j], j = i and its ancestors: the virtual
@@ -525,7 +525,7 @@ def floating_tree_fd_derivatives_batch(P, q, v, tau, gw, flags, dq, dv, Minv):
             for i in range(nv):
                 Vt[b, i] = row(v, k)[i]
         if not fd_lanes(P, off, dep, QV, WB, RB, PB, MO, FB, EB, BS, TB, IC, MB, Qt, Vt, Tt, Wt,
-                        F.QD | F.BASE | wf, 0, nl, At):
+                        F.QD | F.BASE | wf, 0, nl, At, 0):
             bad = NOT_FINITE
         bad |= tree_derivatives_block(P, T, Qt, Vt, At, Wt, ID_FLAGS | wf, dq[k0:k0 + nl],
                                       dv[k0:k0 + nl], 0)

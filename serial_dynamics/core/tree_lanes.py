@@ -1,6 +1,6 @@
-"""Inverse dynamics of a batch on a kinematic tree (a fixed base, or a floating base's
-virtual tree with its free-flyer root), its mass matrices and forward dynamics on a fixed
-base, compiled: B samples at a time in SIMD lanes (``rnea_lanes.py``'s layout: every
+"""Inverse dynamics and forward dynamics (the sparse factor) of a batch on a kinematic tree
+(a fixed base, or a floating base's virtual tree with its free-flyer root), its mass matrices
+on a fixed base, compiled: B samples at a time in SIMD lanes (``rnea_lanes.py``'s layout: every
 quantity (rows, B), the lane innermost).
 
 ``tree.tree_rnea_core``'s steps, called lane by lane on the lanes' rows: ``into_body`` and
@@ -157,10 +157,12 @@ def tree_newton_euler_lanes(P, flags, QV, WB, RB, PB, MO, FB, EB, BS, TB, nl, sm
 
 
 @njit(cache=True, inline="always")
-def tree_composite_lanes(P, off, RB, PB, IC, FB, MB, nl):
-    """``tree.tree_crba_core`` (fixed base) on lanes whose joint transforms are in RB, PB:
-    M_ij for j = i and i's ancestors into MB row off[i] + (steps from i up to j) (the rest
-    of M is zero; ``ancestor_rows``). IC (10 n, B) the composite bodies, FB (6, B) the
+def tree_composite_lanes(P, off, RB, PB, IC, FB, MB, nl, nb):
+    """``tree.tree_crba_core`` on lanes whose joint transforms are in RB, PB (bodies nb ..;
+    nb, the caller's constant: 0, or 6 on a floating base's virtual tree, whose first six
+    bodies are one free-flyer root): M_ij for j = i and i's ancestors into MB row off[i] +
+    (steps from i up to j) (the rest of M is zero; ``ancestor_rows``; the root's coordinates
+    are the virtual bodies 0-5, a chain). IC (10 n, B) the composite bodies, FB (6, B) the
     carried force: scratch."""
     n = P.shape[0] - 1
     for i in range(n):
@@ -168,14 +170,14 @@ def tree_composite_lanes(P, off, RB, PB, IC, FB, MB, nl):
             v = P[i, MASS] if r == 0 else (P[i, H + r - 1] if r < 4 else P[i, IO + r - 4])
             for b in range(nl):
                 IC[10 * i + r, b] = v
-    for i in range(n - 1, -1, -1):
+    for i in range(n - 1, nb - 1, -1):
         kind, c = P[i, KIND], 10 * i
         for b in range(nl):              # F = IC_i S_i; M_ii = S_i^T F
             (FB[0, b], FB[1, b], FB[2, b], FB[3, b], FB[4, b], FB[5, b],
              MB[off[i], b]) = joint_momentum(kind, IC[c, b], IC[c + 1, b], IC[c + 2, b],
                                              IC[c + 8, b], IC[c + 9, b], IC[c + 6, b])
         j, row = i, off[i]
-        while P[j, PARENT] >= 0:         # up the ancestors: F = Xup_j^T F, M_ij = S_j^T F
+        while P[j, PARENT] >= nb:        # up the ancestors: F = Xup_j^T F, M_ij = S_j^T F
             rj, pj = 9 * j, 3 * j
             j, row = int(P[j, PARENT]), row + 1
             up = P[j, KIND]
@@ -185,6 +187,14 @@ def tree_composite_lanes(P, off, RB, PB, IC, FB, MB, nl):
                     FB[0, b], FB[1, b], FB[2, b], FB[3, b], FB[4, b], FB[5, b])
                 FB[0, b], FB[1, b], FB[2, b], FB[3, b], FB[4, b], FB[5, b] = nx, ny, nz, fx, fy, fz
                 MB[row, b] = project(up, nz, fz)
+        if nb > 0:                       # into the base frame: M_root,i = F (v = [v_O, omega]),
+            rj, pj = 9 * j, 3 * j        # coordinate 5 (virtual body 5) first up the chain
+            for b in range(nl):
+                nx, ny, nz, fx, fy, fz = force_to_parent(
+                    lane_rotation(RB, rj, b), PB[pj, b], PB[pj + 1, b], PB[pj + 2, b],
+                    FB[0, b], FB[1, b], FB[2, b], FB[3, b], FB[4, b], FB[5, b])
+                MB[row + 1, b], MB[row + 2, b], MB[row + 3, b] = nz, ny, nx
+                MB[row + 4, b], MB[row + 5, b], MB[row + 6, b] = fz, fy, fx
         l = int(P[i, PARENT])
         if l >= 0:                       # IC_lambda(i) += Xup_i^T IC_i Xup_i
             ri, pi, d = 9 * i, 3 * i, 10 * l
@@ -196,11 +206,32 @@ def tree_composite_lanes(P, off, RB, PB, IC, FB, MB, nl):
                     lane_rotation(RB, ri, b), PB[pi, b], PB[pi + 1, b], PB[pi + 2, b],
                     IC[c, b], IC[c + 1, b], IC[c + 2, b], IC[c + 3, b], IC[c + 4, b],
                     IC[c + 5, b], IC[c + 6, b], IC[c + 7, b], IC[c + 8, b], IC[c + 9, b])
+    if nb > 0:                           # the root's block: IC of everything, base frame
+        root_block_lanes(off, IC, 10 * (nb - 1), MB, nl)
     if has_armature(P):  # M_ii += I_a,i (joint.armature_diagonal)
-        for i in range(n):
+        for i in range(nb, n):
             arm = P[i, ARM]
             for b in range(nl):
                 MB[off[i], b] += arm
+
+
+@njit(cache=True, inline="always")
+def root_block_lanes(off, IC, c, MB, nl):
+    """``crba.root_block`` in every lane from the composite body at IC rows c ..: M_rs
+    (r <= s < 6, the virtual chain's coordinates) into MB row off[s] + s - r."""
+    for s in range(6):
+        for r in range(s + 1):
+            for b in range(nl):
+                MB[off[s] + s - r, b] = 0.0
+    for b in range(nl):
+        m, hx, hy, hz = IC[c, b], IC[c + 1, b], IC[c + 2, b], IC[c + 3, b]
+        MB[off[0], b] = MB[off[1], b] = MB[off[2], b] = m
+        MB[off[4] + 4, b], MB[off[5] + 5, b] = hz, -hy          # (0, 4), (0, 5)
+        MB[off[3] + 2, b], MB[off[5] + 4, b] = -hz, hx          # (1, 3), (1, 5)
+        MB[off[3] + 1, b], MB[off[4] + 2, b] = hy, -hx          # (2, 3), (2, 4)
+        MB[off[3], b], MB[off[4], b], MB[off[5], b] = IC[c + 4, b], IC[c + 5, b], IC[c + 6, b]
+        MB[off[4] + 1, b], MB[off[5] + 2, b], MB[off[5] + 1, b] = (IC[c + 7, b], IC[c + 8, b],
+                                                                  IC[c + 9, b])   # (3,4) (3,5) (4,5)
 
 
 @njit(cache=True, inline="always")
@@ -237,7 +268,10 @@ def ancestor_rows(P):
 @internal(i8(Pm, In2, Out3, i8))
 def tree_crba_block(P, q, out, k0):
     """Mass matrices of the samples k0 .. k0 + B - 1 of a fixed-base tree into the same rows
-    of ``out``; 1 if one of them has a NaN/Inf angle, else 0."""
+    of ``out``; 1 if one of them has a NaN/Inf angle, else 0. (A floating base's tree runs
+    its mass matrices one state at a time: in lanes with the free-flyer root they measured
+    1.2x slower on Solo12 and the same on Talos, 2026-11-29; the dense output's writes
+    dominate.)"""
     N = out.shape[0]
     n = P.shape[0] - 1
     L = int(P[n, LANES])
@@ -249,7 +283,7 @@ def tree_crba_block(P, q, out, k0):
     small, fin = gather(P, q, q, q, q, 0, QV, WB, k0, nl)
     for i in range(n):
         lane_transforms(P, i, QV, RB, PB, nl, small)
-    tree_composite_lanes(P, off, RB, PB, IC, FB, MB, nl)
+    tree_composite_lanes(P, off, RB, PB, IC, FB, MB, nl, 0)
     _scatter_tree_matrix(P, off, MB, out, k0, nl)
     return OK if fin else NOT_FINITE
 
@@ -295,10 +329,11 @@ def ltdl_lanes(P, off, dep, MB, XB, AB, nl):
             j = int(P[j, PARENT])
 
 
-@internal(i8(Pm, In2, In2, In2, In2, i8, Out2, i8))
-def tree_fd_block(P, q, qd, tau, w, flags, out, k0):
-    """``tree.tree_fd_core`` (fixed base) of the samples k0 .. k0 + B - 1 into the same rows
-    of ``out`` (``fd_lanes``). Returns 1 on a NaN/Inf input, else 0."""
+@njit(cache=True, inline="always")
+def tree_fd_lanes_block(P, q, qd, tau, w, flags, out, k0, nb):
+    """``tree.tree_fd_core`` of the samples k0 .. k0 + B - 1 into the same rows of ``out``
+    (``fd_lanes``; nb: 0, or 6 on a floating base's virtual tree). Returns 1 on a NaN/Inf
+    input, else 0."""
     N = out.shape[0]
     n = P.shape[0] - 1
     L = int(P[n, LANES])
@@ -306,21 +341,33 @@ def tree_fd_block(P, q, qd, tau, w, flags, out, k0):
     off, dep, rows = ancestor_rows(P)
     IC, MB = stack_empty((10 * n, L)), stack_empty((rows, L))   # rows <= n (n + 1) / 2: it fits
     fin = fd_lanes(P, off, dep, QV, WB, RB, PB, MO, FB, EB, BS, TB, IC, MB, q, qd, tau, w,
-                   flags & (F.QD | F.WRENCH | F.BASE), k0, min(L, N - k0), out)
+                   flags & (F.QD | F.WRENCH | F.BASE), k0, min(L, N - k0), out, nb)
     return OK if fin else NOT_FINITE
+
+
+@internal(i8(Pm, In2, In2, In2, In2, i8, Out2, i8))
+def tree_fd_block(P, q, qd, tau, w, flags, out, k0):
+    """``tree_fd_lanes_block`` on a fixed base."""
+    return tree_fd_lanes_block(P, q, qd, tau, w, flags, out, k0, 0)
+
+
+@internal(i8(Pm, In2, In2, In2, In2, i8, Out2, i8))
+def floating_tree_fd_block(P, q, qd, tau, w, flags, out, k0):
+    """``tree_fd_lanes_block`` on a floating base's virtual tree (``P[n, ROOT]`` = 6)."""
+    return tree_fd_lanes_block(P, q, qd, tau, w, flags, out, k0, 6)
 
 
 @njit(cache=True, inline="always")
 def fd_lanes(P, off, dep, QV, WB, RB, PB, MO, FB, EB, BS, TB, IC, MB, q, qd, tau, w, flags, k0,
-             nl, qdd):
+             nl, qdd, nb):
     """``tree.tree_fd_core`` on the states k0 .. k0 + nl - 1, lane by lane (the scratch of
     ``tree_scratch``, IC (10 n, B), MB (rows of ``ancestor_rows``, B)): b by Newton-Euler
     at qdd = 0, x = tau - b, M on the same transforms, its sparse factor (left in MB) and
     solves; qdd into the same rows of ``qdd``. Returns whether every input was finite."""
     small, fin = gather(P, q, qd, q, w, flags, QV, WB, k0, nl)
-    tree_newton_euler_lanes(P, flags, QV, WB, RB, PB, MO, FB, EB, BS, TB, nl, small, 0)
+    tree_newton_euler_lanes(P, flags, QV, WB, RB, PB, MO, FB, EB, BS, TB, nl, small, nb)
     fin = tau_minus_bias(tau, TB, k0, nl, fin)
-    tree_composite_lanes(P, off, RB, PB, IC, FB, MB, nl)
+    tree_composite_lanes(P, off, RB, PB, IC, FB, MB, nl, nb)
     ltdl_lanes(P, off, dep, MB, TB, BS, nl)
     scatter(TB, qdd, k0, nl)
     return fin

@@ -190,11 +190,13 @@ def test_a_floating_tree_compiled_matches_the_reference():
 
 
 @pytest.mark.parametrize("rel", ROBOTS[:2])
-def test_a_floating_trees_inverse_dynamics_in_lanes_are_the_single_calls_bits(rel):
-    """tree_lanes.floating_tree_rnea_block (the free-flyer root in lanes): 70 floating states
-    (blocks of 32 lanes and a short one), a state of tiny joint angles, one of a huge angle,
-    a world wrench per row: each row of inverse dynamics, bias and gravity torques is
-    bitwise its single call (tree_rnea_core with P[n, ROOT] = 6), rows given or broadcast."""
+def test_a_floating_trees_batches_in_lanes_are_the_single_calls_bits(rel):
+    """tree_lanes.floating_tree_rnea_block and floating_tree_fd_block (the free-flyer root in
+    lanes): 70 floating states (blocks of 32 lanes and a short one), a state of tiny joint
+    angles, one of a huge angle, a world wrench per row: each row of inverse dynamics, bias
+    and gravity torques, and forward dynamics by the sparse factor (and by articulated
+    bodies, aba_lanes) is bitwise its single call (tree_rnea_core, tree_fd_core with
+    P[n, ROOT] = 6), rows given or broadcast."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", sd.HeldJointsWarning)
         fast = sd.load_urdf(erd(rel), floating_base=True)
@@ -206,7 +208,11 @@ def test_a_floating_trees_inverse_dynamics_in_lanes_are_the_single_calls_bits(re
     w = rng.uniform(-5, 5, (70, 6))
     calls = (("inverse_dynamics", lambda q, v, a, **k: fast.inverse_dynamics(q, v, a, **k)),
              ("bias_torques", lambda q, v, a, **k: fast.bias_torques(q, v, **k)),
-             ("gravity_torques", lambda q, v, a: fast.gravity_torques(q)))
+             ("gravity_torques", lambda q, v, a: fast.gravity_torques(q)),
+             ("forward_dynamics", lambda q, v, a, **k: fast.forward_dynamics(
+                 q, v, a, method="cholesky", **k)),
+             ("forward_dynamics_aba", lambda q, v, a, **k: fast.forward_dynamics(
+                 q, v, a, method="aba", **k)))
     for name, f in calls:
         for kw in ({}, {"wrench": w}) if name != "gravity_torques" else ({},):
             batch = f(q, v, a, **kw)

@@ -69,8 +69,9 @@ def tree_scratch(n, L):
 def tree_newton_euler_lanes(P, flags, QV, WB, RB, PB, MO, FB, EB, BS, TB, nl, small, nb):
     """``tree_rnea_core`` on gathered lanes: the torques into TB (n, B), the joint transforms
     left in RB, PB (bodies nb ..; nb, the caller's constant: 0, or 6 on a floating base's
-    virtual tree, whose first six bodies are one free-flyer root joint, as there). Scratch: MO each body's (omega, alpha, acc), BS the base's, FB each
-    body's wrench (n; f), then its joint wrench; EB the tip wrench [f; m] carried along
+    virtual tree, whose first six bodies are one free-flyer root joint, as there).
+    Scratch: MO each body's (omega, alpha, acc), BS the base's, FB each body's wrench
+    (n; f), then its joint wrench; EB the tip wrench [f; m] carried along
     the tip's path; PM (on this stack) a copy of the parent's motion, then of the child's
     wrench carried in: each lane loop then reads rows of one array and writes another's,
     which LLVM sees, and packs the loop (reading and writing rows of MO or FB at offsets
@@ -230,8 +231,8 @@ def root_block_lanes(off, IC, c, MB, nl):
         MB[off[3] + 2, b], MB[off[5] + 4, b] = -hz, hx          # (1, 3), (1, 5)
         MB[off[3] + 1, b], MB[off[4] + 2, b] = hy, -hx          # (2, 3), (2, 4)
         MB[off[3], b], MB[off[4], b], MB[off[5], b] = IC[c + 4, b], IC[c + 5, b], IC[c + 6, b]
-        MB[off[4] + 1, b], MB[off[5] + 2, b], MB[off[5] + 1, b] = (IC[c + 7, b], IC[c + 8, b],
-                                                                  IC[c + 9, b])   # (3,4) (3,5) (4,5)
+        MB[off[4] + 1, b] = IC[c + 7, b]                        # (3, 4): I_xy
+        MB[off[5] + 2, b], MB[off[5] + 1, b] = IC[c + 8, b], IC[c + 9, b]   # (3, 5), (4, 5)
 
 
 @njit(cache=True, inline="always")

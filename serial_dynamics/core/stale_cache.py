@@ -32,13 +32,21 @@ INCLUDES = {"core": ("core",), "sim": ("core", "sim"), "robot": ("core", "robot"
 STAMP = "serial_dynamics-sources.sha256"
 
 
-def fingerprint(package: Path, folders) -> str:
-    """SHA-256 over the names and contents of every ``*.py`` in ``folders`` of ``package``."""
+def fingerprint(package: Path, folders, digests=None) -> str:
+    """SHA-256 over the names and contents of every ``*.py`` in ``folders`` of ``package``:
+    over each folder's own digest, kept in ``digests`` (folder: digest) so that a folder
+    that several fingerprints include (``core``) is read once."""
+    digests = {} if digests is None else digests
     h = hashlib.sha256()
     for folder in folders:
-        for f in sorted((package / folder).glob("*.py")):
-            h.update(f"{folder}/{f.name}\0".encode())
-            h.update(f.read_bytes())
+        if folder not in digests:
+            d = hashlib.sha256()
+            for f in sorted((package / folder).glob("*.py")):
+                d.update(f"{f.name}\0".encode())
+                d.update(f.read_bytes())
+            digests[folder] = d.digest()
+        h.update(f"{folder}\0".encode())
+        h.update(digests[folder])
     return h.hexdigest()
 
 
@@ -66,7 +74,7 @@ def clear_stale(package: Path = PACKAGE, includes=INCLUDES) -> list[str]:
     those it calls into) changed since its fingerprint was written, or that has entries and
     no fingerprint; write the fingerprint. Returns the folders cleared. A cache folder that
     cannot be written is left alone (numba then caches nothing there either)."""
-    cleared = []
+    cleared, digests = [], {}
     for folder, sources in includes.items():
         modules = sorted((package / folder).glob("*.py"))
         where = cache_folder(modules[0]) if modules else None
@@ -74,7 +82,8 @@ def clear_stale(package: Path = PACKAGE, includes=INCLUDES) -> list[str]:
             continue
         try:
             with _locked(where / (STAMP + ".lock")):
-                if _clear(where, {m.stem for m in modules}, fingerprint(package, sources)):
+                if _clear(where, {m.stem for m in modules},
+                          fingerprint(package, sources, digests)):
                     cleared.append(folder)
         except OSError:
             continue

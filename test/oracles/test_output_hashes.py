@@ -12,8 +12,14 @@ forward dynamics, the NumPy symplectic step and the inverse mass matrix of mimic
 reproducible on one machine only: OpenBLAS picks its kernels by processor (the same outputs
 differ in their last bits between an AMD EPYC and an Intel Xeon, measured). Those outputs
 (``through_blas``) are compared with their values as computed here before the trees issue
-(``output_values.npz``, from commit 902364f on an Intel Xeon) to 1e-12 of their magnitude;
-every other output, the compiled kernels' own arithmetic, by its hash.
+(``output_values.npz``, from commit 902364f on an Intel Xeon) to 1e-12 of their magnitude,
+but the adaptive simulations: their step sizes come from an error estimate, a small
+difference of large numbers, in which the processor's last bits move the chosen steps and
+so the states at the step times by ~1e-7 of their magnitude (measured on an AMD Zen 5,
+where OpenBLAS picks other kernels than on a Zen 4: the planar 3R's DOP853 run moved by
+2.5e-7 and matched again with ``OPENBLAS_CORETYPE=SkylakeX``); they are compared to
+``ADAPTIVE_TOL`` of their magnitude. Every other output, the compiled kernels' own
+arithmetic, is compared by its hash.
 
 Robots: the default UR5e, the UR5e with armature, a chain with mimic joints, and the
 planar 3R (the planar fast path). Outputs: inverse dynamics (with and without a tip
@@ -36,6 +42,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 HASHES = os.path.join(HERE, "output_hashes.json")
 VALUES = os.path.join(HERE, "output_values.npz")
 N = 37          # a batch longer than one SIMD block, with a short tail
+ADAPTIVE_TOL = 1e-5   # an adaptive run's states at its step times, of their magnitude
 
 MIMIC = (   # j3 mimics j2 (1.5 q2 + 0.2), j4 mimics j1 (-0.7 q1); tilted axes
     '<robot name="mimic"><link name="base"/>'
@@ -141,8 +148,8 @@ def test_the_outputs_through_blas_are_what_they_were():
     keys = sorted(k for k in got if through_blas(k))
     assert keys == sorted(values.files)
     for k in keys:
-        scale = np.max(np.abs(values[k]))
-        np.testing.assert_allclose(got[k], values[k], rtol=0, atol=1e-12 * scale, err_msg=k)
+        scale = np.max(np.abs(values[k])) * (ADAPTIVE_TOL if "[DOP853]" in k else 1e-12)
+        np.testing.assert_allclose(got[k], values[k], rtol=0, atol=scale, err_msg=k)
 
 
 if __name__ == "__main__":

@@ -138,6 +138,30 @@ def floating_rows(name, robot, path, rounds):
     ta, tb = pair(lambda: robot.inverse_dynamics(Q, V, A), loop, 1, rounds)
     rows.append((name, f"inverse dynamics, {N:,} states, one call (per state)", ta / N, tb / N,
                  "pinocchio.rnea in a Python loop", 0.3))
+    if robot.model.has_mimic_joints:
+        return rows
+    PT = np.zeros((N, m.nv))                 # the derivatives' batches (no target)
+    PT[:, idx] = T
+    ours = robot.forward_dynamics_derivatives(Q[:3], V[:3], T[:3])
+    for x, y, what in zip(ours, pin.computeABADerivatives(m, d, PQ[2], PV[2], PT[2]), ("dq", "dv")):
+        agree(x[2], y[np.ix_(idx, idx)], f"forward dynamics derivatives {what}, a batch's row", 1e-7)
+
+    def rnea_derivatives_loop():
+        for k in range(N):
+            pin.computeRNEADerivatives(m, d, PQ[k], PV[k], PA[k])
+
+    def aba_derivatives_loop():
+        for k in range(N):
+            pin.computeABADerivatives(m, d, PQ[k], PV[k], PT[k])
+
+    for label, ours, loop, peer in [
+            ("derivatives of inverse dynamics", lambda: robot.inverse_dynamics_derivatives(Q, V, A),
+             rnea_derivatives_loop, "pinocchio.computeRNEADerivatives in a Python loop"),
+            ("derivatives of forward dynamics", lambda: robot.forward_dynamics_derivatives(Q, V, T),
+             aba_derivatives_loop, "pinocchio.computeABADerivatives in a Python loop")]:
+        ta, tb = pair(ours, loop, 1, rounds)
+        rows.append((name, f"{label}, {N:,} states, one call (per state)", ta / N, tb / N, peer,
+                     None))
     return rows
 
 

@@ -10,22 +10,32 @@ lanes innermost, through the same inline steps as the single-state kernel
 operations of ``derivatives_core`` in the same order: a state's derivatives are bitwise
 the same alone or in any batch, at any place in it. The O(n) work per state (seeds, the
 tip load, the torques) runs lane by lane on views of the same arrays.
+
+A floating base's chain (``floating_*_derivatives_batch``) runs the same block on its
+instantaneous chain (``floating_derivatives.py``): each state's inputs into the block's
+rows, the derivatives (and, forward, qdd and M's factor by ``forward_lanes.fd_lanes_core``
+with the free-flyer root) in lanes, then each state's base columns, wrench turns and
+solves as its single call does them.
 """
 from numba import njit
 
 from . import flags as F
+from .crba import floating_crba_core
 from .data import LANE_STACK_DOUBLES, heap_empty, new_chol, new_kin, scratch, stack_empty
 from .derivatives import (_body_tangent, _inertia_times, derivatives_core,
                           fd_derivatives_core, solve_minus, tangent_through, tip_tangents)
-from .joint import axis, joint_rate, lane_transforms, own_turn, rate_terms, seeds
+from .floating import fd_inputs, rnea_inputs
+from .floating_derivatives import (ID_FLAGS, _bad_batch, _chain_wrench_turns, _clear_base,
+                                   base_columns, base_columns_fd, chain_fd_loop, chain_id_loop)
+from .joint import axis, joint_rate, joint_transforms, lane_transforms, own_turn, rate_terms, seeds
 from .layout import H, IO, KIND, LANES, MASS, W_ALL
 from .rnea import base_state, body_wrench, into_body, tip_load
-from .crba_lanes import composite_lanes
+from .crba_lanes import composite_lanes, floating_composite_lanes
 from .forward_lanes import fd_lanes_core, fd_scratch
-from .rnea_lanes import fixed_base, gather, scatter
-from .signatures import In2, Out3, Pm, i8, internal
+from .rnea_lanes import fixed_base, free_flyer_root, gather, scatter
+from .signatures import In2, Out3, Pm, i8, internal, row
 from .spatial import force_to_parent, rotate_t
-from .status import NOT_FINITE, OK
+from .status import BAD_LENGTH, NOT_FINITE, OK
 
 DLANES = 32     # lanes of this kernel at most (its tangents are O(n^2) per lane)
 
@@ -181,6 +191,18 @@ def derivatives_block(P, q, qd, qdd, w, flags, dq, dqd, k0):
     return OK if fin else NOT_FINITE
 
 
+@njit(cache=True, inline="always")
+def cholesky_system(n, MB, b, dq, dqd, MF, X):
+    """Lane b's Cholesky factor L out of MB (L_ij, i >= j, in row j n + i) into MF, and the
+    state's d tau columns [dq | dqd] into X: what ``solve_minus`` takes."""
+    for j in range(n):
+        for i in range(j, n):
+            MF[i, j] = MB[j * n + i, b]
+    for i in range(n):
+        for j in range(n):
+            X[i, j], X[i, n + j] = dq[i, j], dqd[i, j]
+
+
 # ------------------------------------------------------------------ entry point
 def rnea_derivatives_batch(P, q, qd, qdd, w, flags, dq, dqd):
     """``derivatives.rnea_derivatives`` of N states (rows broadcast as in ``rnea_batch``)
@@ -240,20 +262,104 @@ def fd_derivatives_batch(P, q, qd, tau, w, flags, dq, dqd, Minv):
         bad |= derivatives_block(P, q, qd, qdd, w, flags | F.QDD, dq, dqd, k0)
         for b in range(nl):
             k = k0 + b
-            for j in range(n):           # L_ij (i >= j) sits in MB's row j n + i
-                for i in range(j, n):
-                    MF[i, j] = MB[j * n + i, b]
-            for i in range(n):
-                for j in range(n):
-                    X[i, j], X[i, n + j] = dq[k, i, j], dqd[k, i, j]
+            cholesky_system(n, MB, b, dq[k], dqd[k], MF, X)
             solve_minus(MF, X, dq[k], dqd[k], Minv[k])
     return bad
 
 
+# ------------------------------------------------------------------ a floating base's chain
+def floating_rnea_derivatives_batch(P, q, v, a, gw, flags, dq, dv):
+    """``floating_derivatives.floating_rnea_derivatives`` of N states (rows broadcast) into
+    (N, n+6, n+6) arrays: per block, each state's instantaneous-chain inputs (q, qd = v,
+    qdd = a + p(v), w), their derivatives in lanes (``derivatives_block``), then each
+    state's M, base columns and wrench turns as the single call computes them. Returns OK,
+    NOT_FINITE or BAD_LENGTH."""
+    nv, N = P.shape[0] - 1, dq.shape[0]
+    if _bad_batch(P, q, v, a, gw, dq, False):
+        return BAD_LENGTH
+    L, wf = derivative_lanes(nv, int(P[nv, LANES])), flags & F.WRENCH
+    if L == 0:
+        return chain_id_loop(P, q, v, a, gw, flags, dq, dv)
+    Qt, Vt, At, Wt = stack_empty((L, nv)), stack_empty((L, nv)), stack_empty((L, nv)), stack_empty((L, W_ALL))
+    M = scratch((nv, nv), nv * nv)
+    d, y, col = new_kin(nv), stack_empty((W_ALL,)), stack_empty((nv,))
+    bad = OK
+    for k0 in range(0, N, L):
+        nl = min(L, N - k0)
+        for b in range(nl):
+            k = k0 + b
+            if rnea_inputs(row(q, k), row(v, k), row(a, k), row(gw, k), F.QD | F.QDD | wf,
+                           Qt[b], Wt[b], At[b]) != 0.0:
+                bad = NOT_FINITE
+            for i in range(nv):
+                Vt[b, i] = row(v, k)[i]
+        bad |= derivatives_block(P, Qt, Vt, At, Wt, ID_FLAGS | wf, dq[k0:k0 + nl],
+                                 dv[k0:k0 + nl], 0)
+        for b in range(nl):
+            k = k0 + b
+            joint_transforms(P, d.sc, d.R, d.p, Qt[b], nv)     # M, as the single call's
+            floating_crba_core(P, d.R, d.p, M)                 # (in lanes: no faster)
+            base_columns(row(v, k), Wt[b], M, dq[k], dv[k])
+            if wf != 0:
+                _chain_wrench_turns(P, d, Qt[b], Wt[b], y, col, dq[k])
+    return bad
+
+
+def floating_fd_derivatives_batch(P, q, v, tau, gw, flags, dq, dv, Minv):
+    """``floating_derivatives.floating_fd_derivatives`` of N states into (N, n+6, n+6)
+    arrays: per block, qdd of the instantaneous chain and M's Cholesky factor in lanes
+    (``forward_lanes.fd_lanes_core`` with the free-flyer root, bitwise
+    ``forward.floating_cholesky_core``), d tau in lanes, then each state's wrench turns,
+    solves and base columns."""
+    nv, N = P.shape[0] - 1, dq.shape[0]
+    if _bad_batch(P, q, v, tau, gw, dq, True):
+        return BAD_LENGTH
+    L, wf = derivative_lanes(nv, int(P[nv, LANES])), flags & F.WRENCH
+    if L == 0:
+        return chain_fd_loop(P, q, v, tau, gw, flags, dq, dv, Minv)
+    Qt, Vt, Tt, Wt = stack_empty((L, nv)), stack_empty((L, nv)), stack_empty((L, nv)), stack_empty((L, W_ALL))
+    At = heap_empty((L, nv))
+    QV, WB, TB, ST, RB, PB, FB, CB, SB = fd_scratch(nv, L)
+    MB = stack_empty((nv * nv, L))
+    MF, X = scratch((nv, nv), nv * nv), scratch((nv, 3 * nv), 3 * nv * nv)
+    d, y = new_kin(nv), stack_empty((W_ALL,))
+    bad = OK
+    for k0 in range(0, N, L):
+        nl = min(L, N - k0)
+        for b in range(nl):
+            k = k0 + b
+            if fd_inputs(row(q, k), row(tau, k), row(gw, k), wf, Qt[b], Wt[b], Tt[b]) != 0.0:
+                bad = NOT_FINITE
+            for i in range(nv):
+                Vt[b, i] = row(v, k)[i]
+        if not fd_lanes_core(P, Qt, Vt, Tt, Wt, F.QD | F.BASE | wf, 0, nl, QV, WB, TB, ST, RB,
+                             PB, FB, CB, MB, SB, 6, free_flyer_root, floating_composite_lanes):
+            bad = NOT_FINITE
+        scatter(TB, At, 0, nl)
+        bad |= derivatives_block(P, Qt, Vt, At, Wt, ID_FLAGS | wf, dq[k0:k0 + nl],
+                                 dv[k0:k0 + nl], 0)
+        for b in range(nl):
+            k = k0 + b
+            cholesky_system(nv, MB, b, dq[k], dv[k], MF, X)
+            _clear_base(X)
+            if wf != 0:                  # before the solves (At[b]: scratch now)
+                _chain_wrench_turns(P, d, Qt[b], Wt[b], y, At[b], X[:, :nv])
+            solve_minus(MF, X, dq[k], dv[k], Minv[k])
+            base_columns_fd(row(v, k), Wt[b], dq[k], dv[k])
+    return bad
+
+
+_FLOATING = ("derivatives_block", "derivatives_core", "floating_crba_core", "floating_rnea_core")
 ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core functions it calls)
     "rnea_derivatives_batch": (rnea_derivatives_batch, i8(Pm, In2, In2, In2, In2, i8, Out3, Out3),
                                True, ("derivatives_block", "derivatives_core")),
     "fd_derivatives_batch": (fd_derivatives_batch, i8(Pm, In2, In2, In2, In2, i8, Out3, Out3, Out3),
                              True, ("derivatives_block", "fd_derivatives_core",
                                     "cholesky_solve_matrix")),
+    "floating_rnea_derivatives_batch": (floating_rnea_derivatives_batch,
+                                        i8(Pm, In2, In2, In2, In2, i8, Out3, Out3), True,
+                                        _FLOATING),
+    "floating_fd_derivatives_batch": (floating_fd_derivatives_batch,
+                                      i8(Pm, In2, In2, In2, In2, i8, Out3, Out3, Out3), True,
+                                      _FLOATING + ("floating_cholesky_core", "cholesky_solve_matrix")),
 }

@@ -16,8 +16,8 @@ tree's derivatives d tau_t/d q, d tau_t/d qd (their base columns not used):
 (the q direction is the tangent of q, Pinocchio's q (+) dq: the base's [dp; dtheta] in the
 base frame, then the joints). Forward dynamics first solves for a by the Cholesky route
 (chains) or the sparse factor (trees), whose factor the solves then reuse; M itself is not
-needed there. A chain's batch runs each state through the single-state code, a tree's
-runs blocks of states in SIMD lanes (``tree_derivatives_lanes.py``): the same bits.
+needed there. A batch runs blocks of states in SIMD lanes (a chain's: ``derivatives_lanes.py``, a
+tree's: ``tree_derivatives_lanes.py``): the same bits.
 
 A tip wrench w given in the world (flag WRENCH) reaches the tree as w_b = R^T w, which the
 turn also turns, by w_b x dtheta: d tau/d dtheta_c gains tau's wrench part at [f_b x e_c;
@@ -39,7 +39,7 @@ from .floating import GW, fd_inputs, rnea_inputs
 from .forward import floating_cholesky_core
 from .layout import W_ACC, W_ALL
 from .rnea import floating_rnea_core
-from .signatures import In2, Out3, Pm, Vec, i8, row, rows_fit
+from .signatures import Pm, Vec, i8, row, rows_fit
 from .status import BAD_LENGTH, NOT_FINITE, OK, status
 from .tree import tree_crba_core, tree_fd_core, tree_rnea_core
 from .tree_derivatives import Mat3, ltdl_solve_minus, tree_derivatives_core
@@ -261,10 +261,10 @@ def floating_fd_derivatives(P, q, v, tau, gw, flags, out):
                             out[0], out[1], out[2]))
 
 
-def floating_rnea_derivatives_batch(P, q, v, a, gw, flags, dq, dv):
-    """``floating_rnea_derivatives`` of N states (rows broadcast) into (N, n+6, n+6)."""
-    if _bad_batch(P, q, v, a, gw, dq, False):
-        return BAD_LENGTH
+@njit(cache=True, inline="always")
+def chain_id_loop(P, q, v, a, gw, flags, dq, dv):
+    """``floating_rnea_derivatives`` of N states one after the other (the batch of a chain
+    too long for lanes: ``derivatives_lanes.floating_rnea_derivatives_batch``)."""
     d, qv, w, qddv, M, T, Tf, dB, y, col = _chain_id_scratch(P.shape[0] - 1)
     bad = OK
     for k in range(dq.shape[0]):
@@ -274,10 +274,9 @@ def floating_rnea_derivatives_batch(P, q, v, a, gw, flags, dq, dv):
     return bad
 
 
-def floating_fd_derivatives_batch(P, q, v, tau, gw, flags, dq, dv, Minv):
-    """``floating_fd_derivatives`` of N states into (N, n+6, n+6) arrays."""
-    if _bad_batch(P, q, v, tau, gw, dq, True):
-        return BAD_LENGTH
+@njit(cache=True, inline="always")
+def chain_fd_loop(P, q, v, tau, gw, flags, dq, dv, Minv):
+    """``floating_fd_derivatives`` of N states one after the other."""
     d, c, qv, w, tv, qddv, T, Tf, dB, X, y = _chain_fd_scratch(P.shape[0] - 1)
     bad = OK
     for k in range(dq.shape[0]):
@@ -348,8 +347,6 @@ def tree_fd_loop(P, q, v, tau, gw, flags, dq, dv, Minv):
 
 
 _ID = i8(Pm, Vec, Vec, Vec, Vec, i8, Mat3)
-_ID_BATCH = i8(Pm, In2, In2, In2, In2, i8, Out3, Out3)
-_FD_BATCH = i8(Pm, In2, In2, In2, In2, i8, Out3, Out3, Out3)
 _CHAIN_ID = ("derivatives_core", "floating_crba_core", "floating_rnea_core")
 _CHAIN_FD = ("floating_cholesky_core", "derivatives_core", "cholesky_solve_matrix",
              "floating_rnea_core")
@@ -358,9 +355,6 @@ _TREE_FD = ("tree_fd_core", "tree_derivatives_core", "ltdl_solve_matrix", "tree_
 ENTRY_POINTS = {   # name: (function, signature, releases the GIL, typed core functions it calls)
     "floating_rnea_derivatives": (floating_rnea_derivatives, _ID, False, _CHAIN_ID),
     "floating_fd_derivatives": (floating_fd_derivatives, _ID, False, _CHAIN_FD),
-    "floating_rnea_derivatives_batch": (floating_rnea_derivatives_batch, _ID_BATCH, True,
-                                        _CHAIN_ID),
-    "floating_fd_derivatives_batch": (floating_fd_derivatives_batch, _FD_BATCH, True, _CHAIN_FD),
     "floating_tree_rnea_derivatives": (floating_tree_rnea_derivatives, _ID, False, _TREE_ID),
     "floating_tree_fd_derivatives": (floating_tree_fd_derivatives, _ID, False, _TREE_FD),
 }

@@ -22,8 +22,8 @@ virtual joints. The tests hold both backends to Pinocchio's free-flyer.
 Beyond the dynamics: the Coriolis matrix (NOC in a frame turning with the base), the
 regressor (the base's ten parameters first), both derivatives, dT/dq (the joints'; zeros on
 the base); compiled, the regressor and the derivatives are the fixed-base kernels on the
-instantaneous chain or tree with the base's columns added, one call a state
-(``core/regressor.floating_regressor``, ``core/floating_derivatives.py``). Not available
+instantaneous chain or tree with the base's columns added (``core/regressor.floating_regressor``,
+one call a state; ``core/floating_derivatives.py``, a batch's states in SIMD lanes). Not available
 on a floating base: a ``base_motion`` (the base moves by its own dynamics).
 """
 from __future__ import annotations

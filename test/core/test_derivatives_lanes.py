@@ -9,7 +9,7 @@ import serial_dynamics as sd
 from serial_dynamics.core import K
 from serial_dynamics.core import flags as F
 from serial_dynamics.core.derivatives_lanes import DLANES
-from serial_dynamics.core.layout import W_ALL, W_WRENCH
+from serial_dynamics.core.layout import LANES, W_ALL, W_WRENCH
 from serial_dynamics.robots.synthetic import chain_urdf
 
 ROBOTS = {
@@ -94,3 +94,57 @@ def test_long_chains_fewer_lanes_or_one_state_at_a_time(n):
     fdiff = (robot.inverse_dynamics(Q[5], V[5] + e * np.eye(n)[3], A[5])
              - robot.inverse_dynamics(Q[5], V[5] - e * np.eye(n)[3], A[5])) / (2 * e)
     assert np.max(np.abs(fdiff - dqd[5][:, 3])) <= 1e-6 * max(1.0, np.max(np.abs(dqd[5])))
+
+
+BASE_LINK = ('<link name="base_link"><inertial><origin xyz="0 0 0" rpy="0 0 0"/><mass value="3"/>'
+             '<inertia ixx="0.1" iyy="0.2" izz="0.15" ixy="0" ixz="0" iyz="0"/></inertial></link>')
+
+
+@pytest.mark.parametrize("joints, L", [(6, 29), (8, 22), (67, 0)])
+def test_a_floating_chain_is_the_single_state_bitwise(joints, L):
+    """floating_*_derivatives_batch on a chain: each state's instantaneous-chain inputs, its
+    derivatives (forward: qdd and M's factor too) in lanes, the base's columns, the tip
+    wrench turned with the base and the solves per state: every row its single call's bits
+    (6 and 8 joints on a floating base: 12 and 14 coordinates, blocks of 29 and 22 lanes
+    and a partial one; 67 joints: 73 coordinates, one state at a time), with and without a
+    world wrench, the quaternion of any length, a huge joint angle in one lane."""
+    from serial_dynamics.core.derivatives_lanes import derivative_lanes
+    urdf = sd.builtin_path("ur5e") if joints == 6 else chain_urdf(
+        joints, kinds=["revolute", "prismatic"] * (joints // 2) + ["revolute"] * (joints % 2),
+        masses=0.8, lengths=0.2).replace('<link name="base_link"/>', BASE_LINK)
+    robot = sd.load_urdf(urdf, floating_base=True)
+    k, P = robot._k, robot._chain
+    nv = P.shape[0] - 1
+    assert nv == joints + 6 and derivative_lanes(nv, int(P[nv, LANES])) == L
+    rng = np.random.default_rng(joints)
+    N = 2 * L + 5 if L else 3
+    q, v = robot.random_state(rng, batch=N)
+    q = np.ascontiguousarray(q)
+    q[:, 3:7] *= 1.3                              # normalized alike on both paths
+    q[N // 2, 8] = 3.0e5                          # a huge joint angle in one lane
+    a, tau = rng.normal(size=(N, nv)), rng.normal(size=(N, nv)) * 5
+    for flags in (0, F.WRENCH):
+        gw = rng.normal(size=(N, 9))
+        gw[:, 6:] = (0.3, -0.2, -9.8)             # the world's gravity
+        dq, dv = np.full((N, nv, nv), np.nan), np.full((N, nv, nv), np.nan)
+        assert k.floating_rnea_derivatives_batch(P, q, v, a, gw, flags, dq, dv) == 0
+        fq, fv, fm = (np.full((N, nv, nv), np.nan) for _ in range(3))
+        assert k.floating_fd_derivatives_batch(P, q, v, tau, gw, flags, fq, fv, fm) == 0
+        o2, o3 = np.empty((2, nv, nv)), np.empty((3, nv, nv))
+        for i in range(N):
+            assert k.floating_rnea_derivatives(P, q[i], v[i], a[i], gw[i], flags, o2) == 0
+            assert dq[i].tobytes() == o2[0].tobytes() and dv[i].tobytes() == o2[1].tobytes()
+            assert k.floating_fd_derivatives(P, q[i], v[i], tau[i], gw[i], flags, o3) == 0
+            assert all(x.tobytes() == y.tobytes() for x, y in zip((fq[i], fv[i], fm[i]), o3))
+    # joint torques only (the base free): the same forces with six zeros in front
+    fj = [np.empty((N, nv, nv)) for _ in range(3)]
+    assert k.floating_fd_derivatives_batch(P, q, v, np.ascontiguousarray(tau[:, 6:]), gw, 0,
+                                           *fj) == 0
+    tz = tau.copy()
+    tz[:, :6] = 0.0
+    assert k.floating_fd_derivatives(P, q[0], v[0], tz[0], gw[0], 0, o3) == 0
+    assert all(x.tobytes() == y.tobytes() for x, y in zip((fj[0][0], fj[1][0], fj[2][0]), o3))
+    # a NaN in the last state is reported, the others computed
+    v[N - 1, 2] = np.nan
+    assert k.floating_rnea_derivatives_batch(P, q, v, a, gw, 0, dq, dv) == 1
+    assert k.floating_fd_derivatives_batch(P, q, v, tau, gw, 0, fq, fv, fm) == 1

@@ -1,6 +1,8 @@
 """Simulation on a group in the robot's chart (sim/group.py): a floating base's conservation
 laws in zero gravity, unit quaternions, the node's integrator, refused options; and the same
 steps on R^n (a fixed base's Euclidean chart) against sim/'s own integrators."""
+import re
+
 import numpy as np
 import pytest
 
@@ -210,14 +212,19 @@ def test_symplectic_euler_on_a_floating_base(satellite):
 
 
 def test_a_diverging_symplectic_step_is_a_simulation_error():
-    """A step too long for the fixed point (10 ms on the satellite in gravity, driven): its
-    iterates overflow; the run stops with SimulationError and advice, not a NaN error."""
+    """A step too long for the fixed point (10 ms on the satellite in gravity, driven): the
+    run stops with SimulationError naming the fixed point, the time and advice, not a NaN
+    error. Its iterates either overflow ("diverged") or wander without converging; which
+    one depends on the last bits of the LAPACK solves (measured: overflow on an AMD Zen 4
+    and with OpenBLAS's SkylakeX kernels, 50 iterations without convergence with the
+    kernels it picks on a Zen 5), so both are accepted."""
     sat = sd.load_urdf(satellite_urdf())
     v0 = np.r_[0.1, -0.2, 0.05, 0.3, -0.5, 0.8, np.linspace(-0.5, 0.5, 7)]
-    with np.errstate(all="ignore"), pytest.raises(sd.SimulationError,
-                                                  match="fixed-point iteration diverged at t"):
+    with np.errstate(all="ignore"), pytest.raises(sd.SimulationError) as err:
         sd.simulate(sat, 1.0, sat.neutral(), v0, torque=np.linspace(1.0, -1.0, 7),
                     method="symplectic_euler", dt=1e-2)
+    assert re.search(r"fixed-point iteration (diverged|did not converge within 50 "
+                     r"iterations) at t = \S+ s\. Try a smaller step", str(err.value)), err.value
 
 
 def test_a_floating_base_with_mimic_joints_by_every_fixed_step_method():

@@ -204,25 +204,36 @@ def fixed_base(P, QV, RB, PB, FB, ST, TB, nl, end):
 def free_flyer_root(P, QV, RB, PB, FB, ST, TB, nl, end):
     """``newton_euler_lanes``' root joint on a floating base's virtual chain, bodies 0-5 as one
     free-flyer (``rnea.newton_euler``'s nb = 6): before the outward pass (``end`` False) the
-    root body's motion into ST and its wrench into FB (``joint.free_flyer``); after the
-    inward pass its joint wrench [f; n], the base's generalized forces, into TB[:6]."""
-    n, k = P.shape[0] - 1, 5
+    root body's motion into ST and its wrench into FB (``root_body``); after the inward
+    pass its joint wrench [f; n], the base's generalized forces, into TB[:6]."""
+    k = 5
     fk = 6 * k
     for b in range(nl):
         if end:
             TB[0, b], TB[1, b], TB[2, b], TB[3, b], TB[4, b], TB[5, b] = carry_in(
                 RB, PB, FB, ST, k, b)
         else:
-            wx, wy, wz, ax, ay, az, lx, ly, lz = free_flyer(
-                QV[n + 3, b], QV[n + 4, b], QV[n + 5, b], QV[2 * n, b], QV[2 * n + 1, b],
-                QV[2 * n + 2, b], QV[2 * n + 3, b], QV[2 * n + 4, b], QV[2 * n + 5, b],
-                ST[6, b], ST[7, b], ST[8, b])
+            (wx, wy, wz, ax, ay, az, lx, ly, lz), (nx, ny, nz, fx, fy, fz) = root_body(
+                P, QV, b, ST[6, b], ST[7, b], ST[8, b])
             ST[0, b], ST[1, b], ST[2, b], ST[3, b], ST[4, b], ST[5, b] = wx, wy, wz, ax, ay, az
             ST[6, b], ST[7, b], ST[8, b] = lx, ly, lz
-            nx, ny, nz, fx, fy, fz = body_wrench(P, k, wx, wy, wz, ax, ay, az, lx, ly, lz)
             FB[fk, b], FB[fk + 1, b], FB[fk + 2, b] = fx, fy, fz
             FB[fk + 3, b], FB[fk + 4, b], FB[fk + 5, b] = nx, ny, nz
     return 0
+
+
+@njit(cache=True, inline="always")
+def root_body(P, QV, b, bx, by, bz):
+    """Lane b's free-flyer root body (the virtual chain's or tree's body 5): its motion
+    (omega, alpha, acc), from the six rates and accelerations in QV and the base's start
+    acceleration (bx, by, bz) (-g) by ``joint.free_flyer``, and its wrench (n, f)
+    (``rnea.body_wrench``)."""
+    n = P.shape[0] - 1
+    wx, wy, wz, ax, ay, az, lx, ly, lz = free_flyer(
+        QV[n + 3, b], QV[n + 4, b], QV[n + 5, b], QV[2 * n, b], QV[2 * n + 1, b],
+        QV[2 * n + 2, b], QV[2 * n + 3, b], QV[2 * n + 4, b], QV[2 * n + 5, b], bx, by, bz)
+    return (wx, wy, wz, ax, ay, az, lx, ly, lz), body_wrench(P, 5, wx, wy, wz, ax, ay, az,
+                                                             lx, ly, lz)
 
 
 @njit(cache=True, inline="always")

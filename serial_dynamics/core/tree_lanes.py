@@ -17,11 +17,11 @@ from . import flags as F
 from .crba_lanes import lane_rotation
 from .data import stack_empty
 from .crba import add_in_parent
-from .joint import (armature_torques_lanes, free_flyer, has_armature, joint_momentum, joint_rate,
+from .joint import (armature_torques_lanes, has_armature, joint_momentum, joint_rate,
                     lane_transforms, project)
 from .layout import ARM, G, H, IO, KIND, LANES, MASS, PARENT, TIPPATH, W_ACC, W_ALL, W_OMEGA
 from .rnea import body_wrench, into_body, tip_load
-from .rnea_lanes import gather, scatter, tau_minus_bias
+from .rnea_lanes import gather, root_body, scatter, tau_minus_bias
 from .signatures import In2, Out2, Out3, Pm, i8, internal
 from .spatial import force_to_parent, rotate_t
 from .status import NOT_FINITE, OK
@@ -90,18 +90,13 @@ def tree_newton_euler_lanes(P, flags, QV, WB, RB, PB, MO, FB, EB, BS, TB, nl, sm
             else:
                 BS[s, b] = 0.0 if s < 6 else -P[n, G + s - 6]
     if nb > 0:                           # the free-flyer root: its body's motion at once
-        k = nb - 1                       # (rnea.free_flyer_motion) and its wrench
+        k = nb - 1                       # (rnea_lanes.root_body) and its wrench
         rk, fk = 9 * k, 6 * k
         for b in range(nl):
-            wx, wy, wz, ax, ay, az, lx, ly, lz = free_flyer(
-                QV[n + 3, b], QV[n + 4, b], QV[n + 5, b], QV[2 * n, b], QV[2 * n + 1, b],
-                QV[2 * n + 2, b], QV[2 * n + 3, b], QV[2 * n + 4, b], QV[2 * n + 5, b],
-                BS[6, b], BS[7, b], BS[8, b])
-            (MO[rk, b], MO[rk + 1, b], MO[rk + 2, b], MO[rk + 3, b], MO[rk + 4, b],
-             MO[rk + 5, b], MO[rk + 6, b], MO[rk + 7, b], MO[rk + 8, b]) = (wx, wy, wz, ax, ay, az,
-                                                                          lx, ly, lz)
-            (FB[fk, b], FB[fk + 1, b], FB[fk + 2, b], FB[fk + 3, b], FB[fk + 4, b],
-             FB[fk + 5, b]) = body_wrench(P, k, wx, wy, wz, ax, ay, az, lx, ly, lz)
+            ((MO[rk, b], MO[rk + 1, b], MO[rk + 2, b], MO[rk + 3, b], MO[rk + 4, b],
+              MO[rk + 5, b], MO[rk + 6, b], MO[rk + 7, b], MO[rk + 8, b]),
+             (FB[fk, b], FB[fk + 1, b], FB[fk + 2, b], FB[fk + 3, b], FB[fk + 4, b],
+              FB[fk + 5, b])) = root_body(P, QV, b, BS[6, b], BS[7, b], BS[8, b])
     for i in range(nb, n):
         lane_transforms(P, i, QV, RB, PB, nl, small)
         l, ri, pi, fi = int(P[i, PARENT]), 9 * i, 3 * i, 6 * i

@@ -15,9 +15,10 @@ differ in their last bits between an AMD EPYC and an Intel Xeon, measured). Thos
 (``output_values.npz``, from commit 902364f on an Intel Xeon) to 1e-12 of their magnitude,
 but the adaptive simulations: their step sizes come from an error estimate, a small
 difference of large numbers, in which the processor's last bits move the chosen steps and
-so the states at the step times by ~1e-7 of their magnitude (measured on an AMD Zen 5,
-where OpenBLAS picks other kernels than on a Zen 4: the planar 3R's DOP853 run moved by
-2.5e-7 and matched again with ``OPENBLAS_CORETYPE=SkylakeX``); they are compared to
+so the states at the step times by ~1e-7 of their magnitude (measured on an AMD EPYC of
+family 26, Zen 5, where OpenBLAS picks other kernels than on the machines of earlier runs:
+the planar 3R's DOP853 run moved by 2.5e-7 and matched again with
+``OPENBLAS_CORETYPE=SkylakeX``); they are compared to
 ``ADAPTIVE_TOL`` of their magnitude. Every other output, the compiled kernels' own
 arithmetic, is compared by its hash.
 

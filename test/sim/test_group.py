@@ -215,9 +215,10 @@ def test_a_diverging_symplectic_step_is_a_simulation_error():
     """A step too long for the fixed point (10 ms on the satellite in gravity, driven): the
     run stops with SimulationError naming the fixed point, the time and advice, not a NaN
     error. Its iterates either overflow ("diverged") or wander without converging; which
-    one depends on the last bits of the LAPACK solves (measured: overflow on an AMD Zen 4
-    and with OpenBLAS's SkylakeX kernels, 50 iterations without convergence with the
-    kernels it picks on a Zen 5), so both are accepted."""
+    one depends on the last bits of the LAPACK solves (measured: overflow on the machines
+    of earlier runs and here with ``OPENBLAS_CORETYPE=SkylakeX``; 50 iterations without
+    convergence with the kernels OpenBLAS picks on an AMD EPYC of family 26, Zen 5), so
+    both are accepted."""
     sat = sd.load_urdf(satellite_urdf())
     v0 = np.r_[0.1, -0.2, 0.05, 0.3, -0.5, 0.8, np.linspace(-0.5, 0.5, 7)]
     with np.errstate(all="ignore"), pytest.raises(sd.SimulationError) as err:

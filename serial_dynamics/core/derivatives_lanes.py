@@ -24,9 +24,9 @@ from .crba import floating_crba_core
 from .data import LANE_STACK_DOUBLES, heap_empty, new_chol, new_kin, scratch, stack_empty
 from .derivatives import (_body_tangent, _inertia_times, derivatives_core,
                           fd_derivatives_core, solve_minus, tangent_through, tip_tangents)
-from .floating import fd_inputs, rnea_inputs
 from .floating_derivatives import (ID_FLAGS, _bad_batch, _chain_wrench_turns, _clear_base,
-                                   base_columns, base_columns_fd, chain_fd_loop, chain_id_loop)
+                                   base_columns, base_columns_fd, chain_fd_loop, chain_id_loop,
+                                   fd_rows, id_rows)
 from .joint import axis, joint_rate, joint_transforms, lane_transforms, own_turn, rate_terms, seeds
 from .layout import H, IO, KIND, LANES, MASS, W_ALL
 from .rnea import base_state, body_wrench, into_body, tip_load
@@ -286,13 +286,7 @@ def floating_rnea_derivatives_batch(P, q, v, a, gw, flags, dq, dv):
     bad = OK
     for k0 in range(0, N, L):
         nl = min(L, N - k0)
-        for b in range(nl):
-            k = k0 + b
-            if rnea_inputs(row(q, k), row(v, k), row(a, k), row(gw, k), F.QD | F.QDD | wf,
-                           Qt[b], Wt[b], At[b]) != 0.0:
-                bad = NOT_FINITE
-            for i in range(nv):
-                Vt[b, i] = row(v, k)[i]
+        bad |= id_rows(q, v, a, gw, wf, k0, nl, Qt, Vt, At, Wt)
         bad |= derivatives_block(P, Qt, Vt, At, Wt, ID_FLAGS | wf, dq[k0:k0 + nl],
                                  dv[k0:k0 + nl], 0)
         for b in range(nl):
@@ -326,12 +320,7 @@ def floating_fd_derivatives_batch(P, q, v, tau, gw, flags, dq, dv, Minv):
     bad = OK
     for k0 in range(0, N, L):
         nl = min(L, N - k0)
-        for b in range(nl):
-            k = k0 + b
-            if fd_inputs(row(q, k), row(tau, k), row(gw, k), wf, Qt[b], Wt[b], Tt[b]) != 0.0:
-                bad = NOT_FINITE
-            for i in range(nv):
-                Vt[b, i] = row(v, k)[i]
+        bad |= fd_rows(q, v, tau, gw, wf, k0, nl, Qt, Vt, Tt, Wt)
         if not fd_lanes_core(P, Qt, Vt, Tt, Wt, F.QD | F.BASE | wf, 0, nl, QV, WB, TB, ST, RB,
                              PB, FB, CB, MB, SB, 6, free_flyer_root, floating_composite_lanes):
             bad = NOT_FINITE

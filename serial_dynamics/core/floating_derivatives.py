@@ -16,8 +16,8 @@ tree's derivatives d tau_t/d q, d tau_t/d qd (their base columns not used):
 (the q direction is the tangent of q, Pinocchio's q (+) dq: the base's [dp; dtheta] in the
 base frame, then the joints). Forward dynamics first solves for a by the Cholesky route
 (chains) or the sparse factor (trees), whose factor the solves then reuse; M itself is not
-needed there. A batch runs blocks of states in SIMD lanes (a chain's: ``derivatives_lanes.py``, a
-tree's: ``tree_derivatives_lanes.py``): the same bits.
+needed there. A batch runs blocks of states in SIMD lanes (a chain's in
+``derivatives_lanes.py``, a tree's in ``tree_derivatives_lanes.py``): the same bits.
 
 A tip wrench w given in the world (flag WRENCH) reaches the tree as w_b = R^T w, which the
 turn also turns, by w_b x dtheta: d tau/d dtheta_c gains tau's wrench part at [f_b x e_c;
@@ -224,6 +224,37 @@ def _tree_fd(P, d, c, mo, TM, TE, TF, last, qv, w, tv, qddv, IC, X, y, q, v, tau
     ltdl_solve_minus(P, c.M, X, dq, dv, Minv)
     base_columns_fd(v, w, dq, dv)
     return chk
+
+
+# ------------------------------------------------------------------ a batch's blocks
+@njit(cache=True, inline="always")
+def id_rows(q, v, a, gw, wf, k0, nl, Qt, Vt, At, Wt):
+    """States k0 .. k0 + nl - 1 as rows 0 .. nl - 1 of a block of the instantaneous chain's
+    or tree's inputs: q, qd = v, qdd = a + p(v), w (``floating.rnea_inputs``; flag WRENCH in
+    ``wf``). Returns NOT_FINITE if one of them has a NaN/Inf, else OK."""
+    bad = OK
+    for b in range(nl):
+        k = k0 + b
+        if rnea_inputs(row(q, k), row(v, k), row(a, k), row(gw, k), F.QD | F.QDD | wf,
+                       Qt[b], Wt[b], At[b]) != 0.0:
+            bad = NOT_FINITE
+        for i in range(Vt.shape[1]):
+            Vt[b, i] = row(v, k)[i]
+    return bad
+
+
+@njit(cache=True, inline="always")
+def fd_rows(q, v, tau, gw, wf, k0, nl, Qt, Vt, Tt, Wt):
+    """``id_rows`` for forward dynamics: q, qd = v, the generalized forces, w
+    (``floating.fd_inputs``)."""
+    bad = OK
+    for b in range(nl):
+        k = k0 + b
+        if fd_inputs(row(q, k), row(tau, k), row(gw, k), wf, Qt[b], Wt[b], Tt[b]) != 0.0:
+            bad = NOT_FINITE
+        for i in range(Vt.shape[1]):
+            Vt[b, i] = row(v, k)[i]
+    return bad
 
 
 # ------------------------------------------------------------------ entry points

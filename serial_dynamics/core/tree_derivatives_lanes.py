@@ -34,10 +34,9 @@ from .crba_lanes import lane_rotation
 from .data import LANE_STACK_DOUBLES, heap_empty, new_chol, new_kin, scratch, stack_empty
 from .derivatives import _body_tangent, _inertia_times, tangent_through
 from .derivatives_lanes import DLANES
-from .floating import fd_inputs, rnea_inputs
 from .floating_derivatives import (ID_FLAGS, _bad_batch, _clear_base, base_columns,
-                                   base_columns_fd, tree_fd_loop, tree_id_loop,
-                                   tree_wrench_turns)
+                                   base_columns_fd, fd_rows, id_rows, tree_fd_loop,
+                                   tree_id_loop, tree_wrench_turns)
 from .joint import (axis, joint_rate, lane_transforms, lane_transforms_at, own_turn, rate_terms,
                     seeds)
 from .layout import H, IO, KIND, LANES, MASS, PARENT, TIPP, TIPPATH, W_ALL
@@ -473,13 +472,7 @@ def floating_tree_rnea_derivatives_batch(P, q, v, a, gw, flags, dq, dv):
     bad = OK
     for k0 in range(0, N, L):
         nl = min(L, N - k0)
-        for b in range(nl):              # the tree's q, qd = v, qdd = a + p(v), w
-            k = k0 + b
-            if rnea_inputs(row(q, k), row(v, k), row(a, k), row(gw, k), F.QD | F.QDD | wf,
-                           Qt[b], Wt[b], At[b]) != 0.0:
-                bad = NOT_FINITE
-            for i in range(nv):
-                Vt[b, i] = row(v, k)[i]
+        bad |= id_rows(q, v, a, gw, wf, k0, nl, Qt, Vt, At, Wt)
         bad |= tree_derivatives_block(P, T, Qt, Vt, At, Wt, ID_FLAGS | wf, dq[k0:k0 + nl],
                                       dv[k0:k0 + nl], 0)
         small, fin = gather(P, Qt, Qt, Qt, Qt, 0, QV, WB, 0, nl)   # M, as tree_crba_core
@@ -518,12 +511,7 @@ def floating_tree_fd_derivatives_batch(P, q, v, tau, gw, flags, dq, dv, Minv):
     bad = OK
     for k0 in range(0, N, L):
         nl = min(L, N - k0)
-        for b in range(nl):              # the tree's q, qd = v, generalized forces, w
-            k = k0 + b
-            if fd_inputs(row(q, k), row(tau, k), row(gw, k), wf, Qt[b], Wt[b], Tt[b]) != 0.0:
-                bad = NOT_FINITE
-            for i in range(nv):
-                Vt[b, i] = row(v, k)[i]
+        bad |= fd_rows(q, v, tau, gw, wf, k0, nl, Qt, Vt, Tt, Wt)
         if not fd_lanes(P, off, dep, QV, WB, RB, PB, MO, FB, EB, BS, TB, IC, MB, Qt, Vt, Tt, Wt,
                         F.QD | F.BASE | wf, 0, nl, At, 0):
             bad = NOT_FINITE

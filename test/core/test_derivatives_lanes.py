@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import serial_dynamics as sd
+from floating_batch_rows import check_floating_rows
 from serial_dynamics.core import K
 from serial_dynamics.core import flags as F
 from serial_dynamics.core.derivatives_lanes import DLANES
@@ -123,19 +124,9 @@ def test_a_floating_chain_is_the_single_state_bitwise(joints, L):
     q[:, 3:7] *= 1.3                              # normalized alike on both paths
     q[N // 2, 8] = 3.0e5                          # a huge joint angle in one lane
     a, tau = rng.normal(size=(N, nv)), rng.normal(size=(N, nv)) * 5
-    for flags in (0, F.WRENCH):
-        gw = rng.normal(size=(N, 9))
-        gw[:, 6:] = (0.3, -0.2, -9.8)             # the world's gravity
-        dq, dv = np.full((N, nv, nv), np.nan), np.full((N, nv, nv), np.nan)
-        assert k.floating_rnea_derivatives_batch(P, q, v, a, gw, flags, dq, dv) == 0
-        fq, fv, fm = (np.full((N, nv, nv), np.nan) for _ in range(3))
-        assert k.floating_fd_derivatives_batch(P, q, v, tau, gw, flags, fq, fv, fm) == 0
-        o2, o3 = np.empty((2, nv, nv)), np.empty((3, nv, nv))
-        for i in range(N):
-            assert k.floating_rnea_derivatives(P, q[i], v[i], a[i], gw[i], flags, o2) == 0
-            assert dq[i].tobytes() == o2[0].tobytes() and dv[i].tobytes() == o2[1].tobytes()
-            assert k.floating_fd_derivatives(P, q[i], v[i], tau[i], gw[i], flags, o3) == 0
-            assert all(x.tobytes() == y.tobytes() for x, y in zip((fq[i], fv[i], fm[i]), o3))
+    gw = check_floating_rows(k, P, q, v, a, tau, rng)
+    o3 = np.empty((3, nv, nv))
+    dq, dv, fq, fv, fm = (np.empty((N, nv, nv)) for _ in range(5))
     # joint torques only (the base free): the same forces with six zeros in front
     fj = [np.empty((N, nv, nv)) for _ in range(3)]
     assert k.floating_fd_derivatives_batch(P, q, v, np.ascontiguousarray(tau[:, 6:]), gw, 0,

@@ -94,11 +94,9 @@ class Robot:
         self._n, self._nn = model.dof, (model.dof, model.dof)
         # forward_dynamics(method="auto"): common.aba_by_default
         self._fd_auto = _FD_FLAGS["aba" if aba_by_default(model, False) else "cholesky"]
-        # the compiled kernels: K's for a chain, the tree table (core/tree.py) for a tree;
-        # _compiled says that the chain kernels apply (the regressor, dT/dq, sim/); the
-        # derivatives take the table (the chain's or the tree's)
+        # the kernel table: K's for a chain, the tree table (core/tree.py) for a tree, the
+        # same names and signatures; None on the NumPy backend, its one meaning everywhere
         self._k = None if backend != "numba" else K if model.is_chain else TREE
-        self._compiled = self._k is K
         self._P = _P if _P is not None else layout.pack(model) if self._k is not None else None
         self._rnea_batch, self._crba_batch = ("rnea_batch", self._P), ("crba_batch", self._P)
         self._frames = {}          # link: (body, placement): robot/kinematics.frame
@@ -402,7 +400,7 @@ class Robot:
         """The packed model ``P`` that sim/'s compiled whole-step kernels (the semi-implicit
         Euler loop, the symplectic Euler step) run on in this robot's coordinates, or None
         where they cannot: the NumPy backend, the reduced system of mimic joints, a tree."""
-        return self._P if self._compiled else None
+        return self._P if self._k is K else None
 
     def dissipation_torques(self, qd):
         """delta(qd) of the current dissipation model (oppose the motion)."""

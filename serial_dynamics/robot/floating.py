@@ -80,11 +80,10 @@ class Floating:
         self._nq, self._nv = model.dof + 7, model.dof + 6
         self._nvnv = (self._nv, self._nv)
         # the floating kernels of the table self._k (K, or the tree table), on the
-        # instantaneous chain or tree
-        self._compiled = self._k is not None
+        # instantaneous chain or tree; self._k None: the NumPy reference (fb)
         self._fd_auto = _FD_FLAGS["aba" if aba_by_default(model, True) else "cholesky"]
         self._chain = self._regressor_layout = None
-        if self._compiled:
+        if self._k is not None:
             chain = virtual_chain(model)
             self._chain = layout_pack(chain, root=6)
             # regressor(): the instantaneous tree's layout with its link frames
@@ -113,7 +112,7 @@ class Floating:
         if wrenches is not None:     # wrenches on links: - sum_k J_k^T w_k (robot/wrenches.py)
             return _into(out, self.inverse_dynamics(q, qd, qdd, wrench, base_motion)
                          - generalized_forces(self, q, wrenches))
-        if self._compiled and base_motion is None:        # the single-state fast path
+        if self._k is not None and base_motion is None:        # the single-state fast path
             o = _empty(self._nv) if out is None else out
             if wrench is None:
                 if self._k.floating_rnea(self._chain, q, qd, qdd, self._gw, _QD_QDD, o) == OK:
@@ -122,7 +121,7 @@ class Floating:
                                  o) == OK:
                 return o
         _no_base_motion(base_motion)
-        if not self._compiled:
+        if self._k is None:
             return _into(out, fb.inverse_dynamics(self.model, q, qd, qdd, wrench))
         single, q, _, s = fb.as_batch(self.model, q, False, v=qd, a=qdd)
         N = q.shape[0]
@@ -152,7 +151,7 @@ class Floating:
 
     def mass_matrix(self, q, out=None):
         """M (n+6, n+6), in the order of v."""
-        if self._compiled:
+        if self._k is not None:
             o = _empty(self._nvnv) if out is None else out
             if self._k.floating_crba(self._chain, q, o) == OK:
                 return o
@@ -171,7 +170,7 @@ class Floating:
             return _into(out, self.bias_torques(q, qd, wrench, base_motion)
                          - generalized_forces(self, q, wrenches))
         _no_base_motion(base_motion)
-        if not self._compiled:
+        if self._k is None:
             return _into(out, fb.bias(self.model, q, qd, wrench))
         # Floating's own (a kind deriving from this one, mimic.py, calls it with whole states)
         return Floating.inverse_dynamics(self, q, qd, np.zeros(self._nv), wrench, out=out)
@@ -179,7 +178,7 @@ class Floating:
     def gravity_torques(self, q, out=None):
         """g (n+6,): what holds the whole robot still against gravity (the base's part is
         the weight, carried by whatever holds the base)."""
-        if not self._compiled:
+        if self._k is None:
             return _into(out, fb.gravity_forces(self.model, q))
         zero = np.zeros(self._nv)
         return Floating.inverse_dynamics(self, q, zero, zero, out=out)
@@ -194,7 +193,7 @@ class Floating:
                 q, qd, np.asarray(tau, dtype=float) + generalized_forces(self, q, wrenches),
                 wrench, method, base_motion))
         flags = self._fd_auto if method == "auto" else self._fd_flags.get(method)
-        if self._compiled and base_motion is None and flags is not None:   # the fast path
+        if self._k is not None and base_motion is None and flags is not None:   # the fast path
             o = _empty(self._nv) if out is None else out
             if wrench is None:
                 if self._k.floating_fd(self._chain, q, qd, tau, self._gw, flags, o) == OK:
@@ -205,7 +204,7 @@ class Floating:
         if flags is None:
             raise ValueError(f"forward-dynamics method {method!r} unknown for a floating base; "
                              f"use one of {FD_METHODS}")
-        if not self._compiled:
+        if self._k is None:
             method = "aba" if flags & F.ABA else "cholesky"
             return _into(out, fb.forward_dynamics(self.model, q, qd, tau, wrench, method))
         single, q, _, s = fb.as_batch(self.model, q, False, v=qd, tau=tau)
@@ -235,7 +234,7 @@ class Floating:
         reference: the same algorithm, ``algorithms/regressor.regressor`` on the
         instantaneous tree."""
         friction, arm = regressor.check_friction(friction), regressor.armature_on(self, armature)
-        if self._compiled:
+        if self._k is not None:
             flags, p = regressor.kernel_columns(self.model.dof, arm, friction)
             p += 10                                       # the base's ten columns first
             o = _empty((self._nv, p))                     # the single-state fast path
@@ -284,17 +283,17 @@ class Floating:
         [g_b]x, d tau/d dp = 0 (compiled: core/floating_derivatives.py). A tip ``wrench``
         (world coordinates, as ``inverse_dynamics``'s) turns with the base too, as R^T w."""
         _no_base_motion(base_motion)
-        if self._compiled:                                # the single-state fast path
+        if self._k is not None:                                # the single-state fast path
             o = _empty((2, self._nv, self._nv))
             if self._k.floating_rnea_derivatives(self._chain, q, qd, qdd,
                                                  *self._gw_single(wrench, 0), o) == OK:
                 return o[0], o[1]
         # the general path: the quaternion as given (the kernels normalize it, as above)
-        single, q, R, s = fb.as_batch(self.model, q, not self._compiled, v=qd, a=qdd)
+        single, q, R, s = fb.as_batch(self.model, q, self._k is None, v=qd, a=qdd)
         N, nv = q.shape[0], self._nv
         v = np.zeros((1, nv)) if s["v"] is None else s["v"]
         a = np.zeros((1, nv)) if s["a"] is None else s["a"]
-        if self._compiled:
+        if self._k is not None:
             gw, flags = self._gw_rows(wrench, N, 0)
             dq, dv = np.empty((N, nv, nv)), np.empty((N, nv, nv))
             run_split(self._k.floating_rnea_derivatives_batch, self._chain, N,
@@ -317,7 +316,7 @@ class Floating:
         (n+6, n+6) or (N, ...); the q direction and ``wrench`` as in
         ``inverse_dynamics_derivatives``."""
         _no_base_motion(base_motion)
-        if self._compiled:                                # the single-state fast path
+        if self._k is not None:                                # the single-state fast path
             o = _empty((3, self._nv, self._nv))
             if self._k.floating_fd_derivatives(self._chain, q, qd, tau,
                                                *self._gw_single(wrench, 0), o) == OK:
@@ -346,7 +345,7 @@ class Floating:
         if q.shape != (self._nq,) or v.shape != (self._nv,):
             raise ValueError(f"q and qd: give one state, ({self._nq},) and ({self._nv},)")
         qv = np.concatenate([np.zeros(6), q[7:]])
-        if self._compiled:
+        if self._k is not None:
             out = np.empty(self._nv)
             if self._k.kinetic_energy_gradient(self._chain, qv, v, out) == OK:
                 out[:6] = 0.0
@@ -395,7 +394,7 @@ class Floating:
 
     def kinetic_energy(self, q, qd):
         """T = 1/2 v^T M v (J)."""
-        if not self._compiled:
+        if self._k is None:
             return fb.kinetic_energy(self.model, q, qd)
         M = self.mass_matrix(q)
         v = np.broadcast_to(np.asarray(qd, dtype=float), M.shape[:-1])
@@ -456,7 +455,7 @@ class Floating:
         """Compile or load the floating-base kernels (core/floating.py) and call each once,
         single state and (``batch``) batch, so that the first real call is fast; with
         ``kinematics`` also the link poses, Jacobians and frame accelerations. Returns self."""
-        if self._compiled:
+        if self._k is not None:
             CHAIN.load_all(k for k in FLOATING_KERNELS if ("tree" in k) != self.model.is_chain)
         states = (self.random_state(0), self.random_state(0, batch=2))
         for q, v in states if batch else states[:1]:

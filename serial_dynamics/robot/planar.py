@@ -35,7 +35,7 @@ class Planar:
 
     def __init__(self, model, dissipation=None, backend=None, **kwargs):
         super().__init__(model, dissipation, backend, **kwargs)
-        if self._compiled:          # the batch kernels of Robot's general path, planar
+        if self._k is not None:          # the batch kernels of Robot's general path, planar
             self._Q = planar_pack(model)
             self._rnea_batch = ("planar_rnea_batch", self._Q)
             self._crba_batch = ("planar_crba_batch", self._Q)
@@ -45,7 +45,7 @@ class Planar:
         if wrenches is not None:     # wrenches on links: - sum_k J_k^T w_k (robot/wrenches.py)
             return _into(out, self.inverse_dynamics(q, qd, qdd, wrench, base_motion)
                          - generalized_forces(self, q, wrenches))
-        if self._compiled and base_motion is None:
+        if self._k is not None and base_motion is None:
             o = _empty(self._n) if out is None else out
             if (K.planar_rnea(self._Q, q, qd, qdd, _QD_QDD, o) if wrench is None else
                     K.planar_rnea_wrench(self._Q, q, qd, qdd, wrench, _QD_QDD_W, o)) == OK:
@@ -56,7 +56,7 @@ class Planar:
         if wrenches is not None:
             return _into(out, self.bias_torques(q, qd, wrench, base_motion)
                          - generalized_forces(self, q, wrenches))
-        if self._compiled and base_motion is None:
+        if self._k is not None and base_motion is None:
             o = _empty(self._n) if out is None else out
             if (K.planar_rnea(self._Q, q, qd, q, _QD, o) if wrench is None else
                     K.planar_rnea_wrench(self._Q, q, qd, q, wrench, _QD_W, o)) == OK:
@@ -64,14 +64,14 @@ class Planar:
         return super().bias_torques(q, qd, wrench, base_motion, out)
 
     def gravity_torques(self, q, out=None):
-        if self._compiled:
+        if self._k is not None:
             o = _empty(self._n) if out is None else out
             if K.planar_rnea(self._Q, q, q, q, 0, o) == OK:
                 return o
         return super().gravity_torques(q, out)
 
     def mass_matrix(self, q, out=None):
-        if self._compiled:
+        if self._k is not None:
             o = _empty(self._nn) if out is None else out
             if K.planar_crba(self._Q, q, o) == OK:
                 return o

@@ -1,0 +1,206 @@
+"""Where a single call's time goes: numba's dispatcher per array argument, the returned
+array, the facade and the kernel, beside Pinocchio's call of the same quantity (one process,
+interleaved rounds, the minimum of each).
+
+Why it is measured: a single call of the mass matrix or of inverse dynamics takes 0.6-1 µs,
+and most of it is not arithmetic. These rows say how much each part takes, so that a design
+of the facade (issue 25: one ``Robot`` with one kernel signature for every kind of robot)
+can be priced before it is built: an array argument more on every entry point costs what
+the first table's increments say, on every single call.
+
+    python bench/bench_call_cost.py            # writes the "call_cost" section of bench/BENCHMARKS.md
+    python bench/bench_call_cost.py --no-write
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+import warnings
+
+import numpy as np
+from numba import njit
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+
+from bench_speed import erd_path, pin                                   # noqa: E402
+from _report import stamp, write_section                                # noqa: E402
+
+import serial_dynamics as sd                                            # noqa: E402
+from serial_dynamics.core import K                                      # noqa: E402
+
+UR5 = "ur_description/urdf/ur5_robot.urdf"
+
+
+# the smallest compiled entry points: k float64 arrays in, an int out (what every entry
+# point of core/ returns), nothing computed
+@njit(cache=True)
+def _args0():
+    return 0
+
+
+@njit(cache=True)
+def _args1(a):
+    return 0
+
+
+@njit(cache=True)
+def _args2(a, b):
+    return 0
+
+
+@njit(cache=True)
+def _args3(a, b, c):
+    return 0
+
+
+@njit(cache=True)
+def _args5(a, b, c, d, e):
+    return 0
+
+
+@njit(cache=True)
+def _args7(a, b, c, d, e, f, g):
+    return 0
+
+
+def best(calls, number, rounds):
+    """{label: seconds per call}: each callable timed ``number`` times a round, the rounds
+    interleaved, the minimum kept."""
+    out = {label: float("inf") for label in calls}
+    clock = time.perf_counter
+    for _ in range(rounds):
+        for label, f in calls.items():
+            t0 = clock()
+            for _ in range(number):
+                f()
+            out[label] = min(out[label], (clock() - t0) / number)
+    return out
+
+
+def dispatch_rows(number, rounds):
+    P, q, o = np.zeros((7, 40)), np.zeros(6), np.zeros((6, 6))
+    calls = {0: lambda: _args0(), 1: lambda: _args1(P), 2: lambda: _args2(P, q),
+             3: lambda: _args3(P, q, o), 5: lambda: _args5(P, q, q, q, o),
+             7: lambda: _args7(P, q, q, q, q, q, o), "nothing": lambda: None}
+    for f in calls.values():
+        f()
+    return best(calls, number, rounds)
+
+
+def load(**kw):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", sd.HeldJointsWarning)
+        return sd.load_urdf(erd_path(UR5), tip_links=["tool0"], **kw)
+
+
+def mass_matrix_rows(number, rounds):
+    """The UR5 on a fixed base: M(q) through the facade, with ``out=``, the kernel alone (the
+    dispatcher included), and the parts."""
+    robot = load()
+    m = pin.buildModelFromUrdf(erd_path(UR5))
+    d = m.createData()
+    q = np.random.default_rng(0).uniform(-1, 1, robot.dof)
+    Mp = pin.crba(m, d, q)
+    np.testing.assert_allclose(robot.mass_matrix(q), np.triu(Mp) + np.triu(Mp, 1).T,
+                               rtol=1e-10, atol=1e-12)
+    P, o, shape, empty, crba = robot._P, np.empty((robot.dof, robot.dof)), (6, 6), np.empty, K.crba
+    calls = {"pinocchio.crba(model, data, q)": lambda: pin.crba(m, d, q),
+             "robot.mass_matrix(q)": lambda: robot.mass_matrix(q),
+             "robot.mass_matrix(q, out=M)": lambda: robot.mass_matrix(q, out=o),
+             "K.crba(P, q, M): the entry point": lambda: crba(P, q, o),
+             "K.crba(P, q, np.empty((6, 6)))": lambda: crba(P, q, empty(shape)),
+             "an empty entry point of 3 arrays": lambda: _args3(P, q, o),
+             "np.empty((6, 6))": lambda: empty(shape), "nothing": lambda: None}
+    return best(calls, number, rounds)
+
+
+def floating_rows(number, rounds):
+    """The UR5 on a free-floating base: inverse dynamics (the entry point takes 7 arguments:
+    the instantaneous chain, q, v, a, gravity and wrench, the flags, tau)."""
+    robot = load(floating_base=True)
+    m = pin.buildModelFromUrdf(erd_path(UR5), pin.JointModelFreeFlyer())
+    m.gravity.linear[:] = robot.gravity
+    d = m.createData()
+    rng = np.random.default_rng(0)
+    quat = rng.normal(size=4)
+    q = np.concatenate([[0.1, -0.2, 0.3], quat / np.linalg.norm(quat), rng.uniform(-1, 1, 6)])
+    v, a = rng.uniform(-1, 1, (2, robot.nv))
+    np.testing.assert_allclose(robot.inverse_dynamics(q, v, a), pin.rnea(m, d, q, v, a),
+                               rtol=1e-9, atol=1e-9)
+    o, chain, gw, rnea = np.empty(robot.nv), robot._chain, robot._gw, K.floating_rnea
+    P = np.zeros((7, 40))
+    calls = {"pinocchio.rnea(model, data, q, v, a)": lambda: pin.rnea(m, d, q, v, a),
+             "robot.inverse_dynamics(q, v, a)": lambda: robot.inverse_dynamics(q, v, a),
+             "robot.inverse_dynamics(q, v, a, out=tau)":
+                 lambda: robot.inverse_dynamics(q, v, a, out=o),
+             "K.floating_rnea(chain, q, v, a, gw, flags, tau): the entry point":
+                 lambda: rnea(chain, q, v, a, gw, 3, o),
+             "an empty entry point of 7 arrays": lambda: _args7(P, q, v, a, gw, q, o),
+             "nothing": lambda: None}
+    return best(calls, number, rounds)
+
+
+def table(rows, base):
+    lines = ["| call | ns a call | less the empty loop |", "|---|---|---|"]
+    for label, t in rows.items():
+        if label != "nothing":
+            lines.append(f"| {label} | {t * 1e9:.0f} | {(t - base) * 1e9:.0f} |")
+    return lines
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--no-write", action="store_true", help="print, do not write BENCHMARKS.md")
+    ap.add_argument("--rounds", type=int, default=30)
+    args = ap.parse_args()
+    number, rounds = 20_000, args.rounds
+    disp = dispatch_rows(number, rounds)
+    mm = mass_matrix_rows(number, rounds)
+    fl = floating_rows(number, rounds)
+    nothing = disp.pop("nothing")
+    lines = ["## Where a single call's time goes (`bench/bench_call_cost.py`)", "", stamp(),
+             "One process, one core as the scheduler gives it; each call timed 20,000 times "
+             f"a round, {rounds} interleaved rounds, the minimum. \"Less the empty loop\" "
+             "takes off the time of calling a Python function that does nothing.", "",
+             "### numba's dispatcher: an entry point that computes nothing, by its number of "
+             "array arguments", "",
+             "| arrays | ns a call | less the empty loop | more than the row above |",
+             "|---|---|---|---|"]
+    prev = None
+    for k, t in disp.items():
+        more = "" if prev is None else f"{(t - prev) * 1e9:.0f}"
+        lines.append(f"| {k} | {t * 1e9:.0f} | {(t - nothing) * 1e9:.0f} | {more} |")
+        prev = t
+    lines += ["", "### The UR5's mass matrix, fixed base", ""]
+    lines += table(mm, mm["nothing"])
+    lines += ["", "### The UR5's inverse dynamics, floating base", ""]
+    lines += table(fl, fl["nothing"])
+    lines += ["", "Read (computed from the rows above):", ""]
+    for what, rows, plain, out, entry, empty in [
+            ("the UR5's mass matrix", mm, "robot.mass_matrix(q)", "robot.mass_matrix(q, out=M)",
+             "K.crba(P, q, M): the entry point", "an empty entry point of 3 arrays"),
+            ("the floating UR5's inverse dynamics", fl, "robot.inverse_dynamics(q, v, a)",
+             "robot.inverse_dynamics(q, v, a, out=tau)",
+             "K.floating_rnea(chain, q, v, a, gw, flags, tau): the entry point",
+             "an empty entry point of 7 arrays")]:
+        peer = next(t for k, t in rows.items() if k.startswith("pinocchio"))
+        part = {"numba's dispatcher": rows[empty] - rows["nothing"],
+                "the arithmetic": rows[entry] - rows[empty],
+                "the facade (checks, lookups, the call)": rows[out] - rows[entry],
+                "the returned array (allocated, freed)": rows[plain] - rows[out]}
+        lines.append(f"- {what}: {(rows[plain] - rows['nothing']) * 1e9:.0f} ns = "
+                     + " + ".join(f"{t * 1e9:.0f} ({k})" for k, t in part.items())
+                     + f"; Pinocchio's call {(peer - rows['nothing']) * 1e9:.0f} ns, ratio "
+                     f"{(rows[plain] - rows['nothing']) / (peer - rows['nothing']):.2f} "
+                     f"({(rows[out] - rows['nothing']) / (peer - rows['nothing']):.2f} with out=).")
+    text = "\n".join(lines) + "\n"
+    print(text)
+    if not args.no_write:
+        write_section("call_cost", text)
+
+
+if __name__ == "__main__":
+    main()

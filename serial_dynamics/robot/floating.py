@@ -123,6 +123,11 @@ class Floating:
         _no_base_motion(base_motion)
         if self._k is None:
             return _into(out, fb.inverse_dynamics(self.model, q, qd, qdd, wrench))
+        return _into(out, self._rnea_rows(q, qd, qdd, wrench))
+
+    def _rnea_rows(self, q, qd, qdd, wrench):
+        """inverse_dynamics's general path: validated like the reference, then one batch
+        kernel call (as Robot's ``_rnea_general``)."""
         single, q, _, s = fb.as_batch(self.model, q, False, v=qd, a=qdd)
         N = q.shape[0]
         v, a = (np.zeros((1, self._nv)) if s[k] is None else kernel_rows(s[k]) for k in ("v", "a"))
@@ -130,7 +135,7 @@ class Floating:
         tau = np.empty((N, self._nv))
         run_split(_on_chain, self._chain, N, (kernel_rows(q), v, a, _ZERO_ROW, gw),
                   (flags, "rnea"), (tau,), PARALLEL_MIN, B)
-        return _into(out, tau[0] if single else tau)
+        return tau[0] if single else tau
 
     def _gw_single(self, wrench, flags):
         """gw (core/floating.py) of a single call: [wrench (world); gravity (world)]."""

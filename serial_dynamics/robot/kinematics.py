@@ -40,17 +40,18 @@ def frame(robot, link):
     return f
 
 
-def general(robot, run, shape, *named):
-    """``run(rows..., out)`` on the states as given, each one state or a batch of them; out
-    (*shape) or (N, *shape); where the kernel refuses them, ``robot._states`` and again."""
+def general(robot, kernel, extra, shape, *named):
+    """``kernel(P, rows..., *extra, out)`` on the states as given, each one state or a batch
+    of them; out (*shape) or (N, *shape); where the kernel refuses them, ``robot._states``
+    and again."""
     rows = [np.asarray(x, dtype=float) for _, x in named]
     single = all(a.ndim == 1 for a in rows)
     rows = [a.reshape(1, -1) if a.ndim == 1 else a for a in rows]
     out = _empty((rows[0].shape[0],) + shape) if rows[0].ndim == 2 else None
-    if any(a.ndim != 2 for a in rows) or run(*rows, out) != OK:
+    if any(a.ndim != 2 for a in rows) or kernel(robot._P, *rows, *extra, out) != OK:
         single, rows = robot._states(*named)
         out = _empty((rows[0].shape[0],) + shape)
-        if run(*rows, out) != OK:
+        if kernel(robot._P, *rows, *extra, out) != OK:
             raise RuntimeError("a kinematics kernel refused validated states")
     return out[0] if single else out
 
@@ -61,7 +62,7 @@ def frame_pose(robot, q, link):
         X = _empty((4, 4))
         if K.frame_pose_one(robot._P, q, body, F, X) == OK:
             return X
-    return general(robot, lambda q, X: K.frame_pose(robot._P, q, body, F, X), (4, 4), ("q", q))
+    return general(robot, K.frame_pose, (body, F), (4, 4), ("q", q))
 
 
 def frame_jacobian(robot, q, link):
@@ -70,8 +71,7 @@ def frame_jacobian(robot, q, link):
         J = _empty((6, robot._nv))
         if K.frame_jacobian_one(robot._P, q, body, F, J) == OK:
             return J
-    return general(robot, lambda q, J: K.frame_jacobian(robot._P, q, body, F, J),
-                   (6, robot._nv), ("q", q))
+    return general(robot, K.frame_jacobian, (body, F), (6, robot._nv), ("q", q))
 
 
 def frame_acceleration(robot, q, qd, qdd, link):
@@ -82,9 +82,8 @@ def frame_acceleration(robot, q, qd, qdd, link):
         A = _empty(6)
         if K.frame_acceleration(robot._P, q[None], qd[None], qdd[None], body, F, A[None]) == OK:
             return A
-    return general(robot, lambda q, qd, qdd, A: K.frame_acceleration(robot._P, q, qd, qdd, body,
-                                                                     F, A),
-                   (6,), ("q", q), ("qd", qd), ("qdd", qdd))
+    return general(robot, K.frame_acceleration, (body, F), (6,), ("q", q), ("qd", qd),
+                   ("qdd", qdd))
 
 
 def mass_moment(robot, q):
@@ -93,8 +92,7 @@ def mass_moment(robot, q):
         mc = _empty(4)
         if K.mass_moment(robot._P, q[None], robot._base, mc[None]) == OK:
             return mc
-    return general(robot, lambda q, mc: K.mass_moment(robot._P, q, robot._base, mc), (4,),
-                   ("q", q))
+    return general(robot, K.mass_moment, (robot._base,), (4,), ("q", q))
 
 
 def centroidal_momentum(robot, q, qd):
@@ -102,8 +100,7 @@ def centroidal_momentum(robot, q, qd):
         h = _empty(6)
         if K.centroidal(robot._P, q[None], qd[None], robot._base, h[None]) == OK:
             return h
-    return general(robot, lambda q, qd, h: K.centroidal(robot._P, q, qd, robot._base, h), (6,),
-                   ("q", q), ("qd", qd))
+    return general(robot, K.centroidal, (robot._base,), (6,), ("q", q), ("qd", qd))
 
 
 def coriolis_matrix(robot, q, qd):
@@ -112,5 +109,4 @@ def coriolis_matrix(robot, q, qd):
         C = _empty((nv, nv))
         if K.coriolis(robot._P, q[None], qd[None], robot._base, C[None]) == OK:
             return C
-    return general(robot, lambda q, qd, C: K.coriolis(robot._P, q, qd, robot._base, C), (nv, nv),
-                   ("q", q), ("qd", qd))
+    return general(robot, K.coriolis, (robot._base,), (nv, nv), ("q", q), ("qd", qd))

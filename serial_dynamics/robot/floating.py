@@ -288,7 +288,7 @@ class Floating:
         [g_b]x, d tau/d dp = 0 (compiled: core/floating_derivatives.py). A tip ``wrench``
         (world coordinates, as ``inverse_dynamics``'s) turns with the base too, as R^T w."""
         _no_base_motion(base_motion)
-        if self._k is not None:                                # the single-state fast path
+        if self._k is not None:                           # the single-state fast path
             o = _empty((2, self._nv, self._nv))
             if self._k.floating_rnea_derivatives(self._chain, q, qd, qdd,
                                                  *self._gw_single(wrench, 0), o) == OK:
@@ -321,7 +321,7 @@ class Floating:
         (n+6, n+6) or (N, ...); the q direction and ``wrench`` as in
         ``inverse_dynamics_derivatives``."""
         _no_base_motion(base_motion)
-        if self._k is not None:                                # the single-state fast path
+        if self._k is not None:                           # the single-state fast path
             o = _empty((3, self._nv, self._nv))
             if self._k.floating_fd_derivatives(self._chain, q, qd, tau,
                                                *self._gw_single(wrench, 0), o) == OK:

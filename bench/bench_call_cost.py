@@ -66,6 +66,11 @@ def _args7(a, b, c, d, e, f, g):
     return 0
 
 
+@njit(cache=True)
+def _args5_int(a, b, c, d, k, e):      # floating_rnea's arguments: 5 arrays and the flags
+    return 0
+
+
 def best(calls, number, rounds):
     """{label: seconds per call}: each callable timed ``number`` times a round, the rounds
     interleaved, the minimum kept."""
@@ -118,8 +123,8 @@ def mass_matrix_rows(number, rounds):
 
 
 def floating_rows(number, rounds):
-    """The UR5 on a free-floating base: inverse dynamics (the entry point takes 7 arguments:
-    the instantaneous chain, q, v, a, gravity and wrench, the flags, tau)."""
+    """The UR5 on a free-floating base: inverse dynamics (the entry point takes 6 arguments:
+    the instantaneous chain with the world's gravity, q, v, a, the flags, tau)."""
     robot = load(floating_base=True)
     m = pin.buildModelFromUrdf(erd_path(UR5), pin.JointModelFreeFlyer())
     m.gravity.linear[:] = robot.gravity
@@ -130,15 +135,15 @@ def floating_rows(number, rounds):
     v, a = rng.uniform(-1, 1, (2, robot.nv))
     np.testing.assert_allclose(robot.inverse_dynamics(q, v, a), pin.rnea(m, d, q, v, a),
                                rtol=1e-9, atol=1e-9)
-    o, chain, gw, rnea = np.empty(robot.nv), robot._chain, robot._gw, K.floating_rnea
+    o, chain, rnea = np.empty(robot.nv), robot._chain, K.floating_rnea
     P = np.zeros((7, 40))
     calls = {"pinocchio.rnea(model, data, q, v, a)": lambda: pin.rnea(m, d, q, v, a),
              "robot.inverse_dynamics(q, v, a)": lambda: robot.inverse_dynamics(q, v, a),
              "robot.inverse_dynamics(q, v, a, out=tau)":
                  lambda: robot.inverse_dynamics(q, v, a, out=o),
-             "K.floating_rnea(chain, q, v, a, gw, flags, tau): the entry point":
-                 lambda: rnea(chain, q, v, a, gw, 3, o),
-             "an empty entry point of 7 arrays": lambda: _args7(P, q, v, a, gw, q, o),
+             "K.floating_rnea(chain, q, v, a, flags, tau): the entry point":
+                 lambda: rnea(chain, q, v, a, 3, o),
+             "an empty entry point of 5 arrays and an int": lambda: _args5_int(P, q, v, a, 3, o),
              "nothing": lambda: None}
     return best(calls, number, rounds)
 
@@ -184,8 +189,8 @@ def main():
              "K.crba(P, q, M): the entry point", "an empty entry point of 3 arrays"),
             ("the floating UR5's inverse dynamics", fl, "robot.inverse_dynamics(q, v, a)",
              "robot.inverse_dynamics(q, v, a, out=tau)",
-             "K.floating_rnea(chain, q, v, a, gw, flags, tau): the entry point",
-             "an empty entry point of 7 arrays")]:
+             "K.floating_rnea(chain, q, v, a, flags, tau): the entry point",
+             "an empty entry point of 5 arrays and an int")]:
         peer = next(t for k, t in rows.items() if k.startswith("pinocchio"))
         part = {"numba's dispatcher": rows[empty] - rows["nothing"],
                 "the arithmetic": rows[entry] - rows[empty],

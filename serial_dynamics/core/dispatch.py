@@ -155,6 +155,7 @@ class _Kernels:
     symplectic_euler = _EntryPoint()
     # a free-floating base on the instantaneous chain (floating.py)
     floating_rnea = _EntryPoint()
+    floating_rnea_wrench = _EntryPoint()
     floating_fd = _EntryPoint()
     floating_crba = _EntryPoint()
     floating_rows = _EntryPoint()
@@ -179,6 +180,7 @@ class _Kernels:
     tree_crba_batch = _EntryPoint()
     tree_fd_batch = _EntryPoint()
     floating_tree_rnea = _EntryPoint()
+    floating_tree_rnea_wrench = _EntryPoint()
     floating_tree_fd = _EntryPoint()
     floating_tree_crba = _EntryPoint()
     tree_kinetic_energy_gradient = _EntryPoint()
@@ -226,6 +228,7 @@ class TreeTable:
     NAMES = {"rnea": "tree_rnea", "rnea_wrench": "tree_rnea_wrench", "crba": "tree_crba",
              "fd": "tree_fd", "rnea_batch": "tree_rnea_batch", "crba_batch": "tree_crba_batch",
              "fd_batch": "tree_fd_batch", "floating_rnea": "floating_tree_rnea",
+             "floating_rnea_wrench": "floating_tree_rnea_wrench",
              "floating_fd": "floating_tree_fd", "floating_crba": "floating_tree_crba",
              "floating_rows": "floating_rows", "floating_accelerations": "floating_accelerations",
              "floating_rnea_batch": "tree_rnea_batch", "floating_crba_batch": "tree_crba_batch",

@@ -14,6 +14,9 @@ of bodies is ``n = P.shape[0] - 1``.
                                                  the tree kernels treat them as one joint)
     P[i, ARM]       armature (reflected rotor inertia, kg m^2 or kg)   P[n, ARMATURE]  1.0: some
                                                  joint has armature (else the kernels add none)
+                                                P[n, GROOT:GROOT+3] the world's gravity of a
+                                                 floating base (``pack(root=6, gravity=g)``:
+                                                 its inverse dynamics without a gw argument)
     P[i, PARENT]    the body joint i hangs from (-1.0: the base); i - 1 in a chain
     P[i, TIPPATH]   1.0 if body i is on the path from the base to body n-1 (the tip's)
 
@@ -28,17 +31,19 @@ import numpy as np
 from ..joints import PRISMATIC
 
 XR, XP, KIND, MASS, H, IO, ARM, PARENT, TIPPATH = 0, 9, 12, 13, 14, 17, 23, 24, 25
-G, TIPP, TIPR, LANES, TREE, ROOT, ARMATURE = 0, 3, 6, 15, 16, 17, 18
+G, TIPP, TIPR, LANES, TREE, ROOT, ARMATURE, GROOT = 0, 3, 6, 15, 16, 17, 18, 19
 WIDTH = 26
 B = 32          # samples per block of the lane-parallel batch kernel (rnea_lanes.py)
 W_F, W_M, W_OMEGA, W_ALPHA, W_ACC = 0, 3, 6, 9, 12
 W_WRENCH, W_ALL = 6, 15      # lengths of w: a tip wrench only; wrench and base motion
 
 
-def pack(model, root=0) -> np.ndarray:
+def pack(model, root=0, gravity=(0.0, 0.0, 0.0)) -> np.ndarray:
     """``P`` for ``model``. No kernel writes it (signatures.Pm). ``root``: 6 for the virtual
     chain of a floating base (robot/floating.virtual_chain), whose first six bodies the tree
-    kernels then take as the free-flyer root joint; the chain kernels do not read it."""
+    kernels then take as the free-flyer root joint; the chain kernels do not read it.
+    ``gravity``: there, the world's gravity (the virtual chain's own is zero), which
+    ``floating_rnea`` reads from P instead of an argument."""
     n = model.dof
     P = np.zeros((n + 1, WIDTH))
     for i in range(n):
@@ -56,6 +61,7 @@ def pack(model, root=0) -> np.ndarray:
     P[n, TREE] = 0.0 if model.is_chain else 1.0
     P[n, ROOT] = root
     P[n, ARMATURE] = 1.0 if np.any(model.armature != 0.0) else 0.0
+    P[n, GROOT:GROOT + 3] = gravity
     return P        # writable on purpose: numba's dispatcher types a read-only array ~100 ns slower
 
 

@@ -12,14 +12,14 @@ kernels (``Robot`` picks the table from the model; their bits are the chain's). 
 wrench acts on body n-1 (the last leaf) and is carried into its frame along its path
 (``P[i, TIPPATH]``).
 """
-from numba import types
+from numba import njit, types
 
 from . import flags as F
 from .aba import floating_tree_aba_core, tree_aba_core
 from .aba_lanes import aba_block, aba_lanes_fit, floating_aba_block
 from .cholesky import ltdl_factor, ltdl_solve_factored
 from .crba import add_in_parent, root_block
-from .floating import GW, _chain_inputs, _products, fd_inputs, rnea_inputs
+from .floating import GW, _chain_inputs, _products, fd_inputs, gravity_only, rnea_inputs
 from .data import new_art, new_chol, new_kin, scratch, square_lanes_fit, stack_empty
 from .energy import axis_gradient, body_momentum, body_velocity
 from .joint import armature_diagonal, armature_torques, joint_momentum, joint_transforms, project
@@ -313,17 +313,32 @@ def tree_fd_batch(P, q, qd, tau, w, flags, out):
 # tree: the six virtual joints, then the tree hanging from the last): the same conversions
 # (rnea_inputs, fd_inputs, _products) around the tree kernels, which take the six as one
 # free-flyer root (P[n, ROOT]); forward dynamics by L^T D L or articulated bodies (FDfb).
-def floating_tree_rnea(P, q, v, a, gw, flags, out):
+@njit(cache=True, inline="always")
+def _floating_tree_rnea_one(P, q, v, a, gw, flags, out):
     nv = P.shape[0] - 1
-    if (q.shape[0] != nv + 1 or v.shape[0] != nv or a.shape[0] != nv or gw.shape[0] != GW
-            or out.shape[0] != nv):
-        return BAD_LENGTH
     d = new_kin(nv)
     qv, w, qddv = stack_empty((nv,)), stack_empty((W_ALL,)), stack_empty((nv,))
     chk = rnea_inputs(q, v, a, gw, flags, qv, w, qddv)
     chk += tree_rnea_core(P, d.sc, d.R, d.p, d.f, stack_empty((nv, 9)), qv, v, qddv, w,
                           flags | F.BASE | F.QDD, out)
     return status(chk)
+
+
+def floating_tree_rnea_wrench(P, q, v, a, gw, flags, out):
+    nv = P.shape[0] - 1
+    if (q.shape[0] != nv + 1 or v.shape[0] != nv or a.shape[0] != nv or gw.shape[0] != GW
+            or out.shape[0] != nv):
+        return BAD_LENGTH
+    return _floating_tree_rnea_one(P, q, v, a, gw, flags, out)
+
+
+def floating_tree_rnea(P, q, v, a, flags, out):
+    """Without a tip wrench, gravity from P (core/floating.py's ``floating_rnea``)."""
+    nv = P.shape[0] - 1
+    if q.shape[0] != nv + 1 or v.shape[0] != nv or a.shape[0] != nv or out.shape[0] != nv:
+        return BAD_LENGTH
+    gw = gravity_only(P)
+    return _floating_tree_rnea_one(P, q, v, a, gw, flags & ~F.WRENCH, out)
 
 
 def floating_tree_fd(P, q, v, tau, gw, flags, out):
@@ -387,12 +402,15 @@ ENTRY_POINTS = {
     "tree_fd_batch": (tree_fd_batch, i8(Pm, In2, In2, In2, In2, i8, Out2), True,
                       _FD + ("tree_fd_block", "floating_tree_fd_block", "aba_block",
                              "floating_aba_block")),
-    "floating_tree_rnea": (floating_tree_rnea, i8(Pm, Vec, Vec, Vec, Vec, i8, Vec), False,
+    "floating_tree_rnea": (floating_tree_rnea, i8(Pm, Vec, Vec, Vec, i8, Vec), False,
                            ("tree_rnea_core",)),
+    "floating_tree_rnea_wrench": (floating_tree_rnea_wrench, i8(Pm, Vec, Vec, Vec, Vec, i8, Vec),
+                                  False, ("tree_rnea_core",)),
     "floating_tree_fd": (floating_tree_fd, i8(Pm, Vec, Vec, Vec, Vec, i8, Vec), False, _FD),
     "floating_tree_crba": (floating_tree_crba, i8(Pm, Vec, Mat), False, ("tree_crba_core",)),
     "tree_kinetic_energy_gradient": (tree_kinetic_energy_gradient, i8(Pm, Vec, Vec, Vec), False,
                                      ("tree_ke_gradient_core",)),
 }
 SINGLE_STATE = ("tree_rnea", "tree_rnea_wrench", "tree_crba", "tree_fd", "floating_tree_rnea",
+                "floating_tree_rnea_wrench",
                 "floating_tree_fd", "floating_tree_crba", "tree_kinetic_energy_gradient")

@@ -85,7 +85,7 @@ class Floating:
         self._chain = self._regressor_layout = None
         if self._k is not None:
             chain = virtual_chain(model)
-            self._chain = layout_pack(chain, root=6)
+            self._chain = layout_pack(chain, root=6, gravity=model.gravity)
             # regressor(): the instantaneous tree's layout with its link frames
             self._regressor_layout = regressor_layout(self._chain, chain.A)
         self._gw = np.concatenate((np.zeros(6), model.gravity))   # core/floating.py's gw
@@ -114,11 +114,11 @@ class Floating:
                          - generalized_forces(self, q, wrenches))
         if self._k is not None and base_motion is None:        # the single-state fast path
             o = _empty(self._nv) if out is None else out
-            if wrench is None:
-                if self._k.floating_rnea(self._chain, q, qd, qdd, self._gw, _QD_QDD, o) == OK:
+            if wrench is None:       # gravity from self._chain: one argument fewer
+                if self._k.floating_rnea(self._chain, q, qd, qdd, _QD_QDD, o) == OK:
                     return o
-            elif self._k.floating_rnea(self._chain, q, qd, qdd, *self._gw_single(wrench, _QD_QDD),
-                                 o) == OK:
+            elif self._k.floating_rnea_wrench(self._chain, q, qd, qdd,
+                                              *self._gw_single(wrench, _QD_QDD), o) == OK:
                 return o
         _no_base_motion(base_motion)
         if self._k is None:

@@ -455,3 +455,32 @@ def test_other_argument_types_get_a_status_not_an_exception():
     # and each such input still gets the right answer through the Robot (general path)
     np.testing.assert_array_equal(robot.inverse_dynamics(list(q), read_only, np.asarray(qdd)),
                                   robot.inverse_dynamics(q, q, qdd))
+
+
+@pytest.mark.parametrize("rel, tips", [("ur_description/urdf/ur5_robot.urdf", ["tool0"]),
+                                       ("solo_description/robots/solo12.urdf", None)])
+def test_floating_inverse_dynamics_reads_the_gravity_gw_would_give(rel, tips):
+    """``floating_rnea`` (no gw argument: the world's gravity from the packed model) is
+    ``floating_rnea_wrench`` with gw = [0, g] bit for bit, on a chain and a tree (the table
+    each robot holds), with a tilted gravity so that each component is read from P; a bad
+    length is refused as by the others."""
+    from pin_reference import erd
+    g = np.array([0.8, -1.3, -9.7])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", sd.HeldJointsWarning)
+        robot = sd.load_urdf(erd(rel), tip_links=tips, floating_base=True, gravity=g)
+    rng = np.random.default_rng(3)
+    gw = np.concatenate([np.zeros(6), g])
+    k, P = robot._k, robot._chain
+    for _ in range(3):
+        q, v = robot.random_state(rng, speed=2.0)
+        a = rng.normal(size=robot.nv)
+        for flags in (0, F.QD, F.QDD, F.QD | F.QDD):
+            x, y = np.empty(robot.nv), np.empty(robot.nv)
+            assert k.floating_rnea(P, q, v, a, flags, x) == core.OK
+            assert k.floating_rnea_wrench(P, q, v, a, gw, flags, y) == core.OK
+            assert np.array_equal(x, y)
+            if flags == 0:                        # gravity alone: the weight on the base
+                assert np.linalg.norm(x[:3]) > 1.0
+        assert np.array_equal(robot.inverse_dynamics(q, v, a), x)    # the facade's route
+    assert k.floating_rnea(P, q[:-1], v, a, 0, x) == 2      # BAD_LENGTH

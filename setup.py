@@ -2,7 +2,12 @@
 import os
 from glob import glob
 
-from setuptools import find_packages, setup
+from setuptools import Extension, find_packages, setup
+
+try:                          # numpy's headers: pyproject.toml's build requirements bring it
+    import numpy
+except ImportError:           # (a build without them installs without the extension)
+    numpy = None
 
 PACKAGE = "serial_dynamics"
 NODES = ["simulator", "dynamics", "inverse_dynamics", "computed_torque_controller",
@@ -16,6 +21,11 @@ setup(
     packages=find_packages(exclude=["test", "test.*", "bench", "serial_dynamics_interfaces",
                                     "serial_dynamics_interfaces.*"]),
     package_data={PACKAGE: ["robots/*.urdf"]},
+    # single-state entry points called without numba's dispatcher (core/_fastcall.c); optional:
+    # without a C compiler the package installs without it and calls through the dispatcher
+    ext_modules=[] if numpy is None else [
+        Extension(f"{PACKAGE}.core._fastcall", [f"{PACKAGE}/core/_fastcall.c"],
+                  include_dirs=[numpy.get_include()], optional=True)],
     data_files=[
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
         (f"share/{PACKAGE}", ["package.xml"]),
@@ -44,7 +54,7 @@ setup(
                  "numba-cuda==0.30.*"],
         "bench": ["pin", "example-robot-data", "mujoco", "matplotlib"],
     },
-    zip_safe=True,
+    zip_safe=False,
     maintainer="serial_dynamics developers",
     description="Dynamics of serial manipulators from URDF, with ROS 2 nodes",
     license="Apache-2.0",

@@ -1,12 +1,14 @@
-"""Where a single call's time goes: numba's dispatcher per array argument, the returned
-array, the facade and the kernel, beside Pinocchio's call of the same quantity (one process,
-interleaved rounds, the minimum of each).
+"""Where a single call's time goes: numba's dispatcher per array argument, the entry point
+called past it (core/_fastcall.c), the returned array and the facade, beside Pinocchio's
+call of the same quantity (one process, interleaved rounds, the minimum of each).
 
 Why it is measured: a single call of the mass matrix or of inverse dynamics takes 0.6-1 µs,
 and most of it is not arithmetic. These rows say how much each part takes, so that a design
 of the facade (issue 25: one ``Robot`` with one kernel signature for every kind of robot)
 can be priced before it is built: an array argument more on every entry point costs what
-the first table's increments say, on every single call.
+the first table's increments say, on every single call made through numba's dispatcher.
+Since _fastcall.c the single-state entry points are called past the dispatcher; the rows
+"through numba's dispatcher" say what that saves.
 
     python bench/bench_call_cost.py            # writes the "call_cost" section of bench/BENCHMARKS.md
     python bench/bench_call_cost.py --no-write
@@ -29,44 +31,45 @@ from bench_speed import erd_path, pin                                   # noqa: 
 from _report import stamp, write_section                                # noqa: E402
 
 import serial_dynamics as sd                                            # noqa: E402
-from serial_dynamics.core import K                                      # noqa: E402
+from serial_dynamics.core import K, dispatch                            # noqa: E402
 
 UR5 = "ur_description/urdf/ur5_robot.urdf"
 
 
-# the smallest compiled entry points: k float64 arrays in, an int out (what every entry
-# point of core/ returns), nothing computed
+# the smallest compiled entry points: k float64 arrays in, an int64 out (what every entry
+# point of core/ returns), nothing computed; one explicit signature each, as core's
 @njit(cache=True)
 def _args0():
     return 0
 
 
-@njit(cache=True)
+@njit("i8(f8[:, ::1])", cache=True)
 def _args1(a):
     return 0
 
 
-@njit(cache=True)
+@njit("i8(f8[:, ::1], f8[::1])", cache=True)
 def _args2(a, b):
     return 0
 
 
-@njit(cache=True)
+@njit("i8(f8[:, ::1], f8[::1], f8[:, ::1])", cache=True)
 def _args3(a, b, c):
     return 0
 
 
-@njit(cache=True)
+@njit("i8(f8[:, ::1], f8[::1], f8[::1], f8[::1], f8[:, ::1])", cache=True)
 def _args5(a, b, c, d, e):
     return 0
 
 
-@njit(cache=True)
+@njit("i8(f8[:, ::1], f8[::1], f8[::1], f8[::1], f8[::1], f8[::1], f8[:, ::1])",
+      cache=True)
 def _args7(a, b, c, d, e, f, g):
     return 0
 
 
-@njit(cache=True)
+@njit("i8(f8[:, ::1], f8[::1], f8[::1], f8[::1], i8, f8[::1])", cache=True)
 def _args5_int(a, b, c, d, k, e):      # floating_rnea's arguments: 5 arrays and the flags
     return 0
 
@@ -86,13 +89,21 @@ def best(calls, number, rounds):
 
 
 def dispatch_rows(number, rounds):
+    """{k arrays: (through numba's dispatcher, past it), "nothing": the empty loop}."""
     P, q, o = np.zeros((7, 40)), np.zeros(6), np.zeros((6, 6))
-    calls = {0: lambda: _args0(), 1: lambda: _args1(P), 2: lambda: _args2(P, q),
-             3: lambda: _args3(P, q, o), 5: lambda: _args5(P, q, q, q, o),
-             7: lambda: _args7(P, q, q, q, q, q, o), "nothing": lambda: None}
-    for f in calls.values():
-        f()
-    return best(calls, number, rounds)
+    args = {1: (P,), 2: (P, q), 3: (P, q, o), 5: (P, q, q, q, o), 7: (P, q, q, q, q, q, o)}
+    kernels = {1: _args1, 2: _args2, 3: _args3, 5: _args5, 7: _args7}
+    calls = {(0, "numba"): lambda: _args0(), "nothing": lambda: None}
+    for k, f in kernels.items():
+        fast = dispatch.fast_entry(f, f.nopython_signatures[0])
+        assert isinstance(fast, dispatch._fastcall.Entry)
+        calls[k, "numba"] = lambda f=f, a=args[k]: f(*a)
+        calls[k, "past"] = lambda f=fast, a=args[k]: f(*a)
+    _args0()
+    t = best(calls, number, rounds)
+    rows = {k: (t[k, "numba"], t.get((k, "past"), float("nan"))) for k in [0, *kernels]}
+    rows["nothing"] = t["nothing"]
+    return rows
 
 
 def load(**kw):
@@ -116,6 +127,8 @@ def mass_matrix_rows(number, rounds):
              "robot.mass_matrix(q)": lambda: robot.mass_matrix(q),
              "robot.mass_matrix(q, out=M)": lambda: robot.mass_matrix(q, out=o),
              "K.crba(P, q, M): the entry point": lambda: crba(P, q, o),
+             "K.crba.dispatcher(P, q, M): through numba's dispatcher":
+                 lambda: crba.dispatcher(P, q, o),
              "K.crba(P, q, np.empty((6, 6)))": lambda: crba(P, q, empty(shape)),
              "an empty entry point of 3 arrays": lambda: _args3(P, q, o),
              "np.empty((6, 6))": lambda: empty(shape), "nothing": lambda: None}
@@ -143,6 +156,8 @@ def floating_rows(number, rounds):
                  lambda: robot.inverse_dynamics(q, v, a, out=o),
              "K.floating_rnea(chain, q, v, a, flags, tau): the entry point":
                  lambda: rnea(chain, q, v, a, 3, o),
+             "K.floating_rnea.dispatcher(...): through numba's dispatcher":
+                 lambda: rnea.dispatcher(chain, q, v, a, 3, o),
              "an empty entry point of 5 arrays and an int": lambda: _args5_int(P, q, v, a, 3, o),
              "nothing": lambda: None}
     return best(calls, number, rounds)
@@ -170,37 +185,47 @@ def main():
              "One process, one core as the scheduler gives it; each call timed 20,000 times "
              f"a round, {rounds} interleaved rounds, the minimum. \"Less the empty loop\" "
              "takes off the time of calling a Python function that does nothing.", "",
-             "### numba's dispatcher: an entry point that computes nothing, by its number of "
-             "array arguments", "",
-             "| arrays | ns a call | less the empty loop | more than the row above |",
-             "|---|---|---|---|"]
+             "### An entry point that computes nothing, by its number of array arguments: "
+             "through numba's dispatcher, and past it (core/_fastcall.c)", "",
+             "ns a call, less the empty loop; in brackets, more than the row above.", "",
+             "| arrays | numba's dispatcher | past it (`_fastcall.Entry`) |",
+             "|---|---|---|"]
     prev = None
-    for k, t in disp.items():
-        more = "" if prev is None else f"{(t - prev) * 1e9:.0f}"
-        lines.append(f"| {k} | {t * 1e9:.0f} | {(t - nothing) * 1e9:.0f} | {more} |")
-        prev = t
+    for k, ts in disp.items():
+        cells = [f"{(t - nothing) * 1e9:.0f}" + ("" if prev is None or t != t or p != p else
+                                                 f" (+{(t - p) * 1e9:.0f})")
+                 for t, p in zip(ts, prev or ts)]
+        lines.append(f"| {k} | " + " | ".join(c if c != "nan" else "" for c in cells) + " |")
+        prev = ts
     lines += ["", "### The UR5's mass matrix, fixed base", ""]
     lines += table(mm, mm["nothing"])
     lines += ["", "### The UR5's inverse dynamics, floating base", ""]
     lines += table(fl, fl["nothing"])
     lines += ["", "Read (computed from the rows above):", ""]
-    for what, rows, plain, out, entry, empty in [
+    for what, rows, plain, out, entry, disp_row, empty in [
             ("the UR5's mass matrix", mm, "robot.mass_matrix(q)", "robot.mass_matrix(q, out=M)",
-             "K.crba(P, q, M): the entry point", "an empty entry point of 3 arrays"),
+             "K.crba(P, q, M): the entry point",
+             "K.crba.dispatcher(P, q, M): through numba's dispatcher",
+             "an empty entry point of 3 arrays"),
             ("the floating UR5's inverse dynamics", fl, "robot.inverse_dynamics(q, v, a)",
              "robot.inverse_dynamics(q, v, a, out=tau)",
              "K.floating_rnea(chain, q, v, a, flags, tau): the entry point",
+             "K.floating_rnea.dispatcher(...): through numba's dispatcher",
              "an empty entry point of 5 arrays and an int")]:
         peer = next(t for k, t in rows.items() if k.startswith("pinocchio"))
-        part = {"numba's dispatcher": rows[empty] - rows["nothing"],
-                "the arithmetic": rows[entry] - rows[empty],
+        part = {"the entry point past the dispatcher (checks, call, arithmetic)":
+                    rows[entry] - rows["nothing"],
                 "the facade (checks, lookups, the call)": rows[out] - rows[entry],
                 "the returned array (allocated, freed)": rows[plain] - rows[out]}
         lines.append(f"- {what}: {(rows[plain] - rows['nothing']) * 1e9:.0f} ns = "
                      + " + ".join(f"{t * 1e9:.0f} ({k})" for k, t in part.items())
                      + f"; Pinocchio's call {(peer - rows['nothing']) * 1e9:.0f} ns, ratio "
                      f"{(rows[plain] - rows['nothing']) / (peer - rows['nothing']):.2f} "
-                     f"({(rows[out] - rows['nothing']) / (peer - rows['nothing']):.2f} with out=).")
+                     f"({(rows[out] - rows['nothing']) / (peer - rows['nothing']):.2f} with out=). "
+                     f"Through numba's dispatcher the entry point takes "
+                     f"{(rows[disp_row] - rows['nothing']) * 1e9:.0f} ns, "
+                     f"{(rows[disp_row] - rows[entry]) * 1e9:.0f} more; its arguments alone "
+                     f"{(rows[empty] - rows['nothing']) * 1e9:.0f} ns in an empty entry point.")
     text = "\n".join(lines) + "\n"
     print(text)
     if not args.no_write:

@@ -21,9 +21,20 @@ exception, and ``Robot`` takes its general path. (No exception is raised or caug
 choose the path.) The hook depends on numba's internals: importing this module checks that
 the method exists and raises an ImportError naming the numba version and the supported
 range (``NUMBA_SUPPORTED``, the range setup.py pins) when it does not.
+
+Past the dispatcher: a single-state entry point is an ``Entry`` of ``_fastcall.c``, which
+checks in C that the arguments are of its one signature and then calls numba's compiled
+function directly (~40 ns instead of the dispatcher's 110 + 35 per array further,
+bench_call_cost.py); any other arguments, and a call whose function raised, go to the
+dispatcher itself. The same machine code runs either way (the same bits). ``fast_entry``
+makes one only where numba lays the function out as ``_fastcall.c`` assumes; without the
+extension (a build without a C compiler) or with ``SERIAL_DYNAMICS_FASTCALL=0`` in the
+environment every call goes through the dispatcher.
 """
+import os
+
 import numba
-from numba import njit
+from numba import njit, types
 from numba.core.dispatcher import Dispatcher
 
 from . import crba, crba_lanes, derivatives, derivatives_lanes, energy, floating, forward, kinematics
@@ -31,7 +42,13 @@ from . import floating_derivatives
 from . import mimic, planar, planar_lanes
 from . import regressor
 from . import rnea, rnea_lanes, tree, tree_derivatives, tree_derivatives_lanes
-from .signatures import In2, Mat, Out2, Out3, Pm, Vec, compile_internal, i8
+from .signatures import In2, Mat, Out2, Out3, Pm, Vec, compile_internal, f8, i8
+
+try:
+    from . import _fastcall
+except ImportError:          # built without a C compiler: every call through the dispatcher
+    _fastcall = None
+FASTCALL = _fastcall is not None and os.environ.get("SERIAL_DYNAMICS_FASTCALL", "1") != "0"
 from .status import BAD_LENGTH, NOT_CONVERGED, NOT_FINITE, OK, OTHER_TYPES   # noqa: F401 (re-exported)
 
 NUMBA_SUPPORTED = ">=0.59,<0.69"   # the numba releases the tests have run on (setup.py pins it)
@@ -96,15 +113,57 @@ def _other_types(*args, **kwargs):
     return lambda *a, **k: OTHER_TYPES
 
 
+def native_spec(kernel, sig):
+    """``_fastcall.Entry``'s spec of ``kernel``'s one signature (per argument 1, 2 or 3: a
+    C-contiguous writable float64 array of that ndim; i: an int64), or None where the
+    extension is off or numba's compiled function is not laid out as ``_fastcall.c``
+    assumes: int32 f(int64 *result, excinfo **, each array as meminfo, parent, nitems,
+    itemsize, data, shape, strides; each int64 as itself)."""
+    if not FASTCALL or sig.return_type != i8:
+        return None
+    spec, words = "", []
+    for t in sig.args:
+        if t == i8:
+            spec, words = spec + "i", words + ["i64"]
+        elif (isinstance(t, types.Array) and t.dtype == f8 and t.layout == "C" and t.mutable
+              and t.aligned and 1 <= t.ndim <= 3):
+            spec += str(t.ndim)
+            words += ["i8*", "i8*", "i64", "i64", "double*"] + ["i64"] * (2 * t.ndim)
+        else:
+            return None
+    try:
+        cres = kernel.overloads[sig.args]
+        conv = cres.target_context.call_conv
+        fnty = conv.get_function_type(cres.fndesc.restype, cres.fndesc.argtypes)
+    except (AttributeError, KeyError, TypeError):      # another numba: the dispatcher
+        return None
+    laid_out = ([str(fnty.return_type), str(fnty.args[0])] + [str(a) for a in fnty.args[2:]]
+                == ["i32", "i64*"] + words)
+    return spec if type(conv).__name__ == "CPUCallConv" and laid_out else None
+
+
+def fast_entry(kernel, sig):
+    """``kernel`` as a ``_fastcall.Entry`` (called past the dispatcher when the arguments
+    are of ``sig``'s types), or ``kernel`` itself where ``native_spec`` is None."""
+    spec = native_spec(kernel, sig)
+    if spec is None:
+        return kernel
+    cres = kernel.overloads[sig.args]
+    address = cres.library.get_pointer_to_function(cres.fndesc.llvm_func_name)
+    return _fastcall.Entry(kernel, address, spec) if address else kernel
+
+
 def build(name):
     """Compile (or load from the cache) entry point ``name``, after the typed algorithms it
-    calls; a single-state one gets its one signature and the hook."""
+    calls; a single-state one gets its one signature and the hook, and is called through
+    ``fast_entry``."""
     func, sig, nogil, calls = ENTRY_POINTS[name]
     compile_internal(calls)
     if name in SINGLE_STATE:
         kernel = njit(cache=True, nogil=nogil)(func)
         kernel.compile(sig)
         setattr(kernel, HOOK, _other_types)
+        kernel = fast_entry(kernel, sig)
     else:
         kernel = njit([sig], cache=True, nogil=nogil)(func)
     return kernel

@@ -1,0 +1,171 @@
+"""core/_fastcall.c: single-state entry points called past numba's dispatcher give the
+dispatcher's results bit for bit (every call the facade makes on eight robots of every
+kind, replayed both ways: every single-state entry point), send every other call to the dispatcher unchanged (other types,
+layouts, counts, keywords), and a function that raises raises as numba raises it."""
+import os
+import warnings
+
+import numpy as np
+import pytest
+from numba import njit, types
+
+import serial_dynamics as sd
+from serial_dynamics.core import dispatch
+from serial_dynamics.core import flags as F
+from serial_dynamics.core.dispatch import K, OTHER_TYPES, SINGLE_STATE
+from serial_dynamics.core.signatures import Vec, i8
+
+from pin_reference import erd
+
+pytestmark = pytest.mark.skipif(os.environ.get("SERIAL_DYNAMICS_FASTCALL") == "0",
+                                reason="SERIAL_DYNAMICS_FASTCALL=0: every call through numba")
+
+
+def load(rel, tips=None, **kw):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", sd.HeldJointsWarning)
+        return sd.load_urdf(erd(rel), tip_links=tips, **kw)
+
+
+def solo12(**kw):
+    return load("solo_description/robots/solo12.urdf", **kw)
+
+
+ROBOTS = {   # (make, a tip wrench): each kind and kernel table (chain, tree, floating chain and
+    # tree, mimic, planar), with and without a tip wrench
+    "ur5e": (sd.default_robot, False),
+    "ur5e, tip wrench": (sd.default_robot, True),
+    "planar_3r, tip wrench": (lambda: sd.builtin_robot("planar_3r"), True),
+    "ur5 floating, tip wrench": (lambda: load("ur_description/urdf/ur5_robot.urdf", ["tool0"],
+                                              floating_base=True), True),
+    "solo12 fixed, tip wrench": (solo12, True),
+    "solo12 floating": (lambda: solo12(floating_base=True), False),
+    "solo12 floating, tip wrench": (lambda: solo12(floating_base=True), True),
+    "panda with fingers (mimic)": (lambda: load("panda_description/urdf/panda.urdf"), False),
+}
+
+
+def test_the_extension_is_built_and_every_single_state_entry_point_uses_it():
+    # a build without a C compiler installs without it (setup.py: optional); here it must be
+    assert dispatch._fastcall is not None, "core/_fastcall.c was not built: pip install -e ."
+    for name in SINGLE_STATE:
+        assert isinstance(getattr(K, name), dispatch._fastcall.Entry), name
+
+
+def _exercise(robot, wrench):
+    rng = np.random.default_rng(3)
+    q, qd = robot.random_state(rng, speed=1.5)
+    qdd = rng.uniform(-1, 1, robot.nv)
+    w = np.array([1.0, -2.0, 0.5, 0.1, 0.2, -0.3]) if wrench else None
+    tau = robot.inverse_dynamics(q, qd, qdd, wrench=w)
+    robot.mass_matrix(q)
+    robot.forward_dynamics(q, qd, tau, wrench=w)
+    robot.bias_torques(q, qd)
+    robot.gravity_torques(q)
+    robot.inverse_dynamics_derivatives(q, qd, qdd)
+    robot.forward_dynamics_derivatives(q, qd, tau)
+    robot.regressor(q, qd, qdd)
+    robot.kinetic_energy_gradient(q, qd)
+    for link in robot.link_names[-2:]:
+        robot.forward_kinematics(q, link)
+        robot.jacobian(q, link)
+
+
+@pytest.fixture(scope="module")
+def recorded():
+    """Every call the facade made to a single-state entry point, for each robot: (name,
+    the Entry, copies of its arguments)."""
+    calls = []
+    saved = {name: getattr(K, name) for name in SINGLE_STATE}
+
+    def recorder(name, entry):
+        def call(*args):
+            calls.append((name, entry, [a.copy() if isinstance(a, np.ndarray) else a
+                                        for a in args]))
+            return entry(*args)
+        return call
+    try:
+        for name, entry in saved.items():
+            K.__dict__[name] = recorder(name, entry)
+        for table in (dispatch.TREE,):       # the tree table holds K's entries by lookup
+            table.__dict__.clear()
+        for make, wrench in ROBOTS.values():
+            _exercise(make(), wrench)
+    finally:
+        K.__dict__.update(saved)
+        dispatch.TREE.__dict__.clear()
+    return calls
+
+
+def test_every_call_the_facade_makes_gives_the_dispatchers_bits(recorded):
+    names = {name for name, _, _ in recorded}
+    assert names == set(SINGLE_STATE), sorted(set(SINGLE_STATE) - names)   # every one reached
+    for name, entry, args in recorded:
+        assert isinstance(entry, dispatch._fastcall.Entry), name
+        ours = [a.copy() if isinstance(a, np.ndarray) else a for a in args]
+        theirs = [a.copy() if isinstance(a, np.ndarray) else a for a in args]
+        s_ours, s_theirs = entry(*ours), entry.dispatcher(*theirs)
+        assert s_ours == s_theirs, name
+        for a, b in zip(ours, theirs):
+            if isinstance(a, np.ndarray):
+                assert a.tobytes() == b.tobytes(), name      # NaN in unwritten scratch too
+
+
+def outcome(f, args):
+    """What a call gives: its status and the bytes of every array argument after it, or the
+    type of the exception it raised."""
+    args = [a.copy() if isinstance(a, np.ndarray) else a for a in args]
+    try:
+        status = f(*args)
+    except Exception as e:        # noqa: BLE001 (the exception's type is the outcome)
+        return type(e)
+    return status, [a.tobytes() for a in args if isinstance(a, np.ndarray)]
+
+
+def test_other_arguments_go_to_the_dispatcher():
+    robot = sd.default_robot()
+    P, q, o = robot._P, np.full(6, 0.3), np.empty((6, 6))
+    crba = K.crba
+    ro = q.copy()
+    ro.flags.writeable = False
+    for args in [(P, q.astype(np.float32), o), (P, np.full(12, 0.3)[::2], o), (P, ro, o),
+                 (P, list(q), o), (P, q[None], o), (P, q, np.asfortranarray(np.empty((6, 6)))),
+                 (P, q.view(np.matrix), o)]:
+        assert crba(*args) == crba.dispatcher(*args) == OTHER_TYPES
+    for args in [(P, q), (P, q, o, o)]:               # numba's TypeError, both ways
+        assert outcome(crba, args) == outcome(crba.dispatcher, args) == TypeError
+    assert crba(P, q, o) == 0
+    np.testing.assert_array_equal(robot.mass_matrix(q), o)
+    rnea, v = K.rnea, np.full(6, 0.2)
+    for flags in (np.int64(F.QD | F.QDD), F.QD | F.QDD, True, 2**70, 3.0):
+        args = (P, q, v, v, flags, np.empty(6))
+        assert outcome(rnea, args) == outcome(rnea.dispatcher, args)
+    a, b = np.empty((6, 6)), np.empty((6, 6))       # keywords: numba's own handling
+    assert crba(P, q, out=a) == crba.dispatcher(P, q, out=b) == 0
+    assert a.tobytes() == b.tobytes() == o.tobytes()
+
+
+@njit(cache=False)
+def _divide(x, k, out):
+    out[0] = 1.0 / x[0]      # ZeroDivisionError when x[0] == 0 (numba's error model)
+    return k
+
+
+def test_a_function_that_raises_raises_as_numba_raises_it():
+    sig = i8(Vec, i8, Vec)
+    _divide.compile(sig.args)
+    entry = dispatch.fast_entry(_divide, sig)
+    assert isinstance(entry, dispatch._fastcall.Entry)
+    out = np.empty(1)
+    assert entry(np.array([4.0]), 7, out) == 7 and out[0] == 0.25
+    with pytest.raises(ZeroDivisionError):
+        entry(np.array([0.0]), 7, out)
+
+
+def test_signatures_it_does_not_lay_out_stay_with_the_dispatcher():
+    A = types.Array(types.float64, 1, "A")
+    R = types.Array(types.float64, 1, "C", readonly=True)
+    for sig in (i8(A, i8, Vec), i8(R, i8, Vec), types.float64(Vec, i8, Vec),
+                i8(Vec, types.float64, Vec)):
+        assert dispatch.native_spec(_divide, sig) is None
+    assert dispatch.native_spec(_divide, i8(Vec, i8, Vec)) == "1i1"

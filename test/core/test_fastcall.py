@@ -1,8 +1,11 @@
 """core/_fastcall.c: single-state entry points called past numba's dispatcher give the
 dispatcher's results bit for bit (every call the facade makes on eight robots of every
 kind, replayed both ways: every single-state entry point), send every other call to the dispatcher unchanged (other types,
-layouts, counts, keywords), and a function that raises raises as numba raises it."""
+layouts, counts, keywords), a function that raises raises as numba raises it, and without
+the extension (a build without a C compiler) the package computes the same bits."""
 import os
+import subprocess
+import sys
 import warnings
 
 import numpy as np
@@ -169,3 +172,18 @@ def test_signatures_it_does_not_lay_out_stay_with_the_dispatcher():
                 i8(Vec, types.float64, Vec)):
         assert dispatch.native_spec(_divide, sig) is None
     assert dispatch.native_spec(_divide, i8(Vec, i8, Vec)) == "1i1"
+
+
+def test_without_the_extension_every_call_goes_through_numba_with_the_same_bits():
+    # a build without a C compiler: importing _fastcall fails (None in sys.modules makes it)
+    code = ("import sys; sys.modules['serial_dynamics.core._fastcall'] = None\n"
+            "import numpy as np, serial_dynamics as sd\n"
+            "from serial_dynamics.core import dispatch\n"
+            "assert dispatch._fastcall is None and not dispatch.FASTCALL\n"
+            "assert type(dispatch.K.crba).__name__ == 'CPUDispatcher'\n"
+            "r = sd.default_robot(); q = np.full(6, 0.3)\n"
+            "sys.stdout.write((r.mass_matrix(q).tobytes() + r.inverse_dynamics(q, q, q).tobytes()).hex())")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    robot, q = sd.default_robot(), np.full(6, 0.3)
+    assert out.stdout == (robot.mass_matrix(q).tobytes()
+                          + robot.inverse_dynamics(q, q, q).tobytes()).hex()

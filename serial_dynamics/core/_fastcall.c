@@ -1,9 +1,9 @@
 /* serial_dynamics.core._fastcall: a single-state entry point called without numba's
  * dispatcher.
  *
- * Why: numba's dispatcher takes ~110 ns for a call's first array argument and ~35 ns for
- * each further one (bench/bench_call_cost.py), more than the arithmetic of a 6-DoF arm's
- * mass matrix. An Entry calls the machine code numba compiled for the entry point's one
+ * Why: numba's dispatcher takes ~95-110 ns for a call's first array argument and ~33-35 ns
+ * for each further one (bench/bench_call_cost.py), and more for a real entry point's arrays
+ * (the UR5's mass matrix: 417 ns through it, 178 past it), more than the arithmetic. An Entry calls the machine code numba compiled for the entry point's one
  * signature (core.dispatch) directly, after checking in C that every argument is of that
  * signature's types; any other call goes to the dispatcher itself, unchanged. The same
  * machine code runs either way, so the results are the same bits.
@@ -19,7 +19,8 @@
  * meminfo and parent are NULL: the entry points return a status, never an array, so
  * nothing needs to keep the caller's arrays alive past the call (numba's NRT_incref and
  * NRT_decref ignore NULL). When the function raised, the call is made again through the
- * dispatcher, which raises the exception as numba does.
+ * dispatcher, which raises the exception as numba does (core/ raises only numba's static
+ * exceptions, division by zero, whose excinfo is a constant: nothing to free).
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>

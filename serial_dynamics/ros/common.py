@@ -1,5 +1,6 @@
 """What every node shares about messages: validation (with bounds on what one message may
-carry), once-per-cause logging of rejected input, the message counts on /diagnostics, and
+carry), logging at a severity chosen at run time (``log``), once-per-cause logging of
+rejected input, the message counts on /diagnostics, and
 ``run`` (start-up errors, spin, shutdown). Parameters and the robot loading rule:
 ``parameters.py``.
 
@@ -43,6 +44,24 @@ MAX_NAMES = 1000        # joint names in a JointState or JointTrajectory
 MAX_POINTS = 10_000     # points in a JointTrajectory (10 s at 1 kHz)
 MAX_VALUE = 1e6         # |position| (rad, m), |velocity|, |acceleration|, |wrench| (N, N m)
 DIAGNOSTICS_PERIOD = 1.0   # s of wall time between two /diagnostics reports
+
+
+# ------------------------------------------------------------------ logging
+def log(logger, level: str, text: str):
+    """``text`` at ``level`` ("error", "warning", "info" or "debug") on an rclpy logger.
+    rclpy ties a severity to each call site and raises ValueError when one site logs at
+    another, so a line whose severity varies (a step's notes) goes through here: one call
+    site per severity."""
+    if level == "error":
+        logger.error(text)
+    elif level == "warning":
+        logger.warning(text)
+    elif level == "info":
+        logger.info(text)
+    elif level == "debug":
+        logger.debug(text)
+    else:
+        raise ValueError(f"log level {level!r} unknown; use error, warning, info or debug")
 
 
 # ------------------------------------------------------------------ rejected input
@@ -203,7 +222,7 @@ def name_index(names, robot, what, require_all=True, allow_extra=False):
     allow_extra) and missing (if require_all). Linear in the number of names."""
     if len(names) > MAX_NAMES:
         raise Rejected("too many joint names", f"{what} names {len(names)} joints; at most "
-                       f"{MAX_NAMES} are accepted (the chain has {robot.dof})")
+                       f"{MAX_NAMES} are accepted (the model has {robot.dof} joints)")
     names = list(names)
     if not names:
         raise Rejected("no joint names", f"{what} names no joints")
@@ -218,7 +237,7 @@ def name_index(names, robot, what, require_all=True, allow_extra=False):
     unknown = [x for x in names if x not in model]
     if unknown and not allow_extra:
         raise Rejected("unknown joint names", f"{what} names joints {_show(unknown)} that are "
-                       f"not in the chain {robot.joint_names}")
+                       f"not joints of the model {_show(robot.joint_names)}")
     missing = [x for x in model if x not in first]
     if missing and require_all:
         raise Rejected("missing joints", f"{what} lacks joints {missing}")

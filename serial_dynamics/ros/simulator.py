@@ -52,7 +52,7 @@ class Simulator(Node):
             raise StartupError(str(exc)) from None
         self.loop = SimulatorLoop(session, p)
         for level, text in notes:
-            getattr(self.get_logger(), level)(text)
+            common.log(self.get_logger(), level, text)
         robot.warmup()
         self.reject = common.Rejections(self, hardware_id=robot.model.name)
         self.reject.watch(self.loop.report)
@@ -118,7 +118,8 @@ class Simulator(Node):
 
     def on_step(self, request, response):
         """While paused: ``step_count`` steps now (in this callback), then a joint_states."""
-        response.success, response.message = self.loop.single_steps(self._step, self._publish)
+        response.success, response.message = self.loop.single_steps(self._step, self._publish,
+                                                                    self._failed)
         return response
 
     def on_reset(self, request, response):
@@ -132,8 +133,9 @@ class Simulator(Node):
 
     # ------------------------------------------------------------ simulation thread
     def _run(self):
-        try:
-            self.loop.run(self._stop, self._step, self._publish, self.get_logger().warning)
+        try:    # a failed step only pauses the simulation (loop.guarded)
+            self.loop.run(self._stop, self._step, self._publish, self.get_logger().warning,
+                          self._failed)
         except Exception as exc:  # noqa: BLE001 -- a dead thread would hang silently
             if self.context.ok():
                 self.get_logger().error(f"simulation stopped: {exc}")
@@ -147,12 +149,17 @@ class Simulator(Node):
         """One step, its notes logged, then /clock and joint_states when due."""
         tick = self.loop.step(force)
         for level, text in tick.notes:
-            getattr(self.get_logger(), level)(text)
+            common.log(self.get_logger(), level, text)
         if tick.clock_ns is not None:
             self.clock_pub.publish(Clock(clock=Time(nanoseconds=tick.clock_ns).to_msg()))
         if tick.publish:
             self._publish()
         return tick.ok
+
+    def _failed(self, text):
+        """Why a step failed (the simulation paused at the last good state)."""
+        if self.context.ok():      # shutting down: /rosout is gone
+            self.get_logger().error(text)
 
     def _publish(self):
         k, position, velocity, effort, base = self.session.joint_state()

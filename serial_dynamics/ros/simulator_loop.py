@@ -9,8 +9,10 @@ at most ``lockstep`` steps past its latest joint state before the command that a
 arrives -- a command stamped with that state's stamp -- or, for unstamped commands, past
 the last command; it waits at most ``lockstep_timeout`` s of wall time), which steps are
 due on ``joint_states`` and ``/clock``, the steps of one ``~/step`` call, the answers of
-``~/reset`` and ``~/step``, the /diagnostics entries and the closing line. The node's callbacks are passed in (``step``, ``publish``),
-so the loop is tested with plain functions; no rclpy here.
+``~/reset`` and ``~/step``, a step that fails (``guarded``: the session pauses at the last
+good state, the thread goes on), the /diagnostics entries and the closing line. The
+node's callbacks are passed in (``step``, ``publish``, ``warn``, ``error``), so the loop is
+tested with plain functions; no rclpy here.
 """
 from __future__ import annotations
 
@@ -100,15 +102,16 @@ class SimulatorLoop:
         return ("state reset to initial_base_pose and initial_positions, at rest"
                 if self.session.has_base else "state reset to initial_positions, at rest")
 
-    def single_steps(self, step, publish):
+    def single_steps(self, step, publish, error):
         """~/step: while paused, ``step_count`` calls of ``step(force=True)`` (False: the
-        step diverged, stop), then ``publish()``. Returns (success, message)."""
+        step diverged, stop; an exception: as in ``run``, ``error`` says why), then
+        ``publish()``. Returns (success, message)."""
         session = self.session
         if not session.paused:
             return False, "not paused: ~/step advances a paused simulation (~/pause true first)"
         k0 = session.k
         for _ in range(self.step_count):
-            if not step(force=True):
+            if not self.guarded(lambda: step(force=True), error):
                 break
         publish()
         done = session.k - k0
@@ -117,12 +120,14 @@ class SimulatorLoop:
                          + ("" if success else "; stopped: the step diverged (see the log)"))
 
     # ------------------------------------------------------------ the simulation thread
-    def run(self, stop, step, publish, warn):
+    def run(self, stop, step, publish, warn, error=None):
         """Until the event ``stop`` is set: ``step()`` when a step is due on the wall-clock
         schedule and, with lockstep, the controller is no more than ``lockstep`` steps
         behind; while paused, ``publish()`` every publish period; ``warn(text)`` once when
         the schedule is given up (more than MAX_LAG late) and once when a lockstep wait
-        times out."""
+        times out. A step that raises pauses the session (``guarded``; ``error``, default
+        ``warn``, says why) and the thread goes on: ~/reset and ~/pause false resume it."""
+        error = error or warn
         session, pacer, lag_warned, lockstep_warned = self.session, self.pacer, False, False
         self.started = (self.clock(), session.k)
         pacer.anchor(session.k)
@@ -161,7 +166,18 @@ class SimulatorLoop:
                 lag_warned = True
                 warn(f"cannot keep up with real_time_factor {self.rtf}: the simulation runs "
                      "slower (logged once)")
-            step()
+            self.guarded(step, error)
+
+    def guarded(self, step, error) -> bool:
+        """``step()``'s answer (False: it diverged, and the session paused itself). An
+        exception from anything in it (a bug, a log call, a torque callable) pauses the
+        session at the last good state, ``error(line)`` gets the reason, and the answer is
+        False: nothing in one step ends the simulation thread or the node."""
+        try:
+            return step() is not False
+        except Exception as exc:  # noqa: BLE001 -- one failed step never ends the simulation
+            error(self.session.halt(f"the step failed ({type(exc).__name__}: {exc})"))
+            return False
 
     def behind_controller(self) -> bool:
         """Lockstep: the next step would be more than ``lockstep`` steps past the latest

@@ -5,7 +5,8 @@ commands held (``command_hold.CommandHold``: efforts, the joint servo's targets,
 on the tip, each with its timeout), what a lost command stream does
 (``command_timeout_action``), the ``set_state``/``set_base_state`` edits applied at the next
 step, reset, pause and single steps, divergence (the session pauses at the last good state
-and says why), and a new plant (a payload, a new model) swapped in between two steps.
+and says why; ``halt`` does the same for a step that failed in its caller), and a new
+plant (a payload, a new model) swapped in between two steps.
 
 Written in terms of ``robot.nq``, ``robot.nv``, ``robot.dof`` and ``robot.joint_names``:
 the joints are the last ``dof`` coordinates of q and v (a floating base's pose and twist
@@ -142,20 +143,29 @@ class Session:
         with self.lock:
             if self.paused and not force:
                 return True, notes
-            integrator, hold, dt = self.integrator, self.hold, self.dt
+            integrator, hold = self.integrator, self.hold
             for event in hold.expire(self.k):
                 notes.append(self._expired(event))
             self._apply_edits()
             try:
                 q, qd = self._advance(integrator, hold)
             except (SimulationError, ValueError) as exc:
-                self.paused = True
-                self.divergences += 1
-                notes.append(("error", f"{exc} -- paused at the last good state (t = "
-                               f"{self.k * dt:.3f} s); call ~/reset, then ~/pause false"))
+                notes.append(("error", self._halt(str(exc))))
                 return False, notes
             self.q, self.qd, self.k = q, qd, self.k + 1
         return True, notes
+
+    def halt(self, reason: str) -> str:
+        """Pause at the last good state after a step that failed for ``reason`` (what the
+        step was to change was not kept); returns the line to log, with the way back."""
+        with self.lock:
+            return self._halt(reason)
+
+    def _halt(self, reason):
+        self.paused = True
+        self.divergences += 1
+        return (f"{reason} -- paused at the last good state (t = {self.k * self.dt:.3f} s); "
+                "call ~/reset, then ~/pause false")
 
     def _expired(self, event):
         if event == "wrench":
@@ -224,8 +234,9 @@ class Session:
                        None if pose is None else (pose, twist))
 
     def report(self):
-        """/diagnostics entries (name, value): divergence events, the push in force, the
-        joints the servo acts on."""
+        """/diagnostics entries (name, value): divergence events (steps that diverged or
+        failed: the pauses at the last good state), the push in force, the joints the servo
+        acts on."""
         wrench, servo = self.hold.wrench, self.hold.servo
         return [("divergence events", self.divergences),
                 ("external wrench", "none" if wrench is None else

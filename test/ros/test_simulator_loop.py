@@ -66,19 +66,71 @@ def test_commands_clamp_with_a_note_and_refuse_targets_without_a_servo():
 
 def test_single_steps_only_while_paused_and_say_where_they_stopped():
     sim, published = loop(start_paused=False, step_count=5), []
-    assert sim.single_steps(lambda force: sim.step(force).ok, lambda: published.append(1)) == (
+    assert sim.single_steps(lambda force: sim.step(force).ok, lambda: published.append(1),
+                            pytest.fail) == (
         False, "not paused: ~/step advances a paused simulation (~/pause true first)")
     sim = loop(start_paused=True, step_count=5, sim_dt=0.002)
     done, message = sim.single_steps(lambda force: sim.step(force).ok,
-                                     lambda: published.append(sim.session.k))
+                                     lambda: published.append(sim.session.k), pytest.fail)
     assert (done, message, published) == (True, "advanced 5 step(s) to t = 0.010000 s", [5])
     # a kick to infinity: the third step diverges, the session pauses at the last good state
     wild = loop(start_paused=True, step_count=5, clamp_effort=False)
     wild.command(None, np.full(6, 1e12))
-    done, message = wild.single_steps(lambda force: wild.step(force).ok, lambda: None)
+    done, message = wild.single_steps(lambda force: wild.step(force).ok, lambda: None,
+                                      pytest.fail)
     assert not done and message.startswith("advanced ")
     assert message.endswith("; stopped: the step diverged (see the log)")
     assert wild.session.k < 5 and wild.report()[2] == ("divergence events", 1)
+
+
+def test_a_step_that_raises_pauses_at_the_last_good_state_and_the_thread_goes_on():
+    """Issue 52 item 0: an exception in a step (there, rclpy refusing a log call at a second
+    severity) ended the simulation thread for good. Now the session pauses at the last good
+    state with the reason, the thread goes on, and ~/reset with ~/pause false resume it."""
+    stop, warned, errors, good, shown = threading.Event(), [], [], [], []
+    sim = loop(real_time_factor=0.0)
+    session, advance = sim.session, sim.session.integrator.step
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("torque callable failed")
+
+    def step():                      # as the node's: the session's step, then its log lines
+        ok = sim.step().ok
+        if session.k == 3 and not good:         # the next step fails inside the session
+            session.integrator.step = broken
+            good.append(session.q.copy())
+        if session.k == 6 and len(shown) == 1:      # a good step whose log call raises
+            raise ValueError("Logger severity cannot be changed between calls.")
+        if session.k == 9:
+            stop.set()
+        return ok
+
+    def publish():                   # paused: the state shown, then ~/pause false (after
+        shown.append((session.k, session.q.copy()))     # ~/reset the second time)
+        session.integrator.step = advance
+        if len(shown) == 2:
+            sim.reset()
+        session.pause(False)
+    watchdog = threading.Timer(20.0, stop.set)
+    watchdog.start()
+    sim.run(stop, step, publish, warned.append, errors.append)
+    watchdog.cancel()
+    assert [k for k, q in shown] == [3, 6] and session.k == 9 and not session.paused
+    np.testing.assert_array_equal(shown[0][1], good[0])     # the state of step 3, kept
+    assert errors == [
+        "the step failed (RuntimeError: torque callable failed) -- paused at the last good "
+        "state (t = 0.003 s); call ~/reset, then ~/pause false",
+        "the step failed (ValueError: Logger severity cannot be changed between calls.) -- "
+        "paused at the last good state (t = 0.006 s); call ~/reset, then ~/pause false"]
+    assert warned == [] and sim.report()[2] == ("divergence events", 2)
+    # ~/step on a paused session: the failed step stops it, the answer and the log say so
+    session.pause(True)
+    session.integrator.step = broken
+    q = session.q
+    done, message = sim.single_steps(lambda force: sim.step(force).ok, lambda: None,
+                                     errors.append)
+    assert not done and message.startswith("advanced 0 step(s)") and len(errors) == 3
+    assert session.q is q and session.paused
 
 
 def test_reset_answers_name_what_was_reset():

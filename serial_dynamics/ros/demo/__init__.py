@@ -31,6 +31,7 @@ from . import collision as demo_collision
 from .session import NOT_FOLLOWED, SETTLE, Session, robot_parameters, run_and_report
 
 SCENARIOS = ("pick_and_place", "collision")
+MIN_SPAN = 0.2    # rad (or m): the least height of a joint's position panel in the plot
 
 
 def run_demo(urdf=None, base_link=None, tip_link=None, real_time_factor=1.0, attach=False,
@@ -96,26 +97,53 @@ def report(r) -> str:
 
 
 def plot(r, path):
+    """The tracking, one panel per joint (position over its error), written to ``path``:
+    desired a wide pale band, actual a thin line on it (about a mrad apart: drawn alike,
+    they would hide each other)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.patches import Patch
     t = np.array(r["stamp"]) - r["t0"]
     q, q_ref = np.array(r["q"]), np.array(r["q_ref"])
-    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(9, 7), sharex=True)
+    n, cols = len(r["joints"]), 2
+    rows = -(-n // cols)
+    height = 2.9 * rows + 1.0         # inches: the panels, then the title and legend
+    fig = plt.figure(figsize=(11, height))
+    cells = fig.add_gridspec(rows, cols, hspace=0.35, wspace=0.22)
+    first = None
     for j, name in enumerate(r["joints"]):
-        line, = ax1.plot(t, q[:, j], label=name)
-        ax1.plot(t, q_ref[:, j], "--", color=line.get_color(), linewidth=0.8)
-        ax2.plot(t, 1e3 * (q[:, j] - q_ref[:, j]), color=line.get_color())
-    ax1.set_ylabel("joint position (rad); dashed: desired")
-    ax1.legend(fontsize=7, ncol=3)
-    ax2.set_ylabel("tracking error (mrad)")
-    ax2.set_xlabel("time from the trajectory start (s, simulated); the table's errors count "
-                   "from 0 on")
-    for ax in (ax1, ax2):
-        ax.axvspan(t[0], 0.0, color="0.9", zorder=0)       # the hold before the start
-    ax1.set_title(f"computed-torque control, {r['robot']}: real-time factor "
-                  f"{r['real_time_factor']:.2f}")
-    fig.tight_layout()
+        cell = cells[j // cols, j % cols].subgridspec(2, 1, height_ratios=(2, 1), hspace=0.08)
+        ax = fig.add_subplot(cell[0], sharex=first)
+        first = first or ax
+        err = fig.add_subplot(cell[1], sharex=first)
+        ax.plot(t, q_ref[:, j], color="C1", linewidth=6, alpha=0.35, solid_capstyle="butt")
+        ax.plot(t, q[:, j], color="C0", linewidth=1.2)
+        lo, hi = ax.get_ylim()        # at least MIN_SPAN: a joint held still looks still
+        mid, half = (lo + hi) / 2, max(hi - lo, MIN_SPAN) / 2
+        ax.set_ylim(mid - half, mid + half)
+        err.axhline(0.0, color="0.6", linewidth=0.6)
+        err.plot(t, 1e3 * (q[:, j] - q_ref[:, j]), color="C3", linewidth=1.0)
+        for a in (ax, err):
+            a.axvspan(t[0], 0.0, color="0.9", zorder=0)       # the hold before the start
+        ax.set_title(f"{name}: RMS {1e3 * r['rms'][j]:.2f} mrad, max "
+                     f"{1e3 * r['max'][j]:.2f} mrad", fontsize=9)
+        ax.set_ylabel("position (rad)", fontsize=8)
+        err.set_ylabel("error (mrad)", fontsize=8)
+        ax.tick_params(labelbottom=False, labelsize=8)
+        err.tick_params(labelsize=8)
+        if j + cols >= n:                                       # the bottom of its column
+            err.set_xlabel("time from the trajectory start (s, simulated)", fontsize=8)
+    fig.legend(handles=[
+        plt.Line2D([], [], color="C1", linewidth=6, alpha=0.35, label="desired (the trajectory)"),
+        plt.Line2D([], [], color="C0", linewidth=1.2, label="actual (joint_states)"),
+        plt.Line2D([], [], color="C3", linewidth=1.0, label="error = actual - desired"),
+        Patch(color="0.9", label="hold before the start (not in the table's errors)")],
+        loc="upper center", bbox_to_anchor=(0.5, 1 - 0.55 / height), ncol=4,
+        fontsize=8, frameon=False)
+    fig.suptitle(f"computed-torque control, {r['robot']}: real-time factor "
+                 f"{r['real_time_factor']:.2f}", y=1 - 0.2 / height)
+    fig.subplots_adjust(left=0.07, right=0.98, bottom=0.6 / height, top=1 - 1.0 / height)
     fig.savefig(path, dpi=110)
     plt.close(fig)
 

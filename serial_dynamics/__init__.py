@@ -7,20 +7,21 @@
 The core library never imports rclpy; the ROS 2 nodes live in ``serial_dynamics.ros``.
 """
 from .model import Dissipation, Model, ModelError, RobotDescriptionError
-from .model.errors import HeldJointsWarning, SimulationError, URDFError
+from .model.errors import HeldJointsWarning, InertiaRepairWarning, SimulationError, URDFError
 from .robot import BaseMotion, Robot
 from .robots import builtin_path, builtin_robot, default_robot
 from .sim.driver import simulate   # sd.simulate is the function
 from .urdf import load_model
 
 __all__ = ["load_urdf", "Robot", "Model", "Dissipation", "RobotDescriptionError", "URDFError",
-           "ModelError", "HeldJointsWarning", "default_robot", "builtin_robot", "builtin_path", "simulate",
-           "SimulationError", "BaseMotion"]
+           "ModelError", "HeldJointsWarning", "InertiaRepairWarning", "default_robot",
+           "builtin_robot", "builtin_path", "simulate", "SimulationError", "BaseMotion"]
 __version__ = "0.1.0"
 
 
 def load_urdf(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
-              armature=None, floating_base=False, tip_links=None) -> Robot:
+              armature=None, floating_base=False, tip_links=None,
+              repair_inertia=False) -> Robot:
     """Load a robot from a URDF (file path or XML string): the chain ``base_link`` ->
     ``tip_link``, the subtree from ``base_link`` to the links ``tip_links``, or (neither
     given) every movable joint below ``base_link``: one chain when they form a single path,
@@ -35,7 +36,12 @@ def load_urdf(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
     ``floating_base=True`` (or a ``type="floating"`` joint at the URDF root) makes the base
     link, with everything lumped into it, float: a ``FloatingRobot`` (gravity in the world
     frame; docs/modelling.md).
+    Physical consistency is judged on the bodies the dynamics uses (links joined by fixed
+    joints lumped): a body whose inertia is no rigid body's is a ``ModelError``, or with
+    ``repair_inertia=True`` gets the nearest physical inertia (mass, center of mass and
+    principal axes kept), with one ``InertiaRepairWarning`` per body.
     """
     return Robot(load_model(source, base_link, tip_link, gravity, armature=armature,
-                            floating_base=floating_base, tip_links=tip_links))
+                            floating_base=floating_base, tip_links=tip_links,
+                            repair_inertia=repair_inertia))
 

@@ -410,7 +410,8 @@ def test_ros_modules_are_walked():
 PUBLIC_PATHS = [   # documented import paths that must survive any move (issue 18)
     ("serial_dynamics", ["load_urdf", "Robot", "Model", "Dissipation", "simulate", "BaseMotion",
                          "RobotDescriptionError", "URDFError", "ModelError", "HeldJointsWarning",
-                         "SimulationError", "default_robot", "builtin_robot", "builtin_path"]),
+                         "SimulationError", "default_robot", "builtin_robot", "builtin_path",
+                         "InertiaRepairWarning"]),
     ("serial_dynamics.model", ["Model", "Dissipation", "ModelError", "RobotDescriptionError"]),
     ("serial_dynamics.urdf", ["load_model", "HeldJointsWarning", "URDFError"]),
     ("serial_dynamics.robot", ["Robot", "MimicRobot", "PlanarRobot", "FloatingMimicRobot",
@@ -430,7 +431,7 @@ def test_public_paths_still_work(module, names):
     import serial_dynamics as sd
     errors = importlib.import_module("serial_dynamics.model.errors")
     for name in ("RobotDescriptionError", "ModelError", "URDFError", "HeldJointsWarning",
-                 "SimulationError"):            # one class each, wherever it is imported from
+                 "SimulationError", "InertiaRepairWarning"):            # one class each, wherever it is imported from
         assert getattr(sd, name) is getattr(errors, name)
 
 

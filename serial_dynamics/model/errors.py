@@ -47,6 +47,12 @@ class HeldJointsWarning(UserWarning):
     """Movable joints off the chain were held at zero and lumped into the chain."""
 
 
+class InertiaRepairWarning(UserWarning):
+    """A body's inertia was no rigid body's and ``repair_inertia=True`` replaced it by the
+    nearest physical one (``model.inertia.physical_body``); one per body, naming it and its
+    principal moments before and after."""
+
+
 class SimulationError(RuntimeError):
     """The simulation diverged (NaN/Inf, a state out of bounds, energy growing).
 

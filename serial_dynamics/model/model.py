@@ -55,7 +55,7 @@ import numpy as np
 
 from .errors import ModelError
 from .inertia import (MAX_DAMPING, MAX_FRICTION, MAX_INERTIA, MAX_LENGTH, MAX_MASS,
-                      check_inertia, check_magnitude)
+                      body_sizes, check_inertia, check_magnitude)
 from ..joints import PRISMATIC, REVOLUTE  # noqa: F401  (re-exported)
 
 
@@ -257,11 +257,10 @@ class Model:
                        if arr.ndim >= 1 and arr.shape[0] == self.dof and arr_name not in
                        ("gravity", "tip_p") else "the model")
                 raise ModelError(f"{who}: {arr_name} has a NaN or Inf entry; fix the number")
-        for i in range(self.dof):      # body i's size: to its center of mass, the next joints
-            reach = [self.p_parent[k] for k in self.children[i]] + (
-                [self.tip_p] if i == self.dof - 1 else [])
-            length = max([np.linalg.norm(self.com[i])] + [np.linalg.norm(r) for r in reach])
-            check_inertia(self.link_names[i], self.mass[i], self.inertia[i], length=length)
+        sizes = body_sizes(self.com, self.p_parent, self.parent, self.tip_p,
+                           self.base_com if self.floating else None)
+        for i in range(self.dof):
+            check_inertia(self.link_names[i], self.mass[i], self.inertia[i], length=sizes[i])
             R = self.R_parent[i]
             if not np.allclose(R @ R.T, np.eye(3), atol=1e-9):
                 raise ModelError(f"joint {self.joint_names[i]!r}: origin rotation is not a rotation")
@@ -277,7 +276,7 @@ class Model:
             lead = self.mimic_leader[i]
             if not (0 <= lead < self.dof and self.mimic_leader[lead] < 0):
                 raise ModelError(f"joint {self.joint_names[i]!r} mimics body {lead}, which is "
-                                 "not an independent joint of the chain")
+                                 "not an independent joint of the model")
             if self.mimic_multiplier[i] == 0.0 or not np.isfinite(self.mimic_offset[i]):
                 raise ModelError(f"joint {self.joint_names[i]!r}: mimic multiplier must be "
                                  "finite and non-zero, offset finite")
@@ -285,8 +284,7 @@ class Model:
             raise ModelError(f"joint {self.joint_names[i]!r}: lower limit {self.lower[i]} > "
                              f"upper limit {self.upper[i]}")
         if self.floating:
-            check_inertia(self.base_link, self.base_mass, self.base_inertia,
-                          length=np.linalg.norm(self.base_com))
+            check_inertia(self.base_link, self.base_mass, self.base_inertia, length=sizes[-1])
 
 def _check_parent(model) -> None:
     """The parent array lists the bodies in topological order: -1 <= parent[i] < i."""

@@ -42,9 +42,13 @@ ROBOT_PARAMETERS = {
     "robot_description_timeout": ("double", 2.0, "s to wait for a robot_description message "
                                   "(std_msgs/String, transient local) when neither parameter "
                                   "is set; 0 skips the topic"),
-    "base_link": ("string", "", "first link of the modelled chain ('' = the URDF root)"),
-    "tip_link": ("string", "", "last link of the chain ('' = the end of the single chain)"),
+    "base_link": ("string", "", "first link of the model ('' = the URDF root)"),
+    "tip_link": ("string", "", "last link of one chain ('' = every movable joint below "
+                                "base_link: a chain's end, or the whole tree)"),
     "gravity": ("double[]", [0.0, 0.0, -9.81], "gravity in the URDF root frame (m/s^2)"),
+    "repair_inertia": ("bool", False, "a body whose inertia is no rigid body's (links joined "
+                       "by fixed joints lumped) gets the nearest physical one, with a warning "
+                       "naming it (false: the robot is refused)"),
     "dissipation.joints": ("string[]", [], "joints the dissipation.* arrays refer to, in "
                            "their order ([] = every joint, base to tip)"),
     "dissipation.viscous": ("double[]", None, "viscous coefficient beta (N m s/rad; N s/m) "
@@ -195,7 +199,8 @@ def load_robot(node, p: dict, gravity=None):
     """The robot every node uses, from (in this order) the ``urdf_path`` parameter, the
     ``robot_description`` parameter, the ``robot_description`` topic (waiting at most
     ``robot_description_timeout`` s), else the embedded default robot (UR5e). Applies
-    base_link, tip_link, gravity and the dissipation overrides; raises StartupError."""
+    base_link, tip_link, gravity, repair_inertia and the dissipation overrides; raises
+    StartupError (the loader's warnings, each repaired body's among them, are logged)."""
     base, tip = p["base_link"] or None, p["tip_link"] or None
     g = p["gravity"] if gravity is None else gravity
     if g is None or len(g) != 3:
@@ -213,7 +218,8 @@ def load_robot(node, p: dict, gravity=None):
         warnings.simplefilter("always")
         try:
             robot = sd.load_urdf(source, base, tip, tuple(g),
-                                 floating_base=bool(p.get("floating_base", False)))
+                                 floating_base=bool(p.get("floating_base", False)),
+                                 repair_inertia=bool(p.get("repair_inertia", False)))
         except (ValueError, OSError) as exc:   # URDFError and ModelError are ValueErrors
             raise StartupError(f"cannot load the robot from {where}: {exc}") from None
     for w in caught:
@@ -251,7 +257,7 @@ def _dissipation(robot, p):
     unknown = [j for j in joints if j not in robot.joint_names]
     if unknown or len(set(joints)) != len(joints):
         raise StartupError(f"parameter 'dissipation.joints' = {joints} must name distinct "
-                           f"joints of the chain {robot.joint_names}")
+                           f"joints of the model {robot.joint_names}")
     changes = {}
     for field in robot.dissipation.FIELDS:
         values = p[f"dissipation.{field}"]

@@ -6,8 +6,12 @@ default every movable joint below ``base_link`` (a tree where they branch), its 
 depth-first order (parents first, children in the URDF's order, as Pinocchio numbers
 them). Fixed joints in the model fold into the next joint's placement; links hanging off
 it by fixed joints are lumped into the inertia of the body they are rigidly attached to;
-movable joints outside it are held at zero and lumped too, with one warning naming them. The XML is checked first (``xml_checks.py``);
-the tree walks that find cycles and the default tip are in ``tree.py``.
+movable joints outside it are held at zero and lumped too, with one warning naming them.
+Physical consistency is judged on the lumped bodies, which are what the dynamics uses (a
+link may carry a placeholder inertia that its fixed neighbours make physical); a body that
+is not is refused, or with ``repair_inertia`` replaced by the nearest physical one
+(``inertia.physical_body``). The XML is checked first (``xml_checks.py``); the tree walks
+that find cycles and the default tip are in ``tree.py``.
 """
 from __future__ import annotations
 
@@ -18,8 +22,8 @@ import warnings
 import numpy as np
 
 from ..algorithms._batch import rotation_about
-from ..model.inertia import (MAX_INERTIA, MAX_LENGTH, MAX_MASS, check_inertia, check_magnitude,
-                      combine_inertias)
+from ..model.inertia import (MAX_INERTIA, MAX_LENGTH, MAX_MASS, body_sizes, check_magnitude,
+                              check_mass, combine_inertias, physical_body)
 from ..model.errors import HeldJointsWarning, URDFError
 from ..model.model import Model
 from .mass_matrix import check_mass_matrix
@@ -90,11 +94,11 @@ def _float(value, default):
     return default if value is None else float(value)
 
 
-def _link_inertia(link, carried=()):
+def _link_inertia(link):
     """(mass, com (3,), inertia about com (3, 3)) in the link frame; a link with no
-    <inertial> is massless. ``carried``: the origins (3,) of the joints the link carries,
-    which give its size. A NaN or Inf is a URDFError (a bad number in the file); a negative
-    mass, an absurd magnitude or an inertia no rigid body has a ModelError."""
+    <inertial> is massless. A NaN or Inf is a URDFError (a bad number in the file); a negative
+    mass or an absurd magnitude a ModelError. Whether the inertia is some rigid body's is
+    judged on the lumped body (``load_model``)."""
     inertial = link.inertial
     if inertial is None:
         return 0.0, np.zeros(3), np.zeros((3, 3))
@@ -107,8 +111,7 @@ def _link_inertia(link, carried=()):
     check_magnitude(who, "mass", m, MAX_MASS, "kg")          # before any product of them
     check_magnitude(who, "center of mass", X[:3, 3], MAX_LENGTH, "m")
     check_magnitude(who, "inertia", I, MAX_INERTIA, "kg m^2")
-    length = max([np.linalg.norm(X[:3, 3])] + [np.linalg.norm(p) for p in carried])
-    check_inertia(link.name, m, I, length=length)
+    check_mass(link.name, m)
     R = X[:3, :3]
     return m, X[:3, 3].copy(), R @ I @ R.T
 
@@ -121,14 +124,17 @@ def _origin(joint):
 
 
 def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
-               armature=None, floating_base=False, tip_links=None) -> Model:
+               armature=None, floating_base=False, tip_links=None,
+               repair_inertia=False) -> Model:
     """Parse a URDF (path or XML string) and build the validated model: the chain from
     ``base_link`` to ``tip_link``, the subtree from ``base_link`` to the links
     ``tip_links``, or (neither given) every movable joint below ``base_link``: a chain
     when they form one path, else the whole tree.
     ``armature``: {joint name: kg m^2}, set or override the transmissions' rotor inertia.
     ``floating_base``: the base link (with everything lumped into it) floats; so does the
-    child of a ``type="floating"`` joint at the root, which is then the default base."""
+    child of a ``type="floating"`` joint at the root, which is then the default base.
+    ``repair_inertia``: a lumped body whose inertia is no rigid body's gets the nearest
+    physical one, with an ``InertiaRepairWarning`` (default: a ``ModelError``)."""
     robot, xml = _parse(source)
     for kind, items in (("link", robot.links), ("joint", robot.joints)):
         seen = set()
@@ -237,7 +243,7 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
     while stack:
         name, body, X_link = stack.pop()
         if body >= 0 or floating_base:   # links fixed to a fixed base: neither used nor checked
-            m, c, I = _link_inertia(links[name], [_origin(j)[:3, 3] for j in children[name]])
+            m, c, I = _link_inertia(links[name])
             R = X_link[:3, :3]
             parts[body].append((m, R @ c + X_link[:3, 3], R @ I @ R.T))
         for joint in children[name]:
@@ -264,8 +270,19 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
     if not bodies:
         raise URDFError(f"no movable joint between {base_link!r} and {tip_link!r}; "
                         "choose a base_link and tip_link with revolute or prismatic joints between")
-    inertia = [combine_inertias(parts[i]) if parts[i] else (0.0, np.zeros(3), np.zeros((3, 3)))
-               for i in range(len(bodies))]
+    lumped = {i: combine_inertias(p) if p else (0.0, np.zeros(3), np.zeros((3, 3)))
+              for i, p in parts.items() if i >= 0 or floating_base}   # -1: a floating base
+    sizes = body_sizes([lumped[i][1] for i in range(len(bodies))],
+                       [b["X"][:3, 3] for b in bodies], [b["parent"] for b in bodies],
+                       X_acc[:3, 3], lumped[-1][1] if floating_base else None)
+    carrying = {}                              # body: its links that have an <inertial>
+    for name, (body, _, _) in frames.items():
+        if links[name].inertial is not None:
+            carrying.setdefault(body, []).append(name)
+    for i, (m, c, I) in lumped.items():        # judged as the dynamics sees them
+        who = _body_name(i, bodies, base_link, carrying.get(i, []))
+        lumped[i] = (m, c, physical_body(who, m, I, sizes[i], repair_inertia))
+    mass, com, inertia = zip(*(lumped[i] for i in range(len(bodies))))
     g_root = _finite_or_fail(gravity, "gravity").reshape(3)
     R_base = _pose_in_root(base_link, root, parent_joint)[:3, :3]
     model = Model.build(
@@ -276,8 +293,7 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
         base_link=base_link, tip_link=tip_link,
         R_parent=[b["X"][:3, :3] for b in bodies], p_parent=[b["X"][:3, 3] for b in bodies],
         axis=[b["axis"] for b in bodies],
-        mass=[p[0] for p in inertia], com=[p[1] for p in inertia],
-        inertia=[p[2] for p in inertia],
+        mass=mass, com=com, inertia=inertia,
         gravity=g_root if floating_base else R_base.T @ g_root,   # a fixed base's coordinates
         tip_R=X_acc[:3, :3], tip_p=X_acc[:3, 3],
         lower=[b["lower"] for b in bodies], upper=[b["upper"] for b in bodies],
@@ -285,12 +301,20 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
         effort_limit=[b["effort"] for b in bodies],
         damping=[b["damping"] for b in bodies], friction=[b["friction"] for b in bodies],
         frames=frames, parent=[b["parent"] for b in bodies], armature=rotors, mimic_leader=leader, mimic_multiplier=multiplier,
-        mimic_offset=offset, source=_kept(source), base_inertia=(
-            (combine_inertias(parts[-1]) if parts[-1] else (0.0, np.zeros(3), np.zeros((3, 3))))
-            if floating_base else None),
+        mimic_offset=offset, source=_kept(source),
+        base_inertia=lumped.get(-1),
     )
     check_mass_matrix(model)     # positive definite (the check that needs the algorithms)
     return model
+
+
+def _body_name(i, bodies, base_link, carrying):
+    """Body i (-1: the floating base) for a message: its link, and the other links with an
+    <inertial> lumped into it (``carrying``: the body's links that have one)."""
+    link = bodies[i]["link"] if i >= 0 else base_link
+    lumped = [name for name in carrying if name != link]
+    where = "the floating base" if i < 0 else f"the body of joint {bodies[i]['name']!r}"
+    return f"link {link!r} ({where}" + (f", with {lumped} fixed to it)" if lumped else ")")
 
 
 def _check_tips(tip_links, links, base_link, parent_joint):

@@ -7,7 +7,9 @@ Two parts:
   forward dynamics (ABA), C qd, tip pose and Jacobian.
 - ``test_every_chain_of``: every URDF of example-robot-data, every chain from the root to
   the end of a movable branch. A chain either agrees with Pinocchio or is refused for a
-  reason checked here independently (a non-physical inertia, a mimic joint on the chain).
+  reason checked here independently (a non-physical body, a mimic joint on the chain, a
+  joint that moves no mass); a chain refused for a body alone loads with
+  ``repair_inertia=True`` and agrees with Pinocchio given the repaired inertias.
 
 Gravity is tilted in the world (the URDF root frame, which is Pinocchio's world frame), so
 that carrying it into a base frame that is not the root is checked as well.
@@ -71,8 +73,7 @@ CHAINS = {
     "a1_leg": ("a1_description/urdf/a1.urdf", None, "RL_foot", "quadruped leg"),
     "solo12_leg": ("solo_description/robots/solo12.urdf", None, "HR_FOOT", "quadruped leg"),
     "anymal_knee": ("anymal_b_simple_description/robots/anymal.urdf", "LF_HIP", "LF_FOOT",
-                    "hip and knee below a held abduction joint; adapter and foot lumped "
-                    "(the root link 'base' itself fails validation, see KNOWN_INVALID)"),
+                    "hip and knee below a held abduction joint; adapter and foot lumped"),
     "g1_arm": ("g1_description/urdf/g1_29dof_rev_1_0.urdf", None, "left_wrist_yaw_link",
                "waist + arm"),
     "human_right_arm": ("human_description/robots/human.urdf", None, "right_hand", "13 joints"),
@@ -96,6 +97,14 @@ def _load(path, base, tip, backend="numba"):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", sd.HeldJointsWarning)
         return sd.Robot(sd.load_urdf(path, base, tip, gravity=G_WORLD).model, backend=backend)
+
+
+def _load_repaired(path, tip):
+    """(robot, the InertiaRepairWarning messages) of the chain to ``tip``, repair_inertia=True."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        robot = sd.load_urdf(path, None, tip, gravity=G_WORLD, repair_inertia=True)
+    return robot, [str(w.message) for w in caught if w.category is sd.InertiaRepairWarning]
 
 
 def reference(robot, path, full=False):
@@ -290,26 +299,18 @@ def test_hand_picked_chains_cover_the_joint_kinds():
 # ---------------------------------------------------------------- every chain of every URDF
 # URDFs of example-robot-data whose every root-to-branch-end chain is refused, and why.
 # (Links fixed to the base are not part of the model and are not checked, so a bad antenna
-# on a mobile base does not refuse the arm.) Validation is not loosened for them: each refusal names a link whose inertia no rigid body
-# has (re-checked independently in _inertia_is_unphysical) or a mimic joint on the chain.
+# on a mobile base does not refuse the arm.) Each refusal names a mimic joint on the chain, a
+# joint that moves no mass, or a body whose inertia no rigid body has: judged on the body
+# the dynamics uses, its links lumped (issue 52), and re-checked independently on the body
+# Pinocchio lumps (_inertia_is_unphysical); such a chain loads with repair_inertia=True
+# (test_every_chain_of checks it against Pinocchio with the repaired inertias).
 KNOWN_INVALID = {
-    "alex_description/urdf/alex_psyonic_hands.urdf":
-        "'RightPsyonicAbilityBaseLink' (on the torso, the base of every chain) and the thumb "
-        "bases violate the triangle inequality; the other fingers have mimic joints",
-    "allegro_hand_description/urdf/allegro_left_hand.urdf":
-        "link_15.0 and link_7.0: principal moments violate the triangle inequality",
-    "allegro_hand_description/urdf/allegro_right_hand.urdf":
-        "link_15.0 and link_7.0: principal moments violate the triangle inequality",
-    "hyq_description/robots/hyq_no_sensors.urdf":
-        "foot links (e.g. 'rh_foot'): rank-1 inertia (all entries 1e-6)",
-    "romeo_description/urdf/romeo_laas_small.urdf":
-        "'LHipPitch_link' not positive semi-definite; 'LShoulderYaw_link' violates the "
-        "triangle inequality",
-    "pr2_description/urdf/pr2.urdf":
-        "'sensor_mount_link' (on the head, held and lumped into the torso) violates the "
-        "triangle inequality; chains from 'r_shoulder_pan_link' load",
     "ur_description/urdf/ur3.urdf": "an empty <robot> without a name (Pinocchio refuses it too)",
 }
+# Loaded since the bodies are judged lumped (issue 52), formerly listed here for a link alone:
+# the Allegro hands (link_15.0, link_7.0), HyQ's feet (1e-6 in every entry), the PR2's
+# 'sensor_mount_link', Alex's psyonic hand bases. With repair_inertia=True: the chains of
+# romeo_small and romeo_laas_small through an arm body that is still no rigid body's.
 
 URDFS = sorted(os.path.relpath(p, ERD_ROOT)
                for p in glob.glob(os.path.join(ERD_ROOT, "**", "*.urdf"), recursive=True))
@@ -362,7 +363,10 @@ THINNEST = 1e-6       # m
 
 
 def _inertia_is_unphysical(link):
-    inertia, mass = link.inertial.inertia, link.inertial.mass
+    return _unphysical(link.inertial.mass, link.inertial.inertia)
+
+
+def _unphysical(mass, inertia):
     moments = np.linalg.eigvalsh(inertia)
     second = moments.sum() / 2 - moments           # s_k, along the principal axes
     return second.min() < -(mass * THINNEST**2 + 1e-6 * np.max(np.abs(inertia)))
@@ -399,6 +403,49 @@ def _check_mimic_reduction(robot):
     return free
 
 
+def _repaired_reference(robot, path, said, refused):
+    """Pinocchio's model of a chain loaded with repair_inertia=True, its bodies' inertias
+    ours. Checked first: Pinocchio lumps the same mass and center of mass into every body and
+    the same inertia into every body we kept; the bodies we repaired (one warning each, the
+    first the one the refusal named) are those whose inertia, as Pinocchio lumps it, is no
+    rigid body's; each is now physical, about the same principal axes, its second moments
+    of mass along them Pinocchio's where those are >= 0 and 0 where they are not."""
+    ref = reference(robot, path)
+    m = robot.model
+    bad = []
+    for i, j in enumerate(ref.jid):
+        Y = ref.model.inertias[j]
+        assert abs(m.mass[i] - Y.mass) <= RTOL * max(Y.mass, 1e-300)
+        assert rel_err(m.com[i], Y.lever) <= RTOL or np.allclose(m.com[i], Y.lever, atol=1e-15)
+        if not _unphysical(Y.mass, Y.inertia):
+            assert rel_err(m.inertia[i], Y.inertia) <= RTOL
+            continue
+        bad.append(m.link_names[i])
+        assert not _unphysical(m.mass[i], m.inertia[i])
+        s, V = np.linalg.eigh(np.trace(Y.inertia) / 2 * np.eye(3) - Y.inertia)
+        ours = V.T @ (np.trace(m.inertia[i]) / 2 * np.eye(3) - m.inertia[i]) @ V
+        np.testing.assert_allclose(ours, np.diag(np.maximum(s, 0)), atol=1e-12 * np.abs(s).max())
+        ref.model.inertias[j] = pin.Inertia(m.mass[i], m.com[i], m.inertia[i])
+    assert bad and bad[0] == refused and len(said) == len(bad), (bad, said)
+    assert all(text.startswith(f"link {b!r}") for b, text in zip(bad, said)), said
+    ref.data = ref.model.createData()
+    return ref
+
+
+def _refused_for_an_inertia(msg, xml, joints):
+    """True for a refusal of a body whose inertia no rigid body has (it names the option);
+    else check the reason given: a mimic joint on the chain, or a joint that moves no mass."""
+    name = msg.split("'")[1]      # every message starts with "link 'x'" / "joint 'x'"
+    if msg.startswith("joint") and "mimics" in msg:
+        assert joints[name].mimic is not None and joints[name].type != "fixed", msg
+    elif msg.startswith("joint") and "moves no mass" in msg:   # a massless subtree
+        assert _subtree_mass(xml, joints[name].child) == 0.0, msg
+    else:
+        assert msg.startswith("link") and "repair_inertia=True" in msg, msg
+        return True
+    return False
+
+
 @pytest.mark.parametrize("rel", URDFS)
 def test_every_chain_of(rel):
     path = erd(rel)
@@ -408,7 +455,6 @@ def test_every_chain_of(rel):
         with pytest.raises(sd.URDFError, match="cannot parse"):
             sd.load_urdf(path)
         pytest.skip(f"{rel}: {KNOWN_INVALID[rel]}")
-    links = {link.name: link for link in xml.links}
     joints = {joint.name: joint for joint in xml.joints}
     ends = _branch_ends(xml)
     if not ends:
@@ -417,22 +463,23 @@ def test_every_chain_of(rel):
         pytest.skip(f"{rel} has no movable joint")
     checked = 0
     for tip in ends:
+        repaired = None
         try:
             robot = _load(path, None, tip)
         except (sd.URDFError, sd.ModelError) as exc:
-            msg = str(exc)
-            name = msg.split("'")[1]      # every message starts with "link 'x'" / "joint 'x'"
-            if msg.startswith("joint") and "mimics" in msg:
-                assert joints[name].mimic is not None and joints[name].type != "fixed", msg
-            elif msg.startswith("joint") and "moves no mass" in msg:   # a massless subtree
-                assert _subtree_mass(xml, joints[name].child) == 0.0, msg
-            else:
-                assert msg.startswith("link") and _inertia_is_unphysical(links[name]), msg
-            continue
+            if not _refused_for_an_inertia(str(exc), xml, joints):
+                continue
+            try:                          # a body no rigid body is: repaired, checked below
+                robot, said = _load_repaired(path, tip)
+            except (sd.URDFError, sd.ModelError) as again:    # and refused for more
+                assert not _refused_for_an_inertia(str(again), xml, joints), again
+                continue
+            repaired = (said, str(exc).split("'")[1])
         if robot.dof != robot.model.dof:     # mimic joints on the chain: the reduction
             robot = _check_mimic_reduction(robot)    # is checked; then the chain, all joints free
         try:
-            ref = reference(robot, path)
+            ref = (_repaired_reference(robot, path, *repaired) if repaired
+                   else reference(robot, path))
         except ValueError as exc:   # Pinocchio cannot reduce a model whose joint and link
             assert "Several frames match" in str(exc), exc   # share a name (anymal_c, b1-z1):
             ref = reference(robot, path, full=True)          # its full model, others held

@@ -118,10 +118,12 @@ def test_triangle_inequality():
 
 
 def test_invalid_inertia_off_the_chain_is_found_too():
-    """A fixed child that is lumped into the chain is checked like any chain link."""
+    """A fixed child is judged as part of the body it is lumped into (issue 52): here that
+    body, (0.02, 0.02, 0.06) kg m^2 about one center of mass, is still no rigid body's."""
     xml = urdf(pl=link("payload", I=("0.01", "0.01", "0.05")),
-               jp=joint("payload_joint", "link2", "payload", kind="fixed"))
-    raises(sd.ModelError, xml, "'payload'", "triangle")
+               jp=joint("payload_joint", "link2", "payload", kind="fixed", xyz="0 0 0"))
+    raises(sd.ModelError, xml, "'link2'", "'payload'", "triangle", "[0.02, 0.02, 0.06]",
+           "repair_inertia=True")
 
 
 @pytest.mark.parametrize("I, off", [

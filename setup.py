@@ -35,7 +35,8 @@ setup(
     python_requires=">=3.10",
     install_requires=["numpy>=1.24", "scipy>=1.10", "yourdfpy>=0.0.56", "numba>=0.59,<0.69",
                       "rosbags>=0.11",    # identification: ROS 2 bags without a ROS install
-                      "toppra>=0.6"],     # trajectory.time_parameterize (TOPP-RA)
+                      "toppra>=0.6",      # trajectory.time_parameterize (TOPP-RA)
+                      "clarabel>=0.9"],   # contacts: forces in friction cones (an SOCP)
     extras_require={
         # Off a ROS install only: rclpy and messages as PyPI wheels (CPython 3.11).
         "ros": [

@@ -32,6 +32,7 @@ from types import MappingProxyType
 
 import numpy as np
 
+from .. import contacts as _contacts
 from . import derivatives as _derivatives
 from . import kinematics as _kin
 from . import regressor as _regressor
@@ -126,7 +127,7 @@ class Robot:
     payload = property(lambda self: self._payload,
                        doc="the attached ``Payload`` (``with_payload``), or None")
     all_joint_names = property(lambda self: list(self.model.joint_names),
-                               doc="every joint of the chain (with mimic joints: MimicRobot)")
+                               doc="every joint of the model (with mimic joints: MimicRobot)")
 
     def all_joint_positions(self, q):
         """Positions of every joint of the chain: q itself (mimic joints: MimicRobot)."""
@@ -443,6 +444,27 @@ class Robot:
     def dynamically_consistent_inverse(self, q, link=None, damping=0.0):
         """J-bar = M^-1 J^T Lambda, n x 6 (Lambda damped as given)."""
         return _task_space.dynamically_consistent_inverse(self, q, link, damping)
+
+    # contacts (serial_dynamics/contacts/: NumPy on the public methods; every kind inherits
+    # these, each kind's own mass matrix, Jacobians and bias torques answering)
+    def contact_points(self):
+        """[sd.Contact]: the URDF's <collision> spheres (their centres) and box corners."""
+        return _contacts.contact_points(self)
+
+    def constrained_forward_dynamics(self, q, v, tau, contacts, baumgarte=None, mu=1e-6,
+                                     tolerance=1e-12, max_iterations=100):
+        """(a, f): accelerations (nv,) and contact forces (k, 3) or (k, 6) (world axes, on the
+        robot) with M a + b = tau + J^T f and every contact's acceleration zero; ``tau`` as
+        ``forward_dynamics`` takes it. docs/contacts.md: the solver and its settings."""
+        return _contacts.constrained_forward_dynamics(self, q, v, tau, contacts, baumgarte, mu,
+                                                      tolerance, max_iterations)
+
+    def contact_inverse_dynamics(self, q, v, a, contacts, friction=None,
+                                 normal=(0.0, 0.0, 1.0), tolerance=1e-9):
+        """(tau, f): torques (nv,) (a floating base's six rows zero) and contact forces with
+        M a + b = tau + J^T f: minimum-norm, or (``friction=mu``) in the Coulomb cones."""
+        return _contacts.contact_inverse_dynamics(self, q, v, a, contacts, friction, normal,
+                                                  tolerance)
 
     def kinetic_energy(self, q, qd):
         """T = 1/2 qd^T M(q) qd (J), with this robot's (compiled) mass matrix."""

@@ -345,16 +345,23 @@ def time_parameterize(robot, path, velocity_limit=None, acceleration_limit=None,
     """The fastest timing of ``path`` (N, n) joint positions (``robot.joint_names`` order)
     from rest to rest within the velocity, acceleration and effort limits (the robot's
     ``velocity_limit`` and ``effort_limit`` by default, none on acceleration; a number or
-    one per joint; inf: none), with the full dynamics: gravity, the payload, and the robot's
-    joint friction with ``dissipation`` when it is enabled. TOPP-RA (the ``toppra``
-    package) on ``grid`` intervals of the path plus the waypoints
-    (``algorithms/time_parameterization.py``). Returns ``Waypoints`` at the grid points with positions,
-    velocities and accelerations (first and last at rest; sampled as cubic Hermite, which
-    holds the solver's constant path acceleration on each interval), checked on a grid
-    ``check`` times finer (stretched uniformly in time, ``.stretch``, where the
-    interpolation exceeds a limit).
-    ValueError naming the joint and the waypoint when no timing is feasible (gravity
-    alone exceeds an effort limit)."""
+    one per joint; inf: none; a zero velocity or acceleration limit: the joint holds
+    still), with the full dynamics: gravity, the payload, and the robot's joint friction
+    with ``dissipation`` when it is enabled. TOPP-RA (the ``toppra`` package) on ``grid``
+    intervals (``algorithms/time_parameterization.py``).
+
+    The path is timed by its geometry, not by how many waypoints describe it: repeated
+    consecutive waypoints are dropped, points on a straight stretch count as its ends, the
+    motion rests at every corner (a turn of more than ``time_parameterization.CORNER``,
+    0.1 rad, in joint space: the timed path follows the chords there exactly), and a run
+    of gentler turns is a cubic spline through its vertices. Returns ``Waypoints`` at the
+    grid points with positions, velocities and accelerations (first, last and each corner at
+    rest; sampled as cubic Hermite, which holds the solver's constant path acceleration on
+    each interval), checked on a grid ``check`` times finer (stretched uniformly in time,
+    ``.stretch``, where the interpolation exceeds a limit); a path that never moves: one
+    point at t = 0.
+    ValueError naming the joint and the waypoint when no timing is feasible (gravity and
+    friction alone exceed an effort limit; a joint moves under a zero limit)."""
     from .algorithms import time_parameterization as tp
     if robot.is_floating:
         raise NotImplementedError("time_parameterize needs a fixed base")

@@ -242,10 +242,11 @@ def main(argv=None):
         p = sub.add_parser(name, help=help_)
         p.add_argument("urdf", nargs="?", default=None, help="URDF path (default: built-in UR5e)")
         p.add_argument("--base-link", default=None, metavar="LINK",
-                       help="first link of the modelled chain (default: the URDF root)")
+                       help="first link of the model (default: the URDF root)")
         p.add_argument("--tip-link", default=None, metavar="LINK",
-                       help="last link of the chain (default: the end of the movable chain "
-                            "when it does not branch, followed down fixed links, e.g. tool0)")
+                       help="last link of one chain (default: every movable joint below the "
+                            "base: the chain's end followed down fixed links, e.g. tool0, "
+                            "or the whole tree where it branches)")
         p.set_defaults(func=fn)
         if name == "demo":   # the ROS demo's options (serial_dynamics.ros.demo)
             p.add_argument("--plot", metavar="PNG", default=None, help="write a plot of the tracking")

@@ -20,8 +20,8 @@ def test_help_is_plain_text_and_names_every_option():
     out = run("--help").stdout
     assert "``" not in out and "info" in out and "simulate" in out
     sub = run("info", "--help").stdout
-    assert "--base-link LINK" in sub and "first link of the modelled chain" in sub
-    assert "--tip-link LINK" in sub and "last link of the chain" in sub
+    assert "--base-link LINK" in sub and "first link of the model" in sub
+    assert "--tip-link LINK" in sub and "last link of one chain" in sub
 
 
 def test_a_held_joint_warning_is_one_clean_line():

@@ -5,6 +5,7 @@ named links and Jacobians are returned in the base frame and do not depend on th
 """
 import numpy as np
 
+from ..model.links import resolve_link
 from ._batch import as_batch, mv, unbatch
 from .joint import transform, world_column
 
@@ -35,13 +36,7 @@ def body_poses(model, q):
 
 def frame_of(model, link):
     """(body, R, p): ``link``'s placement in joint frame ``body`` (-1: base); ``None``: the tip."""
-    if link is None:
-        link = model.tip_link
-    try:
-        return model.jframes[link]
-    except KeyError:
-        raise ValueError(f"link {link!r} is not in the model; known links: "
-                         f"{sorted(model.jframes)}") from None
+    return model.jframes[resolve_link(model, link)]
 
 
 def _frame_pose(model, q, link):

@@ -17,6 +17,12 @@ column-scaled; refused with the parameters it cannot tell apart), weighted least
 (``estimate``), and, when that fit is no real body, the physically consistent fit
 (``estimate.physical_fit``: positive mass, triangle inequality). Standard deviations: the
 least-squares covariance carried to (mass, com, inertia about the com) to first order.
+
+No payload: a mass that the weighted least-squares fit does not put above ``DETECT_SIGMAS``
+of its standard deviations (a one-sided test: a negative mass is none either), or one
+below ``MIN_MASS_FRACTION`` of the arm's own moving mass, is no payload detected: a body
+of no mass has no center of mass or inertia to report, so the estimate gives the mass and
+its standard deviation and no center of mass (``detected`` False).
 """
 from __future__ import annotations
 
@@ -24,6 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..model.links import resolve_link
 from .estimate import joint_weights, least_squares_fit, physical_fit, pseudo_inertia
 from .preprocess import check_recording, prepare, regression
 from .urdf_out import body_inertia, is_physical
@@ -34,6 +41,10 @@ NAMES = ("m", "mx", "my", "mz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz")
 # alone 5e8 (test/identification/test_estimate_payload.py)
 MAX_CONDITION = 1e4
 DEAD = 1e-6      # a column this small against the largest is not seen
+DETECT_SIGMAS = 3.0   # a payload: the least-squares mass above this many standard deviations
+# ... and above this fraction of the arm's moving mass: far under any URDF's precision on
+# its masses, far over round-off (exact data of Solo12 swinging unloaded fits 6e-17 kg)
+MIN_MASS_FRACTION = 1e-6
 
 
 @dataclass(frozen=True, eq=False)
@@ -41,6 +52,9 @@ class PayloadEstimate:
     """What ``link`` holds: ``mass`` kg, ``com`` (3,) m in ``link``'s frame, ``inertia``
     (ixx, iyy, izz, ixy, ixz, iyz) kg m^2 about the center of mass, ``link``'s axes (as
     ``robot.with_payload`` takes them), each with its standard deviation (``*_std``);
+    ``detected``: False when the recording shows no payload (module docstring): then
+    ``mass`` and ``mass_std`` are the least-squares fit's, and ``com``, ``inertia`` and
+    their standard deviations are None;
     ``condition_number``: of the column-scaled payload columns along the recording (the
     excitation verdict; refused above ``MAX_CONDITION``); ``constrained``: the least-squares
     fit was no real body and the physically consistent fit replaced it; ``friction``:
@@ -60,12 +74,27 @@ class PayloadEstimate:
     residual_rms: np.ndarray
     samples: int
     parameters: np.ndarray          # phi_P (10,): m, mx, my, mz, Ixx, Ixy, Iyy, Ixz, Iyz, Izz
+    detected: bool = True
 
     def attach(self, robot):
-        """``robot.with_payload`` of this estimate."""
+        """``robot.with_payload`` of this estimate (no payload detected: ``robot`` without
+        one)."""
+        if not self.detected:
+            return robot.without_payload()
         return robot.with_payload(self.mass, self.com, self.inertia, self.link)
 
     def summary(self) -> str:
+        if not self.detected:
+            why = (f"not above {DETECT_SIGMAS:g} standard deviations"
+                   if self.mass <= DETECT_SIGMAS * self.mass_std else
+                   f"under {MIN_MASS_FRACTION:g} of the arm's own mass")
+            if self.mass < -DETECT_SIGMAS * self.mass_std:     # a sign or a model amiss
+                why += ("; negative beyond them: the torques are not the model's (efforts of "
+                        "another sign or scale, forces the model lacks, or a motion faster "
+                        "than the filter's cutoff)")
+            return (f"no payload detected on {self.link!r} (mass {self.mass:.3g} +- "
+                    f"{self.mass_std:.2g} kg, {why}): no center of mass or inertia to "
+                    f"give; condition number {self.condition_number:.3g}")
         c, s = np.round(self.com, 4).tolist(), np.round(self.com_std, 4).tolist()
         return (f"payload on {self.link!r}: mass {self.mass:.4g} +- {self.mass_std:.2g} kg, "
                 f"com {c} +- {s} m, inertia (ixx iyy izz ixy ixz iyz) "
@@ -87,10 +116,7 @@ def estimate_payload(robot, t, q, tau, qd=None, qdd=None, link=None, cutoff=None
                                   "measured torques, and a floating base's own six rows "
                                   "carry none (load the arm with a fixed base)")
     arm = robot.without_payload()
-    link = robot.tip_link if link is None else link
-    if link not in arm.model.frames or arm.model.frames[link][0] < 0:
-        raise ValueError(f"link {link!r} is not a moving link of the model; use one of "
-                         f"{sorted(k for k, v in arm.model.frames.items() if v[0] >= 0)}")
+    link = resolve_link(arm.model, link, moving=True)
     b, R, p = arm.model.frames[link]
     names = tuple(arm.joint_names)
     t, q, tau, qd, qdd = check_recording(t, q, tau, qd, qdd, names)
@@ -109,7 +135,14 @@ def estimate_payload(robot, t, q, tau, qd=None, qdd=None, link=None, cutoff=None
     beta, cov, r = least_squares_fit(A, y)
     weights = joint_weights(r, A.shape[-1])
     beta, cov, r = least_squares_fit(A, y, weights)
-    phi = beta[:10]
+    phi, mass_std = beta[:10], float(np.sqrt(max(cov[0, 0], 0.0)))
+    common = dict(link=link, condition_number=cond, samples=int(s.t.size))
+    if not is_detected(phi[0], mass_std, np.sum(arm.model.mass)):
+        return PayloadEstimate(
+            mass=float(phi[0]), com=None, inertia=None, mass_std=mass_std, com_std=None,
+            inertia_std=None, constrained=False, friction=_friction(beta, n),
+            residual_rms=np.sqrt(np.mean(r ** 2, axis=0)), parameters=phi, detected=False,
+            **common)
     constrained = not is_physical(*body_inertia(phi))
     if constrained:
         names_all = list(NAMES) + [f"{k}{j + 1}" for k in ("fv", "fc", "fo") for j in range(n)]
@@ -123,11 +156,21 @@ def estimate_payload(robot, t, q, tau, qd=None, qdd=None, link=None, cutoff=None
     G = _jacobian(phi)
     std = np.sqrt(np.maximum(np.diag(G @ cov[:10, :10] @ G.T), 0.0))
     return PayloadEstimate(
-        link=link, mass=mass, com=com, inertia=inertia, mass_std=float(std[0]),
-        com_std=std[1:4], inertia_std=std[4:], condition_number=cond, constrained=constrained,
-        friction={"viscous": beta[10:10 + n], "coulomb": beta[10 + n:10 + 2 * n],
-                  "offset": beta[10 + 2 * n:]},
-        residual_rms=np.sqrt(np.mean(r ** 2, axis=0)), samples=int(s.t.size), parameters=phi)
+        mass=mass, com=com, inertia=inertia, mass_std=float(std[0]), com_std=std[1:4],
+        inertia_std=std[4:], constrained=constrained, friction=_friction(beta, n),
+        residual_rms=np.sqrt(np.mean(r ** 2, axis=0)), parameters=phi, **common)
+
+
+def is_detected(mass, mass_std, arm_mass):
+    """A payload is there: the least-squares mass above ``DETECT_SIGMAS`` standard
+    deviations (one-sided) and above ``MIN_MASS_FRACTION`` of the arm's moving mass."""
+    return mass > DETECT_SIGMAS * mass_std and mass >= MIN_MASS_FRACTION * arm_mass
+
+
+def _friction(beta, n):
+    """The friction fitted along: {"viscous", "coulomb", "offset"}, (n,) each."""
+    return {"viscous": beta[10:10 + n], "coulomb": beta[10 + n:10 + 2 * n],
+            "offset": beta[10 + 2 * n:]}
 
 
 def check_excitation(Yp, qd, joint_names, link):

@@ -77,7 +77,7 @@ class Dissipation:
                 for joint, v in values.items():
                     if joint not in self.joint_names:
                         raise ValueError(f"dissipation override names joint {joint!r}, which "
-                                         f"is not in the chain {list(self.joint_names)}")
+                                         f"is not a joint of the model {list(self.joint_names)}")
                     a[self.joint_names.index(joint)] = v
             else:   # a scalar sets every joint; an array is checked for length on rebuild
                 v = np.asarray(values, dtype=float)

@@ -1,4 +1,4 @@
-"""A payload rigidly attached to a link of the chain: ``Payload`` and ``attach``.
+"""A payload rigidly attached to a link of the model: ``Payload`` and ``attach``.
 
 Attaching adds the payload's inertia to the body the link belongs to (the parallel-axis
 theorem, ``model.combine_inertias``) and returns a new ``Model``; the model attached to is
@@ -16,6 +16,7 @@ import numpy as np
 from .errors import ModelError
 from .inertia import (MAX_INERTIA, MAX_LENGTH, MAX_MASS, check_inertia, check_magnitude,
                       combine_inertias)
+from .links import resolve_link
 from .model import inertia_in_joint_frames
 
 
@@ -64,14 +65,8 @@ def _matrix(i6):
 
 def attach(model, payload: Payload):
     """(the model with ``payload`` lumped into its link's body, that body's index)."""
-    if payload.link not in model.frames:
-        raise ValueError(f"payload link {payload.link!r} is not a link of the chain "
-                         f"{model.base_link!r} -> {model.tip_link!r}; use one of "
-                         f"{sorted(k for k, v in model.frames.items() if v[0] >= 0)}")
-    b, R, p = model.frames[payload.link]       # the link's frame in body b's link frame
-    if b < 0:
-        raise ValueError(f"payload link {payload.link!r} is fixed to the base: a payload "
-                         "there moves with no joint; attach it to a link that moves")
+    link = resolve_link(model, payload.link, moving=True, prefix="payload ")
+    b, R, p = model.frames[link]               # the link's frame in body b's link frame
     c = R @ np.asarray(payload.com) + p        # into body b's link frame
     I = R @ payload.inertia_matrix @ R.T
     m, com, inertia = combine_inertias([(model.mass[b], model.com[b], model.inertia[b]),

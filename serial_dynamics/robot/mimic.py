@@ -110,7 +110,7 @@ class Mimic:
     armature = property(lambda self: (self._G ** 2).T @ self.model.armature,
                         doc="the reduced armature: sum of m^2 I_a over each joint's followers")
     all_joint_names = property(lambda self: list(self.model.joint_names),
-                               doc="every joint of the chain, mimic joints included")
+                               doc="every joint of the model, mimic joints included")
 
     nq = property(lambda self: self._view.dof + self._bq, doc="the length of q (reduced)")
     nv = property(lambda self: self._view.dof + self._bv, doc="the length of qd (reduced)")

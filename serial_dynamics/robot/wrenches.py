@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..model.links import resolve_link
+
 
 def generalized_forces(robot, q, wrenches):
     """sum_k J_k(q)^T w_k, (nv,) or (N, nv) as q is one state or a batch."""
@@ -17,9 +19,7 @@ def generalized_forces(robot, q, wrenches):
                          f"{type(wrenches).__name__}")
     total = 0.0
     for link, w in wrenches.items():
-        if link not in robot.model.frames:
-            raise ValueError(f"wrenches: {link!r} is not a link of the model; links are "
-                             f"{sorted(robot.model.frames)}")
+        resolve_link(robot.model, link, prefix="wrenches: ")
         w = np.asarray(w, dtype=float)
         if w.shape[-1:] != (6,) or w.ndim > 2 or not np.all(np.isfinite(w)):
             raise ValueError(f"wrenches[{link!r}] must be 6 finite numbers [fx, fy, fz, mx, "

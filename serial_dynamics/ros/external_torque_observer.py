@@ -87,7 +87,7 @@ class ExternalTorqueObserver(Node):
             unknown = [x for x in msg.name if x not in self.chain]
             if unknown:
                 raise Rejected("unknown joint names", f"joint_states names joints {unknown} "
-                               f"that are not in the chain {self.robot.joint_names}")
+                               f"that are not joints of the model {self.robot.joint_names}")
             sample = self.monitor.update(common.stamp_seconds(msg.header.stamp), q, qd, tau)
         except Rejected as exc:
             return self.reject("joint_states", exc,

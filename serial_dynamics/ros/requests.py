@@ -18,6 +18,7 @@ import time
 
 import numpy as np
 
+from ..model.links import link_problem
 from .throttle import Rejected
 
 
@@ -133,9 +134,9 @@ def answer_task_space(robot, req):
     qd = joint_vector(robot, index, req.velocities, "velocities", empty_is_zero=True)
     qdd = joint_vector(robot, index, req.accelerations, "accelerations", empty_is_zero=True)
     link = req.link or robot.tip_link
-    if link not in robot.link_names and link != robot.tip_link:
-        raise Rejected("link", f"link {link!r} is not a link of the model: name one of "
-                       f"{_show(robot.link_names)}, or leave it empty for the tip")
+    problem = link_problem(robot.model, link)
+    if problem is not None:
+        raise Rejected("link", f"{problem}; or leave link empty for the tip")
     if not (np.isfinite(req.damping) and req.damping >= 0.0):
         raise Rejected("damping", f"damping = {req.damping}: give a finite value >= 0 "
                        "(0: none)")

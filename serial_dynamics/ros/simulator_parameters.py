@@ -52,7 +52,7 @@ PARAMETERS = {
     "servo.kd": ("double[]", [200.0], "joint servo damping (N m s/rad; N s/m), one or one per "
                  "joint, for joint_commands with position and/or velocity targets"),
     **parameters.PAYLOAD_PARAMETERS,
-    "floating_base": ("bool", False, "the chain's base link floats free (FloatingRobot): the "
+    "floating_base": ("bool", False, "the base link floats free (FloatingRobot): the "
                       "base pose on odom (nav_msgs/Odometry), ~/set_base_state; the joint "
                       "servo with semi_implicit_euler only"),
     "initial_base_pose": ("double[]", floating_state.IDENTITY, "floating_base: the base pose "

@@ -224,7 +224,7 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
         elif joint.type == "floating":
             raise URDFError(f"{what} {on} is floating, below the root {root!r}: a "
                             "floating joint may only join the root (the world) to the base; "
-                            "make it fixed, or load the chain from its child with "
+                            "make it fixed, or load the model from its child with "
                             "floating_base=True")
         elif joint.type != "fixed":
             raise URDFError(f"{what} {on} is of type {joint.type!r}; only "
@@ -364,9 +364,10 @@ def _mimic(bodies, scope):
             continue
         what, lead = f"joint {b['name']!r}", b["mimic"].joint
         if lead not in index:
-            raise URDFError(f"{what} on the chain mimics {lead!r}, which is not a movable joint "
-                            f"of the {scope}; choose a base_link and "
-                            "tip_link whose chain holds both, or a tip_link above the mimic joint")
+            raise URDFError(f"{what} mimics {lead!r}, which is not a movable joint "
+                            f"of the {scope}; choose a base_link and tip_link (or "
+                            "tip_links) whose model holds both, or a tip_link above the "
+                            "mimic joint")
         if bodies[index[lead]]["mimic"] is not None:
             raise URDFError(f"{what} mimics {lead!r}, which mimics "
                             f"{bodies[index[lead]]['mimic'].joint!r} in turn: a mimic of a "

@@ -51,7 +51,7 @@ def check_mass_matrix(model) -> None:
                 "links it moves an <inertial>, or make it fixed.")
         for i in np.flatnonzero(D <= PIVOT_RTOL * M_ii):
             raise ModelError(
-                f"the mass matrix of chain {model.base_link!r} -> {model.tip_link!r} is "
+                f"the mass matrix of the {_scope(model)} is "
                 f"singular {_at(q)}: joint {model.joint_names[i]!r} moves its bodies only in "
                 "ways the joints after it can as well (the inertia it feels with them free "
                 f"is {D[i]:.3g}, against {M_ii[i]:.3g} with them locked), so two joints "
@@ -72,7 +72,7 @@ def _check_reduced_mass_matrix(model, qs) -> None:
         eig = np.linalg.eigvalsh(M)
         if eig[0] <= 1e-15 * eig[-1]:
             raise ModelError(
-                f"the mass matrix of chain {model.base_link!r} -> {model.tip_link!r} is "
+                f"the mass matrix of the {_scope(model)} is "
                 f"singular {_at(q)} (eigenvalues {eig[0]:.3g} .. "
                 f"{eig[-1]:.3g}): two joints move the same mass the same way. "
                 "Check joint axes and link inertias.")
@@ -85,7 +85,7 @@ def _check_floating_mass_matrix(model, qs) -> None:
         eig = np.linalg.eigvalsh(mass_matrix_joints(model, q[None])[0])
         if not eig[0] > 1e-15 * eig[-1]:
             raise ModelError(
-                f"the floating chain {model.base_link!r} -> {model.tip_link!r} has a singular "
+                f"the floating {_scope(model)} has a singular "
                 f"mass matrix {_at(q)} (eigenvalues {eig[0]:.3g} .. {eig[-1]:.3g}): the base "
                 "and the bodies it carries must have mass and rotational inertia about every "
                 "axis. Give the base link an <inertial>.")
@@ -132,3 +132,10 @@ def _diagonal_and_pivots(model, qs):
             IC[:, l] += Xt[:, i] @ IC[:, i] @ X[:, i]
             IA[:, l] += Xt[:, i] @ (IA[:, i] - U[:, :, None] * U[:, None, :] / safe) @ X[:, i]
     return diag, pivot
+
+
+def _scope(model):
+    """The model in words, for a message: a chain's ends, or a tree's base."""
+    if model.is_chain:
+        return f"chain {model.base_link!r} -> {model.tip_link!r}"
+    return f"tree below {model.base_link!r}"

@@ -74,7 +74,7 @@ def test_nan_or_inf_wrench(robot, value):
 
 def test_unknown_link_in_kinematics(robot):
     for call in (robot.forward_kinematics, robot.jacobian):
-        with pytest.raises(ValueError, match="link 'gripper' is not in the model") as info:
+        with pytest.raises(ValueError, match="link 'gripper' is not a link of the model") as info:
             call(np.zeros(6), link="gripper")
         assert "wrist_3_link" in str(info.value)       # lists the known links
 

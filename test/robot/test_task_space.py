@@ -179,7 +179,7 @@ def test_refusals_name_the_culprit_and_the_fix():
     with pytest.raises(ValueError, match="damping is -1.0; give a finite number >= 0"):
         planar.operational_space_inertia(q, damping=-1.0)
     ur5e = KINDS["plain"]
-    with pytest.raises(ValueError, match="link 'nowhere' is not in the model"):
+    with pytest.raises(ValueError, match="link 'nowhere' is not a link of the model"):
         ur5e.jacobian_dot_qd(np.zeros(6), np.ones(6), "nowhere")
     with pytest.raises(ValueError, match=r"qd has shape \(5,\)"):
         ur5e.frame_acceleration(np.zeros(6), np.ones(5), np.zeros(6))

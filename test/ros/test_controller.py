@@ -106,7 +106,7 @@ def test_bad_input_is_rejected_and_control_continues(ros, ctl):
     bad_trajectories = {
         "time_from_start must increase": trajectory([(1, Q2), (1, Q4)]),
         "positions contain NaN": trajectory([(1, nan)]),
-        "not in the chain": trajectory([(1, Q2[:6])], names=NAMES[:5] + ["gripper"]),
+        "not joints of the model": trajectory([(1, Q2[:6])], names=NAMES[:5] + ["gripper"]),
         "desired_trajectory has no points": trajectory([]),
         "desired_trajectory names no joints": JointTrajectory(),
     }

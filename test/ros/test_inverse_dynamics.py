@@ -119,7 +119,7 @@ BAD = {   # log text of the cause -> a request that must be refused
     "contain NaN or Inf": request(ROBOT.joint_names, [[0, 0, float("nan"), 0, 0, 0]]),
     "needs 6 positions": request(ROBOT.joint_names, [[0.0] * 5]),
     "needs 6 velocities": request(ROBOT.joint_names, [[0.0] * 6], [[0.0] * 7]),
-    "not in the chain": request([*ROBOT.joint_names[:5], "gripper"], [[0.0] * 6]),
+    "not joints of the model": request([*ROBOT.joint_names[:5], "gripper"], [[0.0] * 6]),
     "more than once": request([*ROBOT.joint_names[:5], "elbow_joint"], [[0.0] * 6]),
     "lacks joints": request(ROBOT.joint_names[:5], [[0.0] * 5]),
     "names no joints": JointTrajectory(),

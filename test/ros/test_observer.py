@@ -146,7 +146,7 @@ def bad_messages(res):
         "position has 5 values": state(later, q[:5], qd, tau),
         "velocity contains NaN": state(later, q, [0, 0, np.nan, 0, 0, 0], tau),
         "effort has 7 values": state(later, q, qd, [*tau, 0.0]),
-        "not in the chain": state(later, [*q, 0.0], [*qd, 0.0], [*tau, 0.0], [*NAMES, "gripper"]),
+        "not joints of the model": state(later, [*q, 0.0], [*qd, 0.0], [*tau, 0.0], [*NAMES, "gripper"]),
         "lacks joints": state(later, q[:5], qd[:5], tau[:5], NAMES[:5]),
         "is the previous one's": state(t, q, qd, tau),          # a paused simulator
         "zero stamp": state(Time(), q, qd, tau),

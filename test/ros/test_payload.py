@@ -124,7 +124,7 @@ def test_inverse_dynamics_payload_set_while_running_and_a_bad_one_refused(idn):
     bad = idn.params.set(payload_mass=-1.0)[0]
     assert not bad.successful and "mass -1.0 is negative" in bad.reason, bad
     bad = idn.params.set(payload_link="camera")[0]
-    assert not bad.successful and "'camera' is not a link of the chain" in bad.reason, bad
+    assert not bad.successful and "'camera' is not a link of the model" in bad.reason, bad
     np.testing.assert_array_equal(idn.torques(Q, QD, QDD), after)    # the payload stays
     wait_for_log(idn.ros, idn.proc, "rejected payload parameters {'payload.mass': -1.0}")
     assert idn.proc.running()

@@ -18,6 +18,7 @@ from serial_dynamics import identification as ident
 from serial_dynamics.ros import payload_timing as pt
 from serial_dynamics.ros.requests import answer_task_space
 from serial_dynamics.ros.throttle import Rejected
+from test_trees import two_arms
 
 srv = pytest.importorskip("serial_dynamics_interfaces.srv")
 pytest.importorskip("toppra")
@@ -84,6 +85,49 @@ def test_estimate_payload_answer_and_what_it_applies():
         pt.answer_estimate_payload(ROBOT, pt.JointStateLog(ROBOT), Msg(window=5.0, link="", apply=False))
 
 
+def test_estimate_payload_answer_without_a_payload():
+    """The arm holding nothing: no payload detected, its mass within three standard
+    deviations of zero, no com or inertia on the wire; applied, it clears the payload."""
+    log = pt.JointStateLog(ROBOT)
+    t, q, qd, qdd = EX.sample(dt=0.01)
+    tau = ROBOT.inverse_dynamics(q, qd, qdd) + np.random.default_rng(1).normal(0.0, 0.2, q.shape)
+    for k in range(t.size):
+        log.add(t[k], ROBOT.joint_names, q[k], tau[k])
+    fields, apply = pt.answer_estimate_payload(ROBOT, log, Msg(window=0.0, link="", apply=True))
+    assert fields["message"].startswith("no payload detected on 'tool0' (mass ")
+    assert fields["mass"] <= 3 * fields["mass_std"]
+    assert fields["com"] == fields["inertia"] == fields["com_std"] == fields["inertia_std"] == []
+    assert apply == {"payload.mass": 0.0, "payload.com": [0.0] * 3, "payload.inertia": [0.0] * 6,
+                     "payload.link": ""}
+
+
+def test_estimate_payload_checks_the_link_first_and_counts_what_it_received():
+    log = pt.JointStateLog(ROBOT)
+    names = ROBOT.joint_names
+    assert not log.add(0.0, names, [0.0] * 6, [])                          # no efforts
+    assert not log.add(0.1, names[1:], [0.0] * 5, [0.0] * 5)               # a joint missing
+    assert not log.add(0.2, names, [np.nan] * 6, [0.0] * 6)               # not finite
+    assert log.add(0.3, names, [0.0] * 6, [0.0] * 6)
+    assert not log.add(0.3, names, [0.0] * 6, [0.0] * 6)                  # the same stamp
+    # the link before the samples: a wrong link gets the link's refusal
+    with pytest.raises(Rejected, match="link 'nose' is not a link of the model; its links "
+                                       r"are \[.*'tool0'.*\]; or leave link empty"):
+        pt.answer_estimate_payload(ROBOT, log, Msg(window=0.0, link="nose", apply=False))
+    with pytest.raises(Rejected, match="link 'base_link' does not move"):
+        pt.answer_estimate_payload(ROBOT, log, Msg(window=0.0, link="base_link", apply=False))
+    # too few: what the node has received, kept and skipped, and why
+    with pytest.raises(Rejected, match=r"1 joint_states with positions and efforts for every "
+                       r"joint .* kept, 100 needed: the node has received 5 joint_states in "
+                       r"the .* s since it subscribed, kept 1 \(at most the last 120 s\), "
+                       r"skipped 4 \(2 no position and effort for every joint; 1 a NaN or "
+                       r"Inf; 1 a stamp not after the previous one's\)"):
+        pt.answer_estimate_payload(ROBOT, log, Msg(window=0.0, link="", apply=False))
+    with pytest.raises(Rejected, match=r"^0 joint_states .* in the last 5 s, 100 needed: "
+                       "the node has received 0 joint_states"):
+        pt.answer_estimate_payload(ROBOT, pt.JointStateLog(ROBOT),
+                                   Msg(window=5.0, link="", apply=False))
+
+
 def test_time_parameterize_answer():
     names = [ROBOT.joint_names[i] for i in (2, 0, 1, 3, 4, 5)]
     limits = [30.0, 60.0, 90.0, 12.0, 12.0, 12.0]            # in the path's joint order
@@ -144,6 +188,29 @@ def test_task_space_answer():
         answer_task_space(ROBOT, ts_request(q[:2]))
 
 
+def test_every_link_of_the_model_on_a_tree():
+    """A two-arm robot whose hands are links fixed to the forearms: ~/task_space answers for
+    a hand as the library does, ~/estimate_payload takes it too (and then counts samples);
+    an unknown link is refused by both in the library's words."""
+    arms = sd.load_urdf(two_arms())
+    assert "l_hand" not in arms.link_names                 # a frame of the forearm's body
+    q, qd = np.linspace(-0.5, 0.5, arms.dof), np.linspace(0.3, -0.3, arms.dof)
+    out = answer_task_space(arms, ts_request(q, qd, link="l_hand", damping=0.1))
+    np.testing.assert_array_equal(np.reshape(out["jacobian"], (6, arms.dof)),
+                                  arms.jacobian(q, "l_hand"))
+    np.testing.assert_array_equal(out["jacobian_dot_qd"], arms.jacobian_dot_qd(q, qd, "l_hand"))
+    np.testing.assert_array_equal(np.reshape(out["operational_space_inertia"], (6, 6)),
+                                  arms.operational_space_inertia(q, "l_hand", 0.1))
+    log = pt.JointStateLog(arms)
+    with pytest.raises(Rejected, match="^0 joint_states"):
+        pt.answer_estimate_payload(arms, log, Msg(window=0.0, link="l_hand", apply=False))
+    for answer in (lambda: answer_task_space(arms, ts_request(q, link="l_palm")),
+                   lambda: pt.answer_estimate_payload(arms, log, Msg(window=0.0, link="l_palm",
+                                                                     apply=False))):
+        with pytest.raises(Rejected, match="link 'l_palm' is not a link of the model"):
+            answer()
+
+
 # ----------------------------------------------------------------- the node
 def test_the_node_estimates_sets_and_times(ros):
     proc = ros.start("dynamics", {"urdf_path": sd.builtin_path("ur5e")},
@@ -154,9 +221,10 @@ def test_the_node_estimates_sets_and_times(ros):
                                     "/payload_timing/dynamics/time_parameterize")
     idyn = ros.node.create_client(srv.InverseDynamics, "/payload_timing/dynamics/inverse_dynamics")
     ros.wait_matched(pub, also=est.service_is_ready, what="the dynamics node")
-    # too little data yet: refused with the reason, the node carries on
+    # too little data yet: refused with the reason and what it received, the node carries on
     answer = ros.call(est, srv.EstimatePayload.Request(window=0.0), timeout=150.0)
     assert not answer.success and "joint_states with positions and efforts" in answer.message
+    assert "the node has received 0 joint_states" in answer.message
     t, q, tau = recording()
     for k in range(t.size):              # stamped: the node fits on the stamps, not arrival
         s = 100.0 + t[k]                  # (a zero stamp means: the time of arrival)

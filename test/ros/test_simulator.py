@@ -243,7 +243,7 @@ BAD_EFFORT = {   # message -> the log text of its cause
     "effort_commands data has": [[1.0, 2.0], []],     # one cause: the wrong length
 }
 BAD_JOINT = {
-    "that are not in the chain": JointState(name=["elbow_joint", "gripper"], effort=[1.0, 2.0]),
+    "that are not joints of the model": JointState(name=["elbow_joint", "gripper"], effort=[1.0, 2.0]),
     "more than once": JointState(name=["elbow_joint", "elbow_joint"], effort=[1.0, 2.0]),
     "joint_commands effort has 1 values": JointState(name=["elbow_joint", "wrist_1_joint"],
                                                      effort=[1.0]),

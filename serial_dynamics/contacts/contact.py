@@ -22,6 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..model.links import resolve_link
+
 
 def _numbers(value, shape, what):
     """``value`` as a tuple of finite floats of ``shape`` (nested for (4, 4))."""
@@ -88,12 +90,10 @@ def check_contacts(robot, contacts):
     if not contacts:
         raise ValueError("contacts is empty; give sd.Contact objects (or forward_dynamics "
                          "for a robot that touches nothing)")
-    links = robot.model.frames
     for i, c in enumerate(contacts):
         if not isinstance(c, Contact):
             raise ValueError(f"contacts[{i}] is {c!r}; each contact must be an sd.Contact")
         for name in (c.link, c.other_link):
-            if name is not None and name not in links:
-                raise ValueError(f"contacts[{i}]: {name!r} is not a link of the model; its "
-                                 f"links are {sorted(links)}")
+            if name is not None:       # the set every call that takes a link accepts
+                resolve_link(robot.model, name, prefix=f"contacts[{i}]: ")
     return contacts

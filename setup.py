@@ -20,7 +20,7 @@ setup(
     # its pyproject.toml): never part of this one
     packages=find_packages(exclude=["test", "test.*", "bench", "serial_dynamics_interfaces",
                                     "serial_dynamics_interfaces.*"]),
-    package_data={PACKAGE: ["robots/*.urdf"]},
+    package_data={PACKAGE: ["builtin/*.urdf"]},
     # single-state entry points called without numba's dispatcher (core/_fastcall.c); optional:
     # without a C compiler the package installs without it and calls through the dispatcher
     ext_modules=[] if numpy is None else [

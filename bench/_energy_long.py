@@ -10,7 +10,7 @@ import time
 import numpy as np
 
 import serial_dynamics as sd
-from serial_dynamics.robots.synthetic import double_pendulum_urdf, stiff_chain_urdf
+from serial_dynamics.builtin.synthetic import double_pendulum_urdf, stiff_chain_urdf
 from serial_dynamics.sim.fixed_step import FixedStepIntegrator
 from serial_dynamics.sim.methods import FIXED_STEP
 

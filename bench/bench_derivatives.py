@@ -29,7 +29,7 @@ from _report import stamp, write_section                     # noqa: E402
 import pinocchio as pin                                      # noqa: E402
 import serial_dynamics as sd                                 # noqa: E402
 from serial_dynamics.robot import derivatives as derivatives_module  # noqa: E402  (PARALLEL_MIN)
-from serial_dynamics.robots import HERE as ROBOTS_DIR        # noqa: E402
+from serial_dynamics.builtin import HERE as ROBOTS_DIR       # noqa: E402
 
 N_BATCH = 10_000
 N_CHECK = 200

@@ -17,7 +17,7 @@ import pinocchio as pin
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import serial_dynamics as sd                                   # noqa: E402
-from serial_dynamics.robots.synthetic import chain_urdf, satellite_urdf   # noqa: E402
+from serial_dynamics.builtin.synthetic import chain_urdf, satellite_urdf  # noqa: E402
 from _report import stamp, write_section                        # noqa: E402
 from bench_speed import agree, erd_path, fmt_t, pair            # noqa: E402
 

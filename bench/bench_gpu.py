@@ -6,7 +6,7 @@ same machine, in one run.
     python bench/bench_gpu.py --out FILE      # the section also to FILE
 
 Batches, float64, N random states, for the UR5e (6 joints), a 7-joint spatial chain
-(``robots.synthetic.chain_urdf(7)``) and the UR5e on a free-floating base (nq 13, nv 12; no
+(``builtin.synthetic.chain_urdf(7)``) and the UR5e on a free-floating base (nq 13, nv 12; no
 derivatives on the card for it yet):
 
 - CPU: the facade's batch call (its default split over the cores), median of ``ROUNDS``;
@@ -44,7 +44,7 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 import serial_dynamics as sd                                        # noqa: E402
 from serial_dynamics import sweep                                   # noqa: E402
-from serial_dynamics.robots.synthetic import chain_urdf             # noqa: E402
+from serial_dynamics.builtin.synthetic import chain_urdf            # noqa: E402
 from _report import stamp, write_section                           # noqa: E402
 
 ROUNDS = 5
@@ -215,7 +215,7 @@ def main():
         from serial_dynamics.gpu.runtime import cuda
         bw = copy_bandwidth(cuda)
     robots = {"UR5e (6)": sd.default_robot(), "chain_urdf(7)": sd.load_urdf(chain_urdf(7)),
-              "UR5e, floating base (6 + 6)": sd.load_urdf(sd.robots.ur5e_urdf(),
+              "UR5e, floating base (6 + 6)": sd.load_urdf(sd.builtin.ur5e_urdf(),
                                                           floating_base=True)}
     rows = [r for name, robot in robots.items() for r in batch_rows(name, robot, gpu,
                                                                     args.quick, bw)]

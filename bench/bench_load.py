@@ -3,7 +3,7 @@
     python bench/bench_load.py             # writes the "load" section of bench/BENCHMARKS.md
     python bench/bench_load.py --no-dense  # without the (slow) column of the check of before
 
-Synthetic chains of n joints (``serial_dynamics.robots.synthetic.chain_urdf``: rods, axes
+Synthetic chains of n joints (``serial_dynamics.builtin.synthetic.chain_urdf``: rods, axes
 cycling z, y, x) loaded from the XML string with ``sd.load_urdf``, default base and tip.
 Columns: the whole load (parse, chain extraction and lumping, ``Model.build`` with its
 validation, the ``Robot``); of it, the parse (lxml, the element checks, yourdfpy) and the
@@ -29,7 +29,7 @@ sys.path.insert(0, os.path.dirname(HERE))
 import serial_dynamics as sd                                   # noqa: E402
 from serial_dynamics.urdf import loader as urdf_module                # noqa: E402
 from serial_dynamics.urdf import mass_matrix as check_module    # noqa: E402
-from serial_dynamics.robots.synthetic import chain_urdf, mimic_chain_urdf   # noqa: E402
+from serial_dynamics.builtin.synthetic import chain_urdf, mimic_chain_urdf  # noqa: E402
 from _report import REPORT, stamp, write_section               # noqa: E402
 
 SIZES = (6, 25, 100, 400, 1000)

@@ -43,7 +43,7 @@ from serial_dynamics.core import K                                  # noqa: E402
 from _report import stamp, write_section                           # noqa: E402
 from serial_dynamics.core import flags as F                         # noqa: E402
 from serial_dynamics.core.signatures import Mat, Pm, Vec, i8        # noqa: E402
-from serial_dynamics.robots.synthetic import chain_urdf             # noqa: E402
+from serial_dynamics.builtin.synthetic import chain_urdf            # noqa: E402
 
 N_BATCH = 10_000
 REPS = 1000

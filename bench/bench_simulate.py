@@ -4,7 +4,7 @@
     python bench/bench_simulate.py --energy-only  # only the section "simulate_energy"
 
 Scenarios: the default robot (UR5e) swinging freely from rest, the stiff chain
-(robots/synthetic.py: stiff_chain_urdf) and the UR5e with joint friction (viscous,
+(builtin/synthetic.py: stiff_chain_urdf) and the UR5e with joint friction (viscous,
 Coulomb, Stribeck) under shaking torques. Each method runs over a range of tolerances
 (adaptive) or steps (fixed step); the error is the largest deviation of (q, qd) at the
 final time from a tight-tolerance reference, the energy error the largest violation of
@@ -30,7 +30,7 @@ sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.dirname(HERE))
 
 import serial_dynamics as sd                                   # noqa: E402
-from serial_dynamics.robots.synthetic import stiff_chain_urdf   # noqa: E402
+from serial_dynamics.builtin.synthetic import stiff_chain_urdf  # noqa: E402
 from serial_dynamics.sim.driver import simulate as run          # noqa: E402
 from serial_dynamics.sim.methods import SimulationError         # noqa: E402
 
@@ -245,7 +245,7 @@ def ill_conditioned():
         from test_simulate_hard import _mp_forward
     except ImportError:
         return None
-    from serial_dynamics.robots.synthetic import ill_conditioned_chain_urdf
+    from serial_dynamics.builtin.synthetic import ill_conditioned_chain_urdf
     mpmath.mp.dps = 50
     robot = sd.load_urdf(ill_conditioned_chain_urdf())
     numpy_path = sd.Robot(robot.model, backend="numpy")

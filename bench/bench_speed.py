@@ -34,7 +34,7 @@ sys.path.insert(0, os.environ.get("BENCH_PACKAGE_ROOT", os.path.dirname(HERE)))
 
 import serial_dynamics as sd                                  # noqa: E402
 from serial_dynamics.algorithms import aba as aba_module      # noqa: E402
-from serial_dynamics.robots.synthetic import chain_urdf       # noqa: E402
+from serial_dynamics.builtin.synthetic import chain_urdf      # noqa: E402
 from _report import stamp, write_section                      # noqa: E402
 
 import pinocchio as pin                                       # noqa: E402
@@ -366,7 +366,7 @@ def simulation(robot, rounds):
     if hasattr(sd, "kernels") or os.path.exists(os.path.join(os.path.dirname(sd.__file__), "kernels.py")):
         from serial_dynamics.kernels import simulate_fixed_step      # the 2026-11-21 code
     else:
-        from serial_dynamics.sim.loop import simulate_fixed_step
+        from serial_dynamics.sim.compiled_euler import simulate_fixed_step
 
     m.dof_damping[:] = beta
     err = np.max(np.abs(ours(steps)[-1] - mj(steps)))
@@ -402,7 +402,7 @@ FIRST_CALL = textwrap.dedent("""
     robot.warmup()
     t3 = time.perf_counter()
     try:
-        from serial_dynamics.sim.loop import _loop
+        from serial_dynamics.sim.compiled_euler import _loop
     except ImportError:                       # the 2026-11-21 code
         from serial_dynamics.kernels import K
         _loop = lambda: K.simulate_semi_implicit_euler
@@ -658,7 +658,7 @@ def main():
               "whose allocation is the difference between the two rows.", ""]
     lines += [f"Simulation check: after 10 s our trajectory and MuJoCo's differ by {sim_err:.1e} rad "
               "(both integrate the joint damping implicitly: MuJoCo's Euler does, and so does "
-              "`sim.loop.simulate_fixed_step` by default). roboticstoolbox-python: " + rtb_note + ".", ""]
+              "`sim.compiled_euler.simulate_fixed_step` by default). roboticstoolbox-python: " + rtb_note + ".", ""]
     lines += [f"**Batches over the cores** (Panda, {N_BATCH:,} states, per state; a batch of at least "
               f"`serial_dynamics.robot.facade.PARALLEL_MIN` = {robot_module.PARALLEL_MIN} states is split into "
               f"one chunk per core, {os.cpu_count()} here; the results are bitwise those of one thread, "

@@ -169,7 +169,7 @@ def method_rows(rounds):
     """forward_dynamics by articulated bodies against the sparse factor, single compiled
     calls, on trees of growing depth (robot/common.aba_by_default's TREE_CROSSOVER)."""
     from serial_dynamics.robot.common import TREE_CROSSOVER
-    from serial_dynamics.robots.synthetic import two_arm_urdf
+    from serial_dynamics.builtin.synthetic import two_arm_urdf
     cases = [(f"two {n}-joint arms{', floating' if fl else ''}",
               lambda n=n, fl=fl: sd.load_urdf(two_arm_urdf(n, base_mass=5.0), floating_base=fl))
              for fl in (False, True) for n in (6, 12, 20, 30)]

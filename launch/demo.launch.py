@@ -26,7 +26,7 @@ from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 from launch_ros.parameter_descriptions import ParameterValue
 
-from serial_dynamics.robots import builtin_path
+from serial_dynamics.builtin import builtin_path
 from serial_dynamics.ros.demo.session import LOCKSTEP
 from serial_dynamics.trajectory import UR5E_PICK_AND_PLACE
 

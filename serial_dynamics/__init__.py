@@ -10,7 +10,7 @@ from .model import Dissipation, Model, ModelError, RobotDescriptionError
 from .model.errors import HeldJointsWarning, InertiaRepairWarning, SimulationError, URDFError
 from .contacts import Contact
 from .robot import BaseMotion, Robot
-from .robots import builtin_path, builtin_robot, default_robot
+from .builtin import builtin_path, builtin_robot, default_robot
 from .sim.driver import simulate   # sd.simulate is the function
 from .urdf import load_model
 

@@ -192,7 +192,7 @@ def cmd_sweep(args):
 
 
 def _builtin_source():
-    from .robots import DEFAULT, builtin_path
+    from .builtin import DEFAULT, builtin_path
     return builtin_path(DEFAULT)
 
 

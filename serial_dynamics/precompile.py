@@ -3,7 +3,7 @@
     python -m serial_dynamics.precompile        # or: python -m serial_dynamics.core
 
 Every entry point of the compiled core (``core.K``) and the simulator's whole-run loop
-(``sim.loop``) is compiled once per machine and source version, then loaded from the
+(``sim.compiled_euler``) is compiled once per machine and source version, then loaded from the
 cache (``__pycache__``) in milliseconds. Numba compiles one function at a time in a
 process, so ``precompile(jobs=2)`` starts a second process that compiles one half of them
 while this one compiles the other half, then loads that half from the cache it filled.
@@ -20,12 +20,13 @@ import time
 from contextlib import contextmanager
 
 from .core import ENTRY_POINTS, K
-from .sim.loop import _loop
+from .sim.compiled_euler import _loop
 
 # two halves of about equal cold-compile time (bench/BENCHMARKS.md, *First call*): the
 # dynamics kernels as listed, then the others alternating between the halves
 # (measured 2026-11-23, each half alone on an empty cache: 19.9 s and 20.4 s)
-HALVES = (("fd", "fd_batch", "loop", "planar_rnea_batch", "planar_crba", "planar_crba_batch"),
+HALVES = (("fd", "fd_batch", "compiled_euler", "planar_rnea_batch", "planar_crba",
+           "planar_crba_batch"),
           ("rnea", "rnea_wrench", "crba", "rnea_batch", "crba_batch", "planar_rnea",
            "planar_rnea_wrench"))
 _REST = sorted(set(ENTRY_POINTS) - set(HALVES[0] + HALVES[1]))
@@ -33,9 +34,9 @@ HALVES = (HALVES[0] + tuple(_REST[0::2]), HALVES[1] + tuple(_REST[1::2]))
 
 
 def load(names):
-    """Compile, or load from the cache, the kernels ``names`` ("loop": the simulator's)."""
+    """Compile, or load from the cache, the kernels ``names`` ("compiled_euler": the simulator's whole-run loop)."""
     for name in names:
-        _loop() if name == "loop" else getattr(K, name)
+        _loop() if name == "compiled_euler" else getattr(K, name)
 
 
 def precompile(jobs=2, names=None):

@@ -28,7 +28,7 @@ import pytest
 from pin_reference import PinReference, configuration, erd, pin
 
 import serial_dynamics as sd
-from serial_dynamics.robots.synthetic import chain_urdf
+from serial_dynamics.builtin.synthetic import chain_urdf
 
 G_WORLD = np.array([0.8, -1.3, -9.7])
 RTOL = 1e-9

@@ -82,7 +82,7 @@ MODULES = _modules()
 
 
 # ------------------------------------------------------------------ import each module alone
-# ``__main__`` modules are scripts (``python -m serial_dynamics.robots`` rewrites the URDF
+# ``__main__`` modules are scripts (``python -m serial_dynamics.builtin`` rewrites the URDF
 # files): importing them runs them, so they are left out here (their imports are still in
 # the static graph below).
 ALONE = [m for m in MODULES if m.rsplit(".", 1)[-1] != "__main__"]
@@ -336,14 +336,14 @@ def test_cycle_finders_find_planted_cycles():
         e = Edge(PKG + src, PKG + dst, 999, local)
         return e, [x for x in EDGES if (x.src, x.dst) != (e.src, e.dst)] + [e]
 
-    # what robots/__init__.py did: ``from .. import load_urdf`` inside a function, while
-    # the package imports serial_dynamics.robots at module level
-    e, edges = plant(".robots", "", True)
+    # what builtin/__init__.py did: ``from .. import load_urdf`` inside a function, while
+    # the package imports serial_dynamics.builtin at module level
+    e, edges = plant(".builtin", "", True)
     (cycle,) = [c for c in _hidden_cycles(edges) if e in c]
     assert cycle[0] == e and cycle[-1].dst == e.src, _describe(cycle)
     assert not any(e in c for c in _module_level_cycles(edges))
     # the same import at module level is a module-level cycle of length two
-    e, edges = plant(".robots", "", False)
+    e, edges = plant(".builtin", "", False)
     cycles = [c for c in _module_level_cycles(edges) if e in c]
     assert len(cycles) == 1 and len(cycles[0]) == 2, [_describe(c) for c in cycles]
     # model -> robot at module level (robot imports model)
@@ -360,12 +360,12 @@ def test_resolve_relative_imports():
                      "if __name__ == '__main__':\n    from .. import cli\n")
     nodes = _import_nodes(tree)
     assert [local for _, local in nodes] == [False, False, False, False, True]
-    got = [_resolve(PKG + ".robots", n) for n, _ in nodes]
+    got = [_resolve(PKG + ".builtin", n) for n, _ in nodes]
     assert got[0] == [(PKG, True)]
-    assert got[1] == [(PKG + ".robots", True), (PKG + ".robots.synthetic", True)]
+    assert got[1] == [(PKG + ".builtin", True), (PKG + ".builtin.synthetic", True)]
     assert got[2] == [(PKG + ".algorithms", False), (PKG + ".algorithms.rnea", True)]
     assert got[3] == [(PKG + ".robot", True)]
-    assert got[4] == [(PKG + ".robots.synthetic", True)]
+    assert got[4] == [(PKG + ".builtin.synthetic", True)]
     # from a plain module, "." is its package
     (node, _), = _import_nodes(ast.parse("from .model import Model"))
     assert _resolve(PKG + ".cli", node) == [(PKG + ".model", True)]
@@ -420,6 +420,9 @@ PUBLIC_PATHS = [   # documented import paths that must survive any move (issue 1
     ("serial_dynamics.sim.methods", ["SimulationError", "METHODS"]),
     ("serial_dynamics.identification", ["identify", "base_parameters"]),
     ("serial_dynamics.observers", ["MomentumObserver"]),
+    ("serial_dynamics.trajectory", ["time_parameterize", "Waypoints", "pick_and_place",
+                                    "UR5E_PICK_AND_PLACE", "Trajectory", "minimum_time"]),
+    ("serial_dynamics.control", ["torque", "MODES", "pd_gains"]),
 ]
 
 
@@ -439,7 +442,29 @@ def test_the_top_level_keeps_only_the_entry_points():
     top = sorted(f for f in os.listdir(os.path.dirname(serial_dynamics.__file__))
                  if f.endswith(".py"))
     assert top == ["__init__.py", "cli.py", "control.py", "joints.py", "observers.py",
-                   "precompile.py", "trajectory.py"], top
+                   "precompile.py"], top
+
+
+def _one_letter_apart(a, b):
+    """True if one insertion, deletion or substitution of a letter turns ``a`` into ``b``."""
+    if abs(len(a) - len(b)) > 1 or a == b:
+        return False
+    i = 0
+    while i < min(len(a), len(b)) and a[i] == b[i]:
+        i += 1
+    return a[i + (len(a) >= len(b)):] == b[i + (len(b) >= len(a)):]
+
+
+def test_no_two_folders_a_letter_apart():
+    """Issue 50: names that say what they hold; no two folders of the package that a reader
+    confuses by one letter (``robot/`` the facade and ``robots/`` the URDFs were)."""
+    assert _one_letter_apart("robot", "robots") and _one_letter_apart("sim", "sin")
+    assert not _one_letter_apart("robot", "ros") and not _one_letter_apart("core", "core")
+    root = os.path.dirname(serial_dynamics.__file__)
+    folders = sorted({d for _, dirs, _ in os.walk(root) for d in dirs if d != "__pycache__"})
+    close = [(a, b) for k, a in enumerate(folders) for b in folders[k + 1:]
+             if _one_letter_apart(a, b)]
+    assert not close, f"folders a letter apart (rename one): {close}"
 
 
 def test_test_files_have_unique_basenames():

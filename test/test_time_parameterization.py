@@ -1,4 +1,4 @@
-"""trajectory.time_parameterize (TOPP-RA through toppra, algorithms/time_parameterization.py): no
+"""trajectory.time_parameterize (TOPP-RA through toppra, trajectory/time_parameterization.py): no
 sample exceeds a limit (checked with the robot's inverse dynamics on a grid ten times finer
 than the solver's), the time-optimal closed forms (bang-bang; the 1/T^2 law of the
 textbook's minimum-time maneuver, shared/reference section E) within the grid's error, no
@@ -207,7 +207,7 @@ def test_toppra_prints_nothing_and_logs_at_debug(capfd, caplog):
             toppra_log.warning("The path is not controllable, or is badly conditioned")
     finally:
         logging.getLogger().removeHandler(keep)
-    ours = [r for r in seen if r.name == "serial_dynamics.algorithms.time_parameterization"]
+    ours = [r for r in seen if r.name == "serial_dynamics.trajectory.time_parameterization"]
     assert ours and all(r.levelno == logging.DEBUG for r in ours)
     assert any("badly conditioned" in r.getMessage() for r in ours)
     assert not any(r.name.startswith("toppra") for r in seen)

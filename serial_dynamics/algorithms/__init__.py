@@ -19,10 +19,16 @@ Jacobians, the NOC's base-frame twists) do not depend on that choice.
     aba         forward dynamics (articulated bodies, Featherstone Table 7.1)
     forward     forward dynamics by Cholesky or QR (Angeles)
     kinematics  joint transforms, body and link poses, Jacobians
-    noc         natural orthogonal complement (Angeles), base-frame twists
+    noc         the natural orthogonal complement (Angeles & Lee): base-frame twists, the
+                twist-shaping matrix T and its rate, the Coriolis matrix; the textbook's
+                formulation, which forward, energy and floating build on
     energy      kinetic and potential energy
-    task_space  frame acceleration, J-dot qd, operational-space inertia (Khatib)
-    time_parameterization  TOPP-RA (toppra) of a path: trajectory.time_parameterize
+    task_space  frame acceleration, J-dot qd (Lambda and J-bar: robot/task_space.py)
+    regressor   the torque regressor Y (tau = Y phi)
+    derivatives derivatives of inverse and forward dynamics
+    floating    a free-floating base: Newton-Euler, CRBA, ABA through a 6-DoF root, SE(3)
+    planar      planar chains in planar 3-vectors, and planar_pack (is a chain planar)
+    _batch      batching, 3-vector and spatial helpers
 
 ``serial_dynamics/core/`` holds the compiled equivalents, in the same frames and under
 the same names; the ``Robot`` facade uses them for speed and the tests compare the two.

@@ -1,7 +1,8 @@
-"""Task-space dynamics: the acceleration of a link's frame, J-dot qd, the operational-space
-inertia Lambda and the dynamically consistent inverse J-bar.
+"""Task-space kinematics: the acceleration of a link's frame and J-dot qd (the reference of
+``core/kinematics.frame_acceleration``). The operational-space inertia Lambda and the
+dynamically consistent inverse J-bar, from any backend's M and J, are ``robot/task_space.py``.
 
-Frame acceleration. For ``link`` on body b, the classical acceleration of its origin p and
+For ``link`` on body b, the classical acceleration of its origin p and
 the angular acceleration of its body, in base axes, from the outward recursion over the
 joints j on its path from the base (0..b in a chain; b's ancestors in a tree) (point kinematics of rigid bodies; Angeles,
 *Fundamentals of Robotic Mechanical Systems*, Sec. 7.3; Siciliano et al. 2009, Sec. 3.1),
@@ -18,21 +19,12 @@ d/dt (J qd) = J qdd + J-dot qd: Pinocchio's getFrameClassicalAcceleration in
 LOCAL_WORLD_ALIGNED, expressed in base axes. The base may move (``base``: its angular
 velocity and acceleration and its origin's velocity and classical acceleration, base axes):
 a floating base starts the recursion there. Gravity plays no part (kinematics only).
-
-Lambda and J-bar (Khatib 1987, eqs. 33 and 41): Lambda = (J M^-1 J^T)^-1 and
-J-bar = M^-1 J^T Lambda. The damped form, for rows that a configuration (or too few
-joints) cannot move: Lambda = (J M^-1 J^T + lambda^2 1)^-1, a damped least-squares
-inverse (Nakamura and Hanafusa 1986; Wampler 1986), lambda in the units of Lambda^-1's
-square root (1/sqrt(kg) for the linear rows).
 """
 import numpy as np
 
 from ._batch import as_batch, mv, unbatch
 from .joint import world_joint_rate
 from .kinematics import body_poses, frame_of
-
-# an undamped J M^-1 J^T whose reciprocal condition number is below this is refused
-SINGULAR_RCOND = 1e-12
 
 
 def frame_acceleration(model, q, qd, qdd, link=None, base=None):
@@ -59,48 +51,3 @@ def frame_acceleration(model, q, qd, qdd, link=None, base=None):
     a = a + np.cross(dw, r) + np.cross(w, np.cross(w, r))
     return unbatch(single, np.concatenate([a, dw], axis=1))
 
-
-def inverse_mass_jacobian(M, J):
-    """M^-1 J^T (..., n, 6) by a Cholesky solve (M is symmetric positive definite)."""
-    L = np.linalg.cholesky(M)
-    Jt = np.swapaxes(J, -1, -2)
-    return _cho_solve(L, Jt)
-
-
-def _cho_solve(L, B):
-    """(L L^T)^-1 B over stacks."""
-    y = np.linalg.solve(L, B)
-    return np.linalg.solve(np.swapaxes(L, -1, -2), y)
-
-
-def operational_space_inertia(M, J, damping=0.0, link="tip"):
-    """Lambda (..., 6, 6) = (J M^-1 J^T + damping^2 1)^-1 (Khatib 1987, eq. 33; damped least
-    squares). Undamped, a J M^-1 J^T that is singular (a link that cannot move along some
-    row: too few joints, a singular configuration) is refused with a ValueError."""
-    damping = float(damping)
-    if not np.isfinite(damping) or damping < 0.0:
-        raise ValueError(f"damping is {damping}; give a finite number >= 0")
-    A = J @ inverse_mass_jacobian(M, J)
-    A = 0.5 * (A + np.swapaxes(A, -1, -2))
-    if damping > 0.0:
-        A = A + damping ** 2 * np.eye(A.shape[-1])
-    else:
-        s = np.linalg.svd(A, compute_uv=False)
-        rcond = s[..., -1] / s[..., 0]
-        if np.any(rcond < SINGULAR_RCOND):
-            k = int(np.flatnonzero(np.atleast_1d(rcond) < SINGULAR_RCOND)[0])   # the first
-            rank = int(np.sum(np.atleast_2d(s)[k] > SINGULAR_RCOND * np.atleast_2d(s)[k, 0]))
-            raise ValueError(f"J M^-1 J^T of link {link!r} is singular (rank {rank} of 6"
-                             + ("" if np.ndim(rcond) == 0 else f", state {k}") +
-                             "): the link cannot accelerate along every task direction (too "
-                             "few joints or a singular configuration); pass damping > 0 for "
-                             "the damped form (J M^-1 J^T + damping^2 1)^-1")
-    L = np.linalg.cholesky(A)
-    eye = np.broadcast_to(np.eye(A.shape[-1]), A.shape)
-    Lam = _cho_solve(L, eye)
-    return 0.5 * (Lam + np.swapaxes(Lam, -1, -2))
-
-
-def dynamically_consistent_inverse(M, J, Lambda):
-    """J-bar (..., n, 6) = M^-1 J^T Lambda (Khatib 1987, eq. 41)."""
-    return inverse_mass_jacobian(M, J) @ Lambda

@@ -13,7 +13,11 @@
     derivatives.py  Robot's dynamics derivatives: batching and kernels
     kinematics.py   frame poses, Jacobians and accelerations, center of mass, momentum,
                     the Coriolis matrix: the compiled kernels' calls for every kind
-    task_space.py   Lambda, J-bar (and the NumPy backend's frame acceleration)
+    task_space.py   Lambda, J-bar (Khatib; every backend) and the NumPy backend's frame
+                    acceleration
+    wrenches.py     wrenches on any links: the sum of J_k^T w_k
+    charts.py       the configuration space's chart for integrators (robot.chart): R^n,
+                    and SE(3) x R^n of a floating base
 """
 from .base_motion import BaseMotion
 from .facade import FloatingMimicRobot, FloatingRobot, MimicRobot, PlanarRobot, Robot, kind_of

@@ -39,7 +39,7 @@ from . import regressor as _regressor
 from . import task_space as _task_space
 from ..algorithms import aba, crba, energy, forward, kinematics, noc, rnea
 from ..algorithms._batch import as_batch
-from ..algorithms.charts import EUCLIDEAN
+from .charts import EUCLIDEAN
 from ..algorithms.planar import planar_pack
 from .base_motion import check_base_motion
 from .batches import kernel_rows as _rows
@@ -76,7 +76,7 @@ class Robot:
 
     is_planar = False        # a planar chain on the planar fast path (PlanarRobot)
     is_floating = False      # a free-floating base (FloatingRobot)
-    chart = EUCLIDEAN        # q's chart for integrators (sim/): q in R^n (algorithms/charts.py)
+    chart = EUCLIDEAN        # q's chart for integrators (sim/): q in R^n (charts.py)
     _fd_flags = _FD_FLAGS    # forward_dynamics(method=...): the kernels' flags
 
     def __new__(cls, model, *args, **kwargs):

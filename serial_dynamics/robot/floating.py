@@ -35,7 +35,7 @@ from ..algorithms import derivatives as derivatives_reference
 from ..algorithms import kinematics
 from ..algorithms import regressor as ref_regressor
 from ..algorithms._batch import skew
-from ..algorithms.charts import FREE_FLYER
+from .charts import FREE_FLYER
 from ..algorithms.energy import kinetic_energy_gradient as ke_gradient_reference
 from ..algorithms.rnea import _wrench_batch as rnea_wrench_rows
 from ..core import ENTRY_POINTS, OK
@@ -72,7 +72,7 @@ class Floating:
     """What a free-floating base overrides (``is_floating``); see the module docstring."""
 
     is_floating = True
-    chart = FREE_FLYER       # q on SE(3) x R^n: sim/ steps in this chart (algorithms/charts.py)
+    chart = FREE_FLYER       # q on SE(3) x R^n: sim/ steps in this chart (charts.py)
     _fd_flags = _FD_FLAGS
 
     def __init__(self, model, dissipation=None, backend=None, **kwargs):

@@ -6,7 +6,7 @@ sensor_msgs/JointState.
 
 A thread steps the simulation (``sim.session.Session``: ``FixedStepIntegrator`` at
 ``sim_dt``, the commands held until replaced or timed out, the edits, pause, divergence),
-paced against the wall clock at ``real_time_factor`` (``simulator_loop.SimulatorLoop``:
+paced against the wall clock at ``real_time_factor`` (``loops/simulator.SimulatorLoop``:
 catching up when late, re-anchoring when more than 0.1 s late). This module converts
 parameters and messages and makes one call there per callback.
 
@@ -30,10 +30,10 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool, Trigger
 
+from ..loops.simulator import SimulatorLoop
 from . import common, floating_state, parameters, simulator_inputs, simulator_parameters
 from .common import Rejected
 from .parameters import StartupError
-from .simulator_loop import SimulatorLoop
 from .simulator_parameters import PARAMETERS, RANGES
 
 

@@ -8,8 +8,8 @@ import numpy as np
 
 from serial_dynamics.sim.session import TIMEOUT_ACTIONS, Session, has_base
 
+from ..loops.simulator import dt_ns
 from . import floating_state, parameters
-from .simulator_loop import dt_ns
 
 PARAMETERS = {
     **parameters.ROBOT_PARAMETERS,

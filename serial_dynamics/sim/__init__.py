@@ -9,8 +9,9 @@
   form), ``implicit`` (implicit midpoint, Newton): one fixed step of each method;
 - ``jacobians``: the analytical (or finite-difference) Jacobians of the implicit methods;
 - ``stops``: hard stops at the joint limits; ``servo``: the joint servo (implicit PD);
-- ``loop``: the compiled whole-run loop; ``fixed_step``: ``FixedStepIntegrator`` and the
-  fixed-step run loops; ``adaptive``: the run loop over scipy's solvers;
+- ``compiled_euler``: the compiled whole-run semi-implicit Euler loop, ``compiled_run``:
+  ``simulate``'s run on it; ``fixed_step``: ``FixedStepIntegrator`` and the fixed-step run
+  loops; ``adaptive``: the run loop over scipy's solvers;
 - ``result``: ``SimulationResult``, ``SolverStats``; ``progress``: the progress bar;
 - ``driver``: ``simulate``.
 

@@ -1,7 +1,7 @@
-"""``simulate`` with semi-implicit Euler in one compiled loop (``loop.simulate_fixed_step``):
-``run_compiled``, for torques known in advance. Apart from ``fixed_step`` so that ``loop``
-(whose robots without a compiled chain run ``FixedStepIntegrator``) imports no module
-that imports it back.
+"""``simulate`` with semi-implicit Euler in one compiled loop
+(``compiled_euler.simulate_fixed_step``): ``run_compiled``, for torques known in advance.
+Apart from ``fixed_step`` so that ``compiled_euler`` (whose robots without a compiled chain
+run ``FixedStepIntegrator``) imports no module that imports it back.
 """
 from __future__ import annotations
 
@@ -9,13 +9,13 @@ import numpy as np
 
 from .equations import EnergyGuard, Equations
 from .fixed_step import run_fixed
-from .loop import simulate_fixed_step
+from .compiled_euler import simulate_fixed_step
 from .result import SolverStats, finish
 
 
 def run_compiled(robot, duration, q0, qd0, inputs, method, dt, dissipation, output_dt,
                  check_energy, bar):
-    """Semi-implicit Euler in one compiled loop (``loop.simulate_fixed_step``), for torques
+    """Semi-implicit Euler in one compiled loop (``compiled_euler.simulate_fixed_step``), for torques
     known in advance (not state feedback), no tip wrench and no Coulomb friction; the same
     steps, explicit damping and work quadrature as FixedStepIntegrator. Falls back to the
     step-by-step loop otherwise."""

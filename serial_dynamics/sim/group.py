@@ -1,5 +1,5 @@
 """Simulation of a robot whose q lives on a Lie group (nq > nv: a floating base's unit
-quaternion), in the robot's chart (``robot.chart``, ``algorithms/charts.py``).
+quaternion), in the robot's chart (``robot.chart``, ``robot/charts.py``).
 
 The state is (q, v), q (nq,), v (nv,); the joints are the last ``dof`` coordinates of each,
 the base's come first (nb = nv - dof of v). A quaternion integrated as four numbers leaves

@@ -96,7 +96,7 @@ def _fits(value, default):
 
 def _robot(name):
     import serial_dynamics as sd
-    from ..robots import BUILTIN
+    from ..builtin import BUILTIN
     if name is None:
         return sd.default_robot()
     if name in BUILTIN:

@@ -8,7 +8,7 @@ import pytest
 import serial_dynamics as sd
 from serial_dynamics import Robot
 from serial_dynamics.algorithms import aba, forward
-from serial_dynamics.robots.synthetic import chain_urdf
+from serial_dynamics.builtin.synthetic import chain_urdf
 
 EPS = np.finfo(float).eps
 

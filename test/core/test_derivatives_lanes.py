@@ -11,7 +11,7 @@ from serial_dynamics.core import K
 from serial_dynamics.core import flags as F
 from serial_dynamics.core.derivatives_lanes import DLANES
 from serial_dynamics.core.layout import LANES, W_ALL, W_WRENCH
-from serial_dynamics.robots.synthetic import chain_urdf
+from serial_dynamics.builtin.synthetic import chain_urdf
 
 ROBOTS = {
     "ur5e": sd.default_robot,

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import serial_dynamics as sd
-from serial_dynamics.robots.synthetic import two_arm_urdf
+from serial_dynamics.builtin.synthetic import two_arm_urdf
 
 PRISMATIC_SECOND = ["revolute", "prismatic", "revolute"]
 

@@ -12,7 +12,7 @@ import serial_dynamics as sd
 from serial_dynamics.algorithms import _batch, joint as ref_joint, kinematics as ref_kinematics
 from serial_dynamics.core import joint
 from serial_dynamics.core.layout import pack
-from serial_dynamics.robots.synthetic import chain_urdf
+from serial_dynamics.builtin.synthetic import chain_urdf
 
 KINDS = {"revolute": (joint.REVOLUTE, 2), "prismatic": (joint.PRISMATIC, 5)}
 rng = np.random.default_rng(7)

@@ -19,9 +19,9 @@ from serial_dynamics import core
 from serial_dynamics.core import flags as F
 from serial_dynamics.core.spatial import sincos
 from serial_dynamics.robot.facade import PLANAR_KERNELS, ROBOT_KERNELS
-from serial_dynamics.sim.loop import _loop, simulate_fixed_step
+from serial_dynamics.sim.compiled_euler import _loop, simulate_fixed_step
 from serial_dynamics.algorithms import aba, forward, rnea
-from serial_dynamics.robots.synthetic import chain_urdf
+from serial_dynamics.builtin.synthetic import chain_urdf
 
 TOL = 1e-12
 

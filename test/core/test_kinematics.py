@@ -11,7 +11,7 @@ import pytest
 
 import serial_dynamics as sd
 from pin_reference import erd
-from serial_dynamics.robots.synthetic import mimic_chain_urdf, two_arm_urdf
+from serial_dynamics.builtin.synthetic import mimic_chain_urdf, two_arm_urdf
 
 ROBOTS = {
     "ur5e": lambda fl: sd.load_urdf(sd.builtin_path("ur5e"), floating_base=fl),

@@ -16,7 +16,7 @@ from serial_dynamics.core import flags as F
 from serial_dynamics.core.layout import W_ALL, W_WRENCH
 from serial_dynamics.core.tree_derivatives_lanes import tree_derivative_lanes, tree_walk
 from serial_dynamics.model.model import Model
-from serial_dynamics.robots.synthetic import two_arm_urdf
+from serial_dynamics.builtin.synthetic import two_arm_urdf
 
 TREES = ["solo_description/robots/solo12.urdf", "talos_data/robots/talos_reduced.urdf",
          "baxter_description/urdf/baxter.urdf"]

@@ -7,7 +7,7 @@ import pytest
 
 import serial_dynamics as sd
 from pin_reference import erd
-from serial_dynamics.robots.synthetic import two_arm_urdf
+from serial_dynamics.builtin.synthetic import two_arm_urdf
 
 ROBOTS = ["solo_description/robots/solo12.urdf", "talos_data/robots/talos_reduced.urdf",
           "baxter_description/urdf/baxter.urdf"]

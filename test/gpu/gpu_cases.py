@@ -10,7 +10,7 @@ N = 4              # states a batch: the simulator runs one Python thread per st
 def robots():
     """{name: Robot}: a plain 6R arm, armature, payload, planar, mimic (revolute and
     prismatic followers)."""
-    ur5e = sd.robots.ur5e_urdf()
+    ur5e = sd.builtin.ur5e_urdf()
     arm = sd.load_urdf(ur5e)
     return {
         "ur5e": arm,
@@ -18,7 +18,7 @@ def robots():
                                                  enumerate(arm.joint_names)}),
         "payload": arm.with_payload(2.5, com=(0.01, 0.02, 0.05), inertia=(0.02, 0.025, 0.03,
                                                                             0.001, 0.0, 0.002)),
-        "planar_3r": sd.load_urdf(sd.robots.planar_3r_urdf()),
+        "planar_3r": sd.load_urdf(sd.builtin.planar_3r_urdf()),
         "mimic": sd.load_urdf(mimic_chain()),
         "mimic_prismatic": sd.load_urdf(mimic_chain("prismatic")),
     }

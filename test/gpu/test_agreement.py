@@ -38,7 +38,7 @@ def test_every_kind_agrees_with_the_cpu(name):
 
 @pytest.mark.parametrize("urdf", ["ur5e", "two_arms"])
 def test_a_floating_base_agrees_with_the_cpu(urdf):
-    robot = sd.load_urdf(sd.robots.ur5e_urdf() if urdf == "ur5e" else two_arms(),
+    robot = sd.load_urdf(sd.builtin.ur5e_urdf() if urdf == "ur5e" else two_arms(),
                          floating_base=True)
     rng = np.random.default_rng(4)
     q, v = robot.random_state(rng, batch=3, speed=2.0)          # q: [x, y, z, quaternion, joints]

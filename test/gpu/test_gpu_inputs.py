@@ -65,7 +65,7 @@ def test_without_a_card_or_the_simulator_the_error_says_what_to_do():
     assert "NUMBA_ENABLE_CUDASIM=1" in p.stderr
 
 
-ROBOT = sd.load_urdf(sd.robots.ur5e_urdf())
+ROBOT = sd.load_urdf(sd.builtin.ur5e_urdf())
 Q, QD = ROBOT.random_state(0, batch=3)
 
 
@@ -98,7 +98,7 @@ def test_a_batch_too_large_for_the_card_names_its_size(monkeypatch):
 
 
 def test_a_floating_base_takes_its_own_widths():
-    robot = sd.load_urdf(sd.robots.ur5e_urdf(), floating_base=True)
+    robot = sd.load_urdf(sd.builtin.ur5e_urdf(), floating_base=True)
     with pytest.raises(ValueError, match=r"Q has shape \(1, 12\); expected \(N, 13\)"):
         gpu.mass_matrix(robot, np.zeros((1, robot.nv)))
     with pytest.raises(ValueError, match=r"TAU has shape \(1, 5\); expected \(N, 12\) or "

@@ -29,7 +29,7 @@ import pytest
 
 import serial_dynamics as sd
 from serial_dynamics.identification import BaseParameters, base_parameters
-from serial_dynamics.robots.synthetic import chain_urdf
+from serial_dynamics.builtin.synthetic import chain_urdf
 
 
 def rel(a, b):

@@ -4,7 +4,7 @@ import pytest
 
 import serial_dynamics as sd
 from serial_dynamics import Dissipation
-from serial_dynamics.robots.synthetic import chain_urdf
+from serial_dynamics.builtin.synthetic import chain_urdf
 
 NAMES = ("j1", "j2", "j3")
 

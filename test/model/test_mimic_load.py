@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import serial_dynamics as sd
-from serial_dynamics.robots.synthetic import chain_urdf, mimic_chain_urdf
+from serial_dynamics.builtin.synthetic import chain_urdf, mimic_chain_urdf
 from serial_dynamics.urdf import mass_matrix as check_module   # the loader's mass-matrix check
 
 

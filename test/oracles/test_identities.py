@@ -11,7 +11,7 @@ import pytest
 
 import serial_dynamics as sd
 from serial_dynamics.algorithms import kinematics, noc
-from serial_dynamics.robots.synthetic import chain_urdf
+from serial_dynamics.builtin.synthetic import chain_urdf
 
 
 def _panda(tip):

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import serial_dynamics as sd
-from serial_dynamics.robots import planar_3r_urdf, spatial_3r_urdf
+from serial_dynamics.builtin import planar_3r_urdf, spatial_3r_urdf
 
 G = 9.81
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import serial_dynamics as sd
-from serial_dynamics.robots.synthetic import chain_urdf
+from serial_dynamics.builtin.synthetic import chain_urdf
 from pin_reference import PinReference
 from modelling_cases import (BACKENDS, BM, FD_METHODS, G_WORLD, RTOL, XTOL, batch, case,
                              rel_err, states, tmpdir_chains)  # noqa: F401  (fixtures)

@@ -24,7 +24,7 @@ from test_pinocchio import CHAINS, URDFS, _branch_ends, _load, _tree, reference
 
 import serial_dynamics as sd
 from serial_dynamics.model import Dissipation
-from serial_dynamics.robots.synthetic import chain_urdf
+from serial_dynamics.builtin.synthetic import chain_urdf
 
 RTOL = 1e-9
 EPS = np.finfo(float).eps

@@ -243,7 +243,7 @@ def test_the_free_flyer_root_is_the_references_root_alone_and_in_batches(n):
     coordinates) the mass matrix is too big for the lanes' stack, from 51 (57) the
     articulated inertias too, and those batches run state by state: either way each row is
     bitwise its single call, and both agree with the reference's 6-DoF root."""
-    from serial_dynamics.robots.synthetic import chain_urdf
+    from serial_dynamics.builtin.synthetic import chain_urdf
     base = ('<link name="base_link"><inertial><mass value="10"/><inertia ixx="0.2" iyy="0.3" '
             'izz="0.25" ixy="0" ixz="0" iyz="0"/></inertial></link>')
     robot = sd.load_urdf(chain_urdf(n).replace('<link name="base_link"/>', base),

@@ -22,7 +22,7 @@ PKG = os.path.dirname(os.path.abspath(sd.__file__))
 
 def planar_mimic():
     """The planar 3R with its last joint mimicking the second: planar and mimic at once."""
-    xml = sd.robots.planar_3r_urdf()
+    xml = sd.builtin.planar_3r_urdf()
     tail = '<joint name="joint3"'
     i = xml.index(tail)
     j = xml.index("</joint>", i)
@@ -38,7 +38,7 @@ def planar_mimic():
     ("floating+mimic", FloatingMimicRobot),
 ])
 def test_kind_of_chooses_and_every_constructor_builds_it(source, kind):
-    xml = {"ur5e": sd.robots.ur5e_urdf, "planar_3r": sd.robots.planar_3r_urdf,
+    xml = {"ur5e": sd.builtin.ur5e_urdf, "planar_3r": sd.builtin.planar_3r_urdf,
            "mimic": mimic_chain, "planar+mimic": planar_mimic,
            "floating+mimic": mimic_chain}[source]()
     robot = sd.load_urdf(xml, floating_base=source.startswith("floating"))

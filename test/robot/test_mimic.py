@@ -198,7 +198,7 @@ def test_a_follower_that_couples_two_branches_makes_the_reduced_system_dense():
     """joint2 (arm a) mimics b_joint2 (arm b): the reduced b_joint2 couples with a1 and b1,
     which are on no one path, so the reduced M is no tree's: mimic_layout falls back to a
     dense factor (SPARSE 0, parents k - 1) and the answers stay the reference's."""
-    from serial_dynamics.robots.synthetic import two_arm_urdf
+    from serial_dynamics.builtin.synthetic import two_arm_urdf
     xml = two_arm_urdf(3)
     start = xml.index('<joint name="joint2"')
     end = xml.index("</joint>", start)

@@ -22,8 +22,8 @@ from serial_dynamics.algorithms.planar import (ANG, ARM, GX, GY, IZ, RX, RY, SGN
 from serial_dynamics.core import flags as F
 from serial_dynamics.core import OTHER_TYPES
 from serial_dynamics.core import K as cp   # the compiled entry points, planar ones included
-from serial_dynamics.robots import planar_3r_urdf
-from serial_dynamics.robots.synthetic import chain_urdf
+from serial_dynamics.builtin import planar_3r_urdf
+from serial_dynamics.builtin.synthetic import chain_urdf
 from test_textbook import G, PLANAR_PARAMS, planar_oracle
 
 TOL = 1e-12

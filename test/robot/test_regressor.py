@@ -353,7 +353,7 @@ def test_the_compiled_floating_regressor(tree):
     columns are the reference's (the NumPy regressor on the same instantaneous tree; both
     against Pinocchio's in test/oracles/test_pinocchio_trees.py) with armature and friction,
     and a state gives the same bits alone or in a batch (a quaternion of any length)."""
-    from serial_dynamics.robots.synthetic import two_arm_urdf
+    from serial_dynamics.builtin.synthetic import two_arm_urdf
     source = two_arm_urdf(3, base_mass=4.0, kinds=["revolute", "prismatic", "revolute"]) if tree \
         else sd.builtin_path("ur5e")
     names = sd.load_urdf(source).joint_names

@@ -114,7 +114,7 @@ def _kinds():
         "armature": arm,
         "payload": ur5e.with_payload(2.0, (0.01, 0.02, 0.1), (0.01, 0.02, 0.015, 0, 0, 0)),
         "mimic": sd.load_urdf(mimic_chain()),
-        "planar": sd.load_urdf(sd.robots.planar_3r_urdf()),
+        "planar": sd.load_urdf(sd.builtin.planar_3r_urdf()),
         "floating": sd.load_urdf(sd.builtin_path("ur5e"), floating_base=True),
         "numpy": sd.Robot(ur5e.model, backend="numpy"),
     }

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 import serial_dynamics as sd
-from serial_dynamics.robots.synthetic import satellite_urdf
+from serial_dynamics.builtin.synthetic import satellite_urdf
+from serial_dynamics.loops.simulator import dt_ns
 from serial_dynamics.ros import parameters
-from serial_dynamics.ros.simulator_loop import dt_ns
 from serial_dynamics.ros.simulator_parameters import PARAMETERS, session
 
 UR5E = sd.default_robot()

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import serial_dynamics as sd
-from serial_dynamics.robots.synthetic import satellite_urdf
+from serial_dynamics.builtin.synthetic import satellite_urdf
 from serial_dynamics.sim.fixed_step import FixedStepIntegrator
 from serial_dynamics.sim.group import GroupStepIntegrator, run_on_group
 
@@ -236,7 +236,7 @@ def test_a_floating_base_with_mimic_joints_by_every_fixed_step_method():
     measured: semi-implicit Euler 5.5e-4, RK4 1.6e-13, the implicit midpoint rule 6.8e-8
     relative); the energy balance closes to each method's error (largest: semi-implicit
     Euler's 2.9e-4)."""
-    from serial_dynamics.robots.synthetic import mimic_chain_urdf
+    from serial_dynamics.builtin.synthetic import mimic_chain_urdf
     robot = sd.load_urdf(mimic_chain_urdf(4, follower=2), floating_base=True, gravity=(0, 0, 0))
     assert robot.is_floating and robot.model.has_mimic_joints and robot.nv == robot.dof + 6
     q, v = robot.random_state(3)

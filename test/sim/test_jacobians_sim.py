@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import serial_dynamics as sd
-from serial_dynamics.robots.synthetic import stiff_chain_urdf
+from serial_dynamics.builtin.synthetic import stiff_chain_urdf
 from serial_dynamics.sim.adaptive import jacobians
 from serial_dynamics.sim.equations import Equations, Inputs
 from serial_dynamics.sim.jacobians import accel_jacobian

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import serial_dynamics as sd
-from serial_dynamics.robots import builtin_robot
+from serial_dynamics.builtin import builtin_robot
 from serial_dynamics.sim.fixed_step import SERVO_METHODS, FixedStepIntegrator
 from serial_dynamics.sim.methods import SimulationError
 from serial_dynamics.sim.servo import servo

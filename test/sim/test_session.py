@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import serial_dynamics as sd
-from serial_dynamics.robots.synthetic import satellite_urdf
+from serial_dynamics.builtin.synthetic import satellite_urdf
 from serial_dynamics.sim.fixed_step import FixedStepIntegrator
 from serial_dynamics.sim.session import Session
 

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import serial_dynamics as sd
-from serial_dynamics.robots.synthetic import satellite_urdf
+from serial_dynamics.builtin.synthetic import satellite_urdf
 from serial_dynamics.sim.session import Session, has_base
 
 from test_mimic import mimic_chain

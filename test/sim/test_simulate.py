@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import serial_dynamics as sd
-from serial_dynamics.robots.synthetic import chain_urdf, stiff_chain_urdf
+from serial_dynamics.builtin.synthetic import chain_urdf, stiff_chain_urdf
 from serial_dynamics.sim.driver import simulate as simulate_fn
 from serial_dynamics.sim.fixed_step import FixedStepIntegrator
 from serial_dynamics.sim.methods import ADAPTIVE, FIXED_STEP, METHODS, SimulationError

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import serial_dynamics as sd
-from serial_dynamics.robots.synthetic import (chain_urdf, ill_conditioned_chain_urdf,
+from serial_dynamics.builtin.synthetic import (chain_urdf, ill_conditioned_chain_urdf,
                                               stiff_chain_urdf)
 from serial_dynamics.sim.methods import SimulationError
 

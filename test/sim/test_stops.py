@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import serial_dynamics as sd
-from serial_dynamics.robots.synthetic import chain_urdf
+from serial_dynamics.builtin.synthetic import chain_urdf
 from serial_dynamics.sim.fixed_step import FixedStepIntegrator
 
 LIMITS = [(-3.0, 3.0), (-0.4, 0.4), (-3.0, 3.0)]

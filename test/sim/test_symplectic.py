@@ -13,7 +13,7 @@ import pytest
 
 import serial_dynamics as sd
 from serial_dynamics.algorithms.energy import kinetic_energy, kinetic_energy_gradient
-from serial_dynamics.robots.synthetic import chain_urdf, double_pendulum_urdf
+from serial_dynamics.builtin.synthetic import chain_urdf, double_pendulum_urdf
 from serial_dynamics.sim import symplectic
 from serial_dynamics.sim.fixed_step import FixedStepIntegrator
 from serial_dynamics.sim.methods import SimulationError

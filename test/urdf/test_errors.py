@@ -380,7 +380,7 @@ def test_a_chain_longer_than_the_recursion_limit_loads():
     RecursionError (issue 13, defect 6). Now an explicit stack."""
     import sys
 
-    from serial_dynamics.robots.synthetic import chain_urdf
+    from serial_dynamics.builtin.synthetic import chain_urdf
     n = sys.getrecursionlimit() + 50
     robot = sd.load_urdf(chain_urdf(n))
     assert robot.dof == n and robot.tip_link == "tip"
@@ -539,7 +539,7 @@ def test_a_long_chain_loads_without_the_dense_check():
     O(n) now (composite and articulated inertias in one pass), and the dense CRBA is not
     called for a chain without mimic joints. (Load times: bench/bench_load.py; no timing
     assertion here.)"""
-    from serial_dynamics.robots.synthetic import chain_urdf
+    from serial_dynamics.builtin.synthetic import chain_urdf
     from serial_dynamics.urdf import mass_matrix as check_module
     calls = []
     dense = check_module.mass_matrix
@@ -556,7 +556,7 @@ def test_the_singular_check_is_the_dense_one():
     culprit named: here two coaxial joints (link1 massless), in a 30-joint chain."""
     import re
 
-    from serial_dynamics.robots.synthetic import chain_urdf
+    from serial_dynamics.builtin.synthetic import chain_urdf
     xml = chain_urdf(30)
     xml = re.sub(r'<link name="link7">.*?</link>', '<link name="link7"/>', xml, flags=re.S)
     xml = re.sub(r'(<joint name="joint8".*?<origin xyz=")[^"]*(")', r"\g<1>0 0 0\2", xml, flags=re.S)

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import serial_dynamics as sd
-from serial_dynamics.robots.synthetic import chain_urdf
+from serial_dynamics.builtin.synthetic import chain_urdf
 from pin_reference import erd
 from modelling_cases import G_WORLD, RTOL, fixed_reference, quiet_load, rel_err, states
 

@@ -1,6 +1,6 @@
 """Joint trajectories, the torques along them, their feasibility, the minimum-time
 maneuver under torque (and speed) limits, and the time-optimal timing of a path
-(``time_parameterize``; TOPP-RA, ``algorithms/time_parameterization.py``).
+(``time_parameterize``; TOPP-RA, ``trajectory/time_parameterization.py``).
 
 Shape functions s(x) on x in [0, 1] with s(0) = 0, s(1) = 1 and zero end rates:
 
@@ -348,7 +348,7 @@ def time_parameterize(robot, path, velocity_limit=None, acceleration_limit=None,
     one per joint; inf: none; a zero velocity or acceleration limit: the joint holds
     still), with the full dynamics: gravity, the payload, and the robot's joint friction
     with ``dissipation`` when it is enabled. TOPP-RA (the ``toppra`` package) on ``grid``
-    intervals (``algorithms/time_parameterization.py``).
+    intervals (``trajectory/time_parameterization.py``).
 
     The path is timed by its geometry, not by how many waypoints describe it: repeated
     consecutive waypoints are dropped, points on a straight stretch count as its ends, the
@@ -362,7 +362,7 @@ def time_parameterize(robot, path, velocity_limit=None, acceleration_limit=None,
     point at t = 0.
     ValueError naming the joint and the waypoint when no timing is feasible (gravity and
     friction alone exceed an effort limit; a joint moves under a zero limit)."""
-    from .algorithms import time_parameterization as tp
+    from . import time_parameterization as tp
     if robot.is_floating:
         raise NotImplementedError("time_parameterize needs a fixed base")
     t, q, qd, qdd, limits = tp.solve(robot, path, velocity_limit, acceleration_limit,

@@ -22,9 +22,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from serial_dynamics.model.errors import Rejected
-from serial_dynamics.sim.session import Session
-
+from ..model.errors import Rejected
+from ..sim.session import Session
 from .pacing import Pacer
 
 MAX_LAG = 0.1   # s of wall time behind schedule before the pacing re-anchors

@@ -20,8 +20,8 @@ import math
 
 import numpy as np
 
-from ._batch import skew
-from .floating import quaternion_matrix
+from ..algorithms._batch import skew
+from ..algorithms.floating import quaternion_matrix
 
 
 class Euclidean:

@@ -1,14 +1,15 @@
-"""``sim.loop.simulate_fixed_step`` on every kind of robot: the same bits as ``sd.simulate``
-and ``FixedStepIntegrator`` with semi-implicit Euler, in the robot's own coordinates (a mimic
-chain's independent joints, a floating base's q (n+7) and v (n+6)); a planar chain."""
+"""``sim.compiled_euler.simulate_fixed_step`` on every kind of robot: the same bits as
+``sd.simulate`` and ``FixedStepIntegrator`` with semi-implicit Euler, in the robot's own
+coordinates (a mimic chain's independent joints, a floating base's q (n+7) and v (n+6)); a
+planar chain."""
 import numpy as np
 import pytest
 
 import serial_dynamics as sd
-from serial_dynamics.robots import planar_3r_urdf
-from serial_dynamics.robots.synthetic import satellite_urdf
+from serial_dynamics.builtin import planar_3r_urdf
+from serial_dynamics.builtin.synthetic import satellite_urdf
+from serial_dynamics.sim.compiled_euler import simulate_fixed_step
 from serial_dynamics.sim.fixed_step import FixedStepIntegrator
-from serial_dynamics.sim.loop import simulate_fixed_step
 
 DT, STEPS = 1e-3, 40
 

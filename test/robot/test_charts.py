@@ -1,11 +1,11 @@
-"""The charts of algorithms/charts.py against their definitions, by differences: q(phi) moves
+"""The charts of robot/charts.py against their definitions, by differences: q(phi) moves
 with v as d phi/dt = C(phi) v says, the transposes are C's, and the chart's part of dT/dphi
 is what C's dependence on phi adds to T."""
 import numpy as np
 
 import serial_dynamics as sd
-from serial_dynamics.algorithms.charts import EUCLIDEAN, FREE_FLYER
-from serial_dynamics.robots.synthetic import satellite_urdf
+from serial_dynamics.builtin.synthetic import satellite_urdf
+from serial_dynamics.robot.charts import EUCLIDEAN, FREE_FLYER
 
 
 def C_of(chart, q_ref, phi):

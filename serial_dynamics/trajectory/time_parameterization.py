@@ -46,7 +46,7 @@ points exceeds a limit, the whole timing is stretched uniformly until none does.
 Infeasible paths are refused before TOPP-RA runs, naming the joint and the waypoints:
 gravity (and dry friction) alone beyond an effort limit, or a joint that moves under a zero
 velocity or acceleration limit. toppra's own log records go to this module's logger
-(``serial_dynamics.algorithms.time_parameterization``) at DEBUG level.
+(``serial_dynamics.trajectory.time_parameterization``) at DEBUG level.
 """
 from __future__ import annotations
 

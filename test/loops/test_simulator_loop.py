@@ -1,4 +1,4 @@
-"""The simulator node's loop without a node (``ros/simulator_loop.py``), on the test's clock:
+"""The simulator node's loop without a node (``loops/simulator.py``), on the test's clock:
 which steps publish joint_states and /clock (and their stamps), commands and their notes,
 ~/step and ~/reset answers, the thread's schedule, /diagnostics and the closing line."""
 import threading
@@ -7,11 +7,13 @@ import numpy as np
 import pytest
 
 import serial_dynamics as sd
+from serial_dynamics.builtin.synthetic import satellite_urdf
+from serial_dynamics.loops.simulator import SimulatorLoop
 from serial_dynamics.model.errors import Rejected
-from serial_dynamics.robots.synthetic import satellite_urdf
-from serial_dynamics.ros import parameters
-from serial_dynamics.ros.simulator_loop import SimulatorLoop
-from serial_dynamics.ros.simulator_parameters import PARAMETERS, session
+
+pytest.importorskip("rclpy")    # the session is made from the node's parameter table
+from serial_dynamics.ros import parameters  # noqa: E402
+from serial_dynamics.ros.simulator_parameters import PARAMETERS, session  # noqa: E402
 
 UR5E = sd.default_robot()
 HOME = [0.0, -1.571, 1.571, -1.571, -1.571, 0.0]

@@ -1,10 +1,10 @@
-"""The simulator's wall-clock pacing (``ros/pacing.py``) and command hold
+"""The simulator's wall-clock pacing (``loops/pacing.py``) and command hold
 (``sim/command_hold.py``): plain Python, tested without rclpy and without waiting (the
 pacer reads a clock given here)."""
 import numpy as np
 
+from serial_dynamics.loops.pacing import Pacer
 from serial_dynamics.sim.command_hold import CommandHold
-from serial_dynamics.ros.pacing import Pacer
 
 
 class Clock:

@@ -1,4 +1,0 @@
-"""python -m serial_dynamics.robots: (re)write the built-in URDF files."""
-from . import write_all
-
-write_all()

@@ -11,20 +11,7 @@ import pytest
 import serial_dynamics as sd
 from serial_dynamics.model.inertia import nearest_physical_inertia
 
-
-def link(name, mass="1.0", com="0 0 0.1", I=("0.01", "0.01", "0.01"), off=("0", "0", "0"),
-         rpy="0 0 0"):
-    if mass is None:
-        return f'<link name="{name}"/>'
-    return (f'<link name="{name}"><inertial><origin xyz="{com}" rpy="{rpy}"/>'
-            f'<mass value="{mass}"/><inertia ixx="{I[0]}" iyy="{I[1]}" izz="{I[2]}" '
-            f'ixy="{off[0]}" ixz="{off[1]}" iyz="{off[2]}"/></inertial></link>')
-
-
-def joint(name, parent, child, kind="revolute", xyz="0 0 0.2", axis="0 1 0"):
-    return (f'<joint name="{name}" type="{kind}"><parent link="{parent}"/>'
-            f'<child link="{child}"/><origin xyz="{xyz}"/><axis xyz="{axis}"/>'
-            '<limit lower="-3" upper="3" effort="10" velocity="2"/></joint>')
+from test_errors import joint, link
 
 
 def arm(**parts):

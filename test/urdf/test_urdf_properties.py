@@ -318,7 +318,9 @@ def test_a_corrupted_urdf_loads_or_names_the_culprit(case):
     except sd.RobotDescriptionError as exc:
         assert _named_in(str(exc), xml), str(exc)
         return
-    # it loaded: a valid model, with finite dynamics
-    q = np.zeros(robot.dof)
-    assert np.all(np.isfinite(robot.inverse_dynamics(q, q, q)))
+    # it loaded: a valid model, with finite dynamics (a floating root: the base at the origin)
+    q, v = np.zeros(robot.nq), np.zeros(robot.nv)
+    if robot.is_floating:
+        q[6] = 1.0                                 # qw: the identity rotation
+    assert np.all(np.isfinite(robot.inverse_dynamics(q, v, v)))
     assert np.linalg.eigvalsh(robot.mass_matrix(q))[0] > 0

@@ -8,7 +8,7 @@ The core library never imports rclpy; the ROS 2 nodes live in ``serial_dynamics.
 """
 from .model import Dissipation, Model, ModelError, RobotDescriptionError
 from .model.errors import HeldJointsWarning, InertiaRepairWarning, SimulationError, URDFError
-from .contacts import Contact
+from .contacts import Contact, Ground
 from .robot import BaseMotion, Robot
 from .builtin import builtin_path, builtin_robot, default_robot
 from .sim.driver import simulate   # sd.simulate is the function
@@ -16,7 +16,8 @@ from .urdf import load_model
 
 __all__ = ["load_urdf", "Robot", "Model", "Dissipation", "RobotDescriptionError", "URDFError",
            "ModelError", "HeldJointsWarning", "InertiaRepairWarning", "default_robot",
-           "builtin_robot", "builtin_path", "simulate", "SimulationError", "BaseMotion", "Contact"]
+           "builtin_robot", "builtin_path", "simulate", "SimulationError", "BaseMotion", "Contact",
+           "Ground"]
 __version__ = "0.1.0"
 
 

@@ -9,12 +9,15 @@ bias torques, link poses, Jacobians and bias accelerations); docs/contacts.md.
 - ``constrained.py``: the KKT system by its Delassus matrix, proximal iterations;
 - ``inverse.py`` and ``friction.py``: contact inverse dynamics, minimum-norm forces or
   forces in the friction cones (a second-order cone program, Clarabel);
-- ``states.py``: the checks of the states and settings.
+- ``states.py``: the checks of the states and settings;
+- ``ground.py`` and ``stepping.py``: ``Ground`` and unilateral frictional contacts with it
+  in simulation (velocity-level time stepping, projected Gauss-Seidel; ``sd.simulate``).
 """
 from .collision import contact_points
 from .constrained import constrained_forward_dynamics
 from .contact import Contact
+from .ground import Ground
 from .inverse import contact_inverse_dynamics
 
-__all__ = ["Contact", "contact_points", "constrained_forward_dynamics",
+__all__ = ["Contact", "Ground", "contact_points", "constrained_forward_dynamics",
            "contact_inverse_dynamics"]

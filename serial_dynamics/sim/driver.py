@@ -29,6 +29,7 @@ import time
 
 import numpy as np
 
+from ..contacts.stepping import check_ground, run_with_ground
 from ..model.errors import SimulationError
 from ..robot.base_motion import BaseMotion
 from ..robot.wrenches import generalized_forces
@@ -143,7 +144,8 @@ def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853"
              atol=None, dt=None, dissipation=True, wrench=None, output_dt=None,
              max_step=np.inf, first_step=None, friction_smoothing=1e-4, check_energy=True,
              position_limits=False, progress=False, base_motion=None,
-             jacobian="analytical", wrenches=None) -> SimulationResult:
+             jacobian="analytical", wrenches=None, ground=None,
+             contacts=None) -> SimulationResult:
     """Simulate ``duration`` seconds of motion from (q0, qd0) (zeros by default).
 
     torque: None (zero), a scalar or (n,) constant, (K, n) samples uniformly spaced over
@@ -179,6 +181,11 @@ def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853"
         "analytical" (``Robot.forward_dynamics_derivatives``, the default) or
         "finite_differences" (forward differences in one batched dynamics call over 2n+1
         states; for comparison). ``jacobians.py``.
+    ground: None, or an ``sd.Ground`` that ``contacts`` (point ``sd.Contact``s; default
+        ``robot.contact_points()``) touch: unilateral contacts with Coulomb friction by
+        velocity-level time stepping (``contacts/stepping.py``), method
+        "semi_implicit_euler" only; the result's ``contact_forces`` (K, k, 3) and
+        ``contact_active`` (K, k).
     """
     if method not in METHODS:
         raise ValueError(f"method {method!r} unknown; use one of {list(METHODS)}")
@@ -214,10 +221,23 @@ def simulate(robot, duration, q0=None, qd0=None, torque=None, *, method="DOP853"
     check_jacobian(jacobian)
     if output_dt is not None and not output_dt > 0:
         raise ValueError(f"output_dt = {output_dt}; give a spacing > 0 s")
+    if ground is None and contacts is not None:
+        raise ValueError("contacts are given without a ground; give ground=sd.Ground(...) "
+                         "for them to touch")
+    if ground is not None:
+        ground, contacts = check_ground(robot, ground, contacts, method)
+        if position_limits or base_motion is not None or rtol is not None or atol is not None:
+            raise ValueError("with a ground: no position_limits, base_motion, rtol or atol "
+                             "(semi-implicit Euler with contacts has none of them yet)")
     bar = Progress(duration, progress)
     start = time.perf_counter()
     try:
-        if on_a_group(robot):
+        if ground is not None:
+            q0 = robot.integrate(q0, np.zeros(robot.nv), 0.0) if on_a_group(robot) else q0
+            out = run_with_ground(robot, duration, q0, qd0, inputs,
+                                  DEFAULT_DT if dt is None else float(dt), dissipation,
+                                  output_dt, check_energy, bar, ground, contacts)
+        elif on_a_group(robot):
             fixed = method in FIXED_STEP
             out = run_on_group(robot, duration, robot.integrate(q0, np.zeros(robot.nv), 0.0),
                                qd0, inputs, method, dt=(DEFAULT_DT if dt is None else float(dt)),

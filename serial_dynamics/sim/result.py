@@ -36,8 +36,11 @@ class SimulationResult:
 
     q, qd, qdd (K, n); tau (applied torques), delta (dissipative torques, holding torques
     of stuck joints included) (K, n); kinetic, potential (K,) J; work_actuators
-    int tau.qd, work_dissipation int delta.qd (<= 0), work_external int (J^T w).qd (K,) J.
-    ``stats``: a ``SolverStats``."""
+    int tau.qd, work_dissipation int delta.qd (<= 0), work_external int (J^T w).qd (K,) J
+    (with a ground, its contacts' work too). ``stats``: a ``SolverStats``. Simulated with a
+    ground (``contacts/stepping.py``): ``contact_forces`` (K, k, 3), the force on each contact
+    over the step from each sample, world axes, N, and ``contact_active`` (K, k), whether it
+    pushes; None otherwise."""
 
     t: np.ndarray
     q: np.ndarray
@@ -53,6 +56,8 @@ class SimulationResult:
     stats: SolverStats
     joint_names: list = field(default_factory=list)
     base_names: tuple = ((), ())     # q's and qd's coordinates before the joints (robot.chart)
+    contact_forces: np.ndarray | None = None     # (K, k, 3) with a ground
+    contact_active: np.ndarray | None = None     # (K, k) with a ground
 
     method = property(lambda self: self.stats.method)
 

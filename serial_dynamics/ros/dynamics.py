@@ -8,7 +8,9 @@ Services (types in serial_dynamics_interfaces/srv; checked and answered by ``req
 ``~/inverse_dynamics``, ``~/forward_dynamics``, ``~/mass_matrix``, ``~/trajectory_torques``;
 ``~/estimate_payload`` (from the ``joint_states`` with efforts it has seen; on request it sets
 its own payload.*) and ``~/time_parameterize`` (``payload_timing.py``); ``~/task_space``
-(a link's J, acceleration, J-dot qd, Lambda and J-bar).
+(a link's J, acceleration, J-dot qd, Lambda and J-bar); ``~/contact_inverse_dynamics`` (the
+joint torques and contact wrenches that realise accelerations with given contacts: a legged
+robot's stance, with ``floating_base``; ``contact_requests.py``).
 A refused request is answered with ``success: false`` and a message naming the field and
 the fix; the node carries on.
 
@@ -31,12 +33,12 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
-from serial_dynamics_interfaces.srv import (EstimatePayload, ForwardDynamics, InverseDynamics,
-                                            MassMatrix, TaskSpace, TimeParameterize,
-                                            TrajectoryTorques)
+from serial_dynamics_interfaces.srv import (ContactInverseDynamics, EstimatePayload,
+                                            ForwardDynamics, InverseDynamics, MassMatrix,
+                                            TaskSpace, TimeParameterize, TrajectoryTorques)
 from trajectory_msgs.msg import JointTrajectory
 
-from . import common, parameters, payload_timing, requests
+from . import common, contact_requests, parameters, payload_timing, requests
 from .common import Rejected
 
 PARAMETERS = {
@@ -45,8 +47,15 @@ PARAMETERS = {
     "compensate_dissipation": ("bool", False, "add the torque that overcomes the joint "
                                "dissipation (friction) at the requested velocities"),
     **parameters.PAYLOAD_PARAMETERS,
+    "floating_base": ("bool", False, "the base link floats free: ~/contact_inverse_dynamics "
+                      "takes the base's pose, velocity and acceleration"),
 }
 
+
+# floating_base: q has the base's pose first, so only the service that takes it answers
+FLOATING_BASE = ("{} takes the joints alone, but this node's robot has a floating base "
+                 "(floating_base:=true): call ~/contact_inverse_dynamics, which takes the "
+                 "base's pose, velocity and acceleration too")
 
 # Services: reliable and volatile as rclpy's default, but keeping the last REQUEST_DEPTH
 # requests (as the topic pair) so that a stall of the node does not drop calls at 1 kHz.
@@ -79,7 +88,9 @@ class Dynamics(Node):
                 ("estimate_payload", EstimatePayload, self._estimate_payload),
                 ("time_parameterize", TimeParameterize, lambda robot, req:
                  payload_timing.answer_time_parameterize(robot, req, self.compensate)),
-                ("task_space", TaskSpace, requests.answer_task_space)):
+                ("task_space", TaskSpace, requests.answer_task_space),
+                ("contact_inverse_dynamics", ContactInverseDynamics, lambda robot, req:
+                 contact_requests.answer_contact_inverse_dynamics(robot, req, self.compensate))):
             self._latency[f"~/{name}"] = requests.Latency()
             self.create_service(srv_type, f"~/{name}", self._serve(f"~/{name}", answer),
                                 qos_profile=SERVICE_QOS)
@@ -119,6 +130,8 @@ class Dynamics(Node):
     def _answer(self, msg):
         robot = self.robot      # one model for the whole request
         try:
+            if robot.is_floating:
+                raise Rejected("floating_base", FLOATING_BASE.format("inverse_dynamics/request"))
             q, qd, qdd, tau = self._torques(robot, msg, "inverse_dynamics/request",
                                             self.wrench, self.wrench_in_tip)
         except Rejected as exc:
@@ -163,7 +176,10 @@ class Dynamics(Node):
             start = time.perf_counter()
             self.reject.got(key)
             try:
-                fields = answer(self.robot, request)        # one model for the whole call
+                robot = self.robot                          # one model for the whole call
+                if robot.is_floating and key != "~/contact_inverse_dynamics":
+                    raise Rejected("floating_base", FLOATING_BASE.format(key))
+                fields = answer(robot, request)
             except (ValueError, ArithmeticError) as exc:
                 refusal = exc if isinstance(exc, Rejected) else Rejected("library", str(exc))
                 self.reject(key, refusal, "; answered success: false")

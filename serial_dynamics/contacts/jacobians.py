@@ -56,9 +56,11 @@ def _x(a):
     return np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
 
 
-def _point_jacobian(L, r):
-    """Linear rows of the body point at r from the origin: v_o + w x r = J_v - [r]x J_w."""
-    return L.J[:3] - _x(r) @ L.J[3:]
+def point_rows(J, r):
+    """Linear rows of the body point at r (world axes) from the origin of the link whose
+    Jacobian is J: v_o + w x r = J_v - [r]x J_w."""
+    return J[:3] - _x(r) @ J[3:]
+
 
 
 def _classical(L, r):
@@ -104,7 +106,7 @@ def contact_rows(robot, q, v, contacts):
         L2 = _link(robot, q, v, c.other_link, cache)
         r1 = L1.R @ np.asarray(c.point)
         P = L1.o + r1                                           # the contact point, world
-        Jp = _point_jacobian(L1, r1)
+        Jp = point_rows(L1.J, r1)
         if not c.frame:                                         # p1'' - p2'' (classical)
             anchor = np.zeros(3) if c.anchor is None and L2 is not None else c.anchor
             if L2 is None:
@@ -113,7 +115,7 @@ def contact_rows(robot, q, v, contacts):
                 error.append(np.zeros(3) if anchor is None else P - np.asarray(anchor))
                 continue
             r2 = L2.R @ np.asarray(anchor)
-            J.append(Jp - _point_jacobian(L2, r2))
+            J.append(Jp - point_rows(L2.J, r2))
             drift.append(_classical(L1, r1) - _classical(L2, r2))
             error.append(P - (L2.o + r2))
             continue
@@ -121,7 +123,7 @@ def contact_rows(robot, q, v, contacts):
         rows, acc = np.vstack([Jp, L1.J[3:]]), _spatial(L1, r1)
         if L2 is not None:
             r2 = P - L2.o
-            rows = rows - np.vstack([_point_jacobian(L2, r2), L2.J[3:]])
+            rows = rows - np.vstack([point_rows(L2.J, r2), L2.J[3:]])
             v1, v2 = L1.v + _x(L1.w) @ r1, L2.v + _x(L2.w) @ r2
             # d/dt of the relative twist in link's frame: A1 - A2 + V1 x V2 (motion cross
             # product, [w1 x v2 + v1 x w2; w1 x w2]; Featherstone 2008, Sec. 2.9)

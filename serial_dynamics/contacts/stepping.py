@@ -32,6 +32,7 @@ from ..sim.group import GroupRates
 from ..sim.result import SolverStats, finish
 from .contact import check_contacts
 from .ground import Ground
+from .jacobians import point_rows
 
 MARGIN = 0.01            # m: points this close to the ground (plus their approach) are solved
 ERP = 0.2                # share of a penetration removed in one step (velocity level)
@@ -132,9 +133,7 @@ class GroundContacts:
             X, J = cache[c.link]
             r = X[:3, :3] @ p
             P.append(X[:3, 3] + r)
-            # v_P = v_o + w x r = J_v - [r]x J_w (the point's linear rows)
-            rx = np.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
-            JP.append(J[:3] - rx @ J[3:])
+            JP.append(point_rows(J, r))                     # v_P = J_v - [r]x J_w
         return np.array(P), np.array(JP)
 
     def step(self, q, v, v_free, M):

@@ -29,7 +29,8 @@ from ..model.model import Model
 from .mass_matrix import check_mass_matrix
 from .transmissions import reflected_inertias
 from .tree import check_tree, movable_leaves, path_up, single_chain_tip
-from .xml_checks import (MOVABLE, check_elements, check_well_formed, without_harmless_header,
+from .joint_types import MOVABLE, elementary_joints
+from .xml_checks import (check_elements, check_well_formed, without_harmless_header,
                          without_undeclared_prefixes)
 
 __all__ = ["load_model", "URDFError", "HeldJointsWarning"]
@@ -217,10 +218,12 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
             held.append(f"joint {joint.name!r} {on} is held at its offset "
                         f"{_float(joint.mimic.offset, 0.0):g}: it mimics "
                         f"{joint.mimic.joint!r}, which is {off} and held at zero")
-        elif joint.type in MOVABLE:
-            bodies.append(dict(_body(joint, X), parent=body))
-            child_body, X = len(bodies) - 1, np.eye(4)
-            parts[child_body] = []
+        elif joint.type in MOVABLE:          # its elementary joints, one body each
+            for e, elementary in enumerate(_bodies(joint)):
+                bodies.append(dict(elementary, X=X if e == 0 else np.eye(4), parent=child_body))
+                child_body = len(bodies) - 1
+                parts[child_body] = []
+            X = np.eye(4)
         elif joint.type == "floating":
             raise URDFError(f"{what} {on} is floating, below the root {root!r}: a "
                             "floating joint may only join the root (the world) to the base; "
@@ -228,8 +231,8 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
                             "floating_base=True")
         elif joint.type != "fixed":
             raise URDFError(f"{what} {on} is of type {joint.type!r}; only "
-                            "revolute, continuous, prismatic and fixed joints can form a "
-                            "chain or a tree")
+                            f"{', '.join(MOVABLE)} and fixed joints can form a chain or a "
+                            "tree")
         frames[joint.child] = (child_body, X[:3, :3].copy(), X[:3, 3].copy())
         stack.extend(below(joint.child, child_body, X))
     chain_links = list(frames)                   # the model's links, as met
@@ -283,6 +286,9 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
         who = _body_name(i, bodies, base_link, carrying.get(i, []))
         lumped[i] = (m, c, physical_body(who, m, I, sizes[i], repair_inertia))
     mass, com, inertia = zip(*(lumped[i] for i in range(len(bodies))))
+    for i, b in enumerate(bodies):       # the links between a URDF joint's elementary ones
+        if b["link"] not in frames:
+            frames[b["link"]] = (i, np.eye(3), np.zeros(3))
     g_root = _finite_or_fail(gravity, "gravity").reshape(3)
     R_base = _pose_in_root(base_link, root, parent_joint)[:3, :3]
     model = Model.build(
@@ -358,11 +364,16 @@ def _kept(source):
 def _mimic(bodies, scope):
     """Per body: the index of the joint it mimics (-1: independent), multiplier, offset."""
     index = {b["name"]: i for i, b in enumerate(bodies)}
+    several = {b["joint"] for b in bodies if b["name"] != b["joint"]}
     leader, multiplier, offset = [-1] * len(bodies), [1.0] * len(bodies), [0.0] * len(bodies)
     for i, b in enumerate(bodies):
         if b["mimic"] is None:
             continue
         what, lead = f"joint {b['name']!r}", b["mimic"].joint
+        if lead in several:
+            raise URDFError(f"{what} mimics {lead!r}, a joint of several coordinates "
+                            f"({', '.join(c['name'] for c in bodies if c['joint'] == lead)}); "
+                            "only a joint of one coordinate can be followed")
         if lead not in index:
             raise URDFError(f"{what} mimics {lead!r}, which is not a movable joint "
                             f"of the {scope}; choose a base_link and tip_link (or "
@@ -391,7 +402,7 @@ def _held_at_offset(joint, all_joints, scope):
                         f"mimics {lead!r}, which is not a joint of this URDF; fix the name in "
                         "its <mimic joint=...>")
     offset = _float(joint.mimic.offset, 0.0)
-    axis = _body(joint, np.eye(4))["axis"]
+    axis = _bodies(joint)[0]["axis"]
     X = np.eye(4)
     if joint.type == "prismatic":
         X[:3, 3] = offset * axis
@@ -438,7 +449,9 @@ def _pose_in_root(link, root, parent_joint):
     return X
 
 
-def _body(joint, X):
+def _bodies(joint):
+    """The model's bodies of a movable URDF joint, one per elementary joint
+    (``joint_types.py``): name, type, link, axis, limits and dissipation, checked."""
     what = f"joint {joint.name!r}"
     axis = _finite_or_fail(np.array([1.0, 0, 0]) if joint.axis is None else joint.axis,
                            what + " axis")
@@ -458,11 +471,10 @@ def _body(joint, X):
                             "finite number" + (", or leave the attribute out for none"
                                                if element == "limit" else ""))
     lower, upper = _float(given["lower"], -np.inf), _float(given["upper"], np.inf)
-    if joint.type == "continuous" or lower == upper:   # URDF default 0/0 means "no limits"
+    if lower == upper:                   # URDF default 0/0 means "no limits"
         lower, upper = -np.inf, np.inf
     if lower > upper:
         raise URDFError(f"{what}: lower limit {lower} > upper limit {upper}")
-    values.update(lower=lower, upper=upper)
     for key in ("damping", "friction"):
         if values[key] < 0:
             raise URDFError(f"{what}: <dynamics {key}=\"{values[key]}\"> is negative; "
@@ -470,5 +482,13 @@ def _body(joint, X):
     for key in ("effort", "velocity"):      # absent or non-positive limits are none
         if given[key] is None or values[key] <= 0:
             values[key] = np.inf
-    return dict(name=joint.name, type=joint.type, link=joint.child, X=X,
-                axis=axis / np.linalg.norm(axis), mimic=joint.mimic, **values)
+    parts = elementary_joints(joint.type, axis / np.linalg.norm(axis))
+    if len(parts) > 1 and joint.mimic is not None:
+        raise URDFError(f"{what} of type {joint.type!r} has a <mimic>: only a joint of one "
+                        "coordinate can follow another; remove the <mimic>")
+    last = len(parts) - 1
+    return [dict(values, name=joint.name + e.suffix, type=e.type, joint=joint.name,
+                 link=joint.child if k == last else joint.name + e.suffix, axis=e.axis,
+                 lower=lower if e.limited else -np.inf, upper=upper if e.limited else np.inf,
+                 mimic=joint.mimic)
+            for k, e in enumerate(parts)]

@@ -7,8 +7,7 @@ import re
 
 from ..model.errors import URDFError
 
-MOVABLE = ("revolute", "continuous", "prismatic")
-JOINT_TYPES = MOVABLE + ("fixed", "floating", "planar")
+JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")  # URDF's
 
 
 # What each attribute yourdfpy reads as numbers must hold: (count, what it means).

@@ -115,3 +115,24 @@ def test_a_chain_run_as_a_tree_gives_the_chains_bits(monkeypatch):
                                                              host=dm.host))
     assert gpu.inverse_dynamics(robot, q, qd, qdd).tobytes() == chain[0].tobytes()
     assert gpu.mass_matrix(robot, q).tobytes() == chain[1].tobytes()
+
+
+def test_a_planar_joint_agrees_with_pinocchio(tmp_path):
+    """A mobile manipulator on a URDF planar joint (test/planar_base.py): the card's inverse
+    dynamics, mass matrix, forward dynamics and derivatives of inverse dynamics are
+    Pinocchio's ``JointModelPlanar`` answers to 1e-9."""
+    from planar_base import PlanarPinocchio, mobile_manipulator_urdf, states as planar_states
+    path = tmp_path / "mobile_ur5.urdf"
+    path.write_text(mobile_manipulator_urdf())
+    robot = sd.load_urdf(str(path))
+    pin = PlanarPinocchio(str(path), robot)
+    q, qd, qdd = planar_states(np.random.default_rng(11), 3)
+    tau = gpu.inverse_dynamics(robot, q, qd, qdd)
+    M, a = gpu.mass_matrix(robot, q), gpu.forward_dynamics(robot, q, qd, tau)
+    dq, dqd = gpu.inverse_dynamics_derivatives(robot, q, qd, qdd)
+    for k in range(3):
+        close(tau[k], pin.inverse_dynamics(q[k], qd[k], qdd[k]), tol=1e-9)
+        close(M[k], pin.mass_matrix(q[k]), tol=1e-9)
+        close(a[k], qdd[k], tol=1e-9)
+        for got, want in zip((dq[k], dqd[k]), pin.inverse_dynamics_derivatives(q[k], qd[k], qdd[k])):
+            close(got, want, tol=1e-9)

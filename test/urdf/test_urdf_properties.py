@@ -267,12 +267,13 @@ def corrupted(draw):
 
 
 def _named_in(message, xml):
-    """Does ``message`` name something of ``xml``: a link or joint (quoted), an element
-    (<tag), or the file itself?"""
+    """Does ``message`` name something of ``xml``: a link or joint (quoted; or a coordinate
+    of a planar joint, 'name/x'), an element (<tag), or the file itself?"""
     root = etree.fromstring(xml)
     names = {e.get(a) for e in root.iter() for a in ("name", "link", "joint") if e.get(a)}
     tags = {e.tag for e in root.iter() if isinstance(e.tag, str)} | {"robot", "link", "joint"}
-    return (any(f"'{n}'" in message for n in names) or any(f"<{t}" in message for t in tags))
+    return (any(f"'{n}'" in message or f"'{n}/" in message for n in names)
+            or any(f"<{t}" in message for t in tags))
 
 
 def _issue_case(old, new):

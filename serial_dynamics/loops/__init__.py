@@ -9,4 +9,5 @@ callback; tests drive these with their own clock.
                     command and report
     observer.py     CollisionMonitor: the external-torque observer's estimate, wrench and
                     collision flag
+    progress.py     Heartbeat: a progress line while a start-up step (a cold compile) is slow
 """

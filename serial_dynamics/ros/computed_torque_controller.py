@@ -44,6 +44,7 @@ from ..loops.controller import Controller, check_mode
 from . import common, parameters
 from .common import Rejected
 from .parameters import StartupError
+from ..loops.progress import Heartbeat
 
 MODES = control.MODES        # the laws, written once (control.py)
 PARAMETERS = {
@@ -91,7 +92,8 @@ class ComputedTorqueController(Node):
             raise StartupError(f"parameter 'control_rate' must be > 0, got {p['control_rate']}")
         self.ctl = Controller(robot, 1.0 / p["control_rate"], gains["kp"], gains["kd"],
                               gains["pd.kp"], gains["pd.kd"], p["compensate_dissipation"], mode)
-        robot.warmup()
+        with Heartbeat(self.get_logger().info, "compiling the dynamics kernels"):
+            robot.warmup()
         self.reject = common.Rejections(self, hardware_id=robot.model.name)
         self.reject.watch(self.diagnostics)
         self.log_notes(self.ctl.startup_notes())

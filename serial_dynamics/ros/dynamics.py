@@ -40,6 +40,7 @@ from trajectory_msgs.msg import JointTrajectory
 
 from . import common, contact_requests, parameters, payload_timing, requests
 from .common import Rejected
+from ..loops.progress import Heartbeat
 
 PARAMETERS = {
     **parameters.ROBOT_PARAMETERS,
@@ -76,7 +77,9 @@ class Dynamics(Node):
         self.compensate = p["compensate_dissipation"]
         self.wrench = None            # latest tip wrench: (6,) in base_link, or (6,) in tip_link
         self.wrench_in_tip = False
-        self.robot.warmup(batch=True, kinematics=True)   # trajectories: one batched call; Jacobians
+        with Heartbeat(self.get_logger().info, "compiling the dynamics kernels"):
+            # trajectories: one batched call; Jacobians
+            self.robot.warmup(batch=True, kinematics=True)
         self.reject = common.Rejections(self, hardware_id=self.robot.model.name)
         self._latency = {"topic": requests.Latency()}       # the topic pair, each service
         self.reject.watch(self._diagnostics)

@@ -29,6 +29,7 @@ from ..loops.observer import CollisionMonitor
 from . import common, parameters
 from .common import Rejected
 from .parameters import StartupError
+from ..loops.progress import Heartbeat
 
 PARAMETERS = {
     **parameters.ROBOT_PARAMETERS,
@@ -65,7 +66,8 @@ class ExternalTorqueObserver(Node):
                 p["collision_release"], p["max_sample_gap"], p["compensate_dissipation"])
         except ValueError as exc:
             raise StartupError(str(exc)) from None
-        self.monitor.warmup()
+        with Heartbeat(self.get_logger().info, "compiling the dynamics kernels"):
+            self.monitor.warmup()
         self.chain = set(robot.all_joint_names)     # mimic joints: named, not used
         self.reject = common.Rejections(self, hardware_id=robot.model.name)
         self.reject.watch(self.monitor.report)

@@ -22,12 +22,28 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..contacts.stepper import GroundSession
 from ..model.errors import Rejected
 from ..sim.session import Session
 from .pacing import Pacer
 
 MAX_LAG = 0.1   # s of wall time behind schedule before the pacing re-anchors
 WAIT_AT_MOST = 0.05   # s; the longest the thread sleeps before it looks at the schedule again
+
+
+def contact_names(contacts) -> list:
+    """The topic name of each contact (``~/contacts/<name>``): its link, or link_<i> (i
+    counting that link's contacts from 0, in their order) where a link has several;
+    characters a ROS name cannot hold become '_'."""
+    links = [c.link for c in contacts]
+    count, out = {}, []
+    for link in links:
+        i = count[link] = count.get(link, -1) + 1
+        name = link if links.count(link) == 1 else f"{link}_{i}"
+        name = "".join(ch if (ch.isascii() and ch.isalnum()) or ch == "_" else "_"
+                       for ch in name)
+        out.append("_" + name if name[0].isdigit() else name)
+    return out
 
 
 def dt_ns(p: dict) -> int:
@@ -68,6 +84,10 @@ class SimulatorLoop:
         self.frames = (p["odom_frame"], base_link)
         self.wrench_frame = ((p["odom_frame"], "world") if session.has_base
                              else (base_link, "base"))
+        # the contacts' topic names and their forces' frame_id (the world's axes)
+        grounded = isinstance(session, GroundSession)
+        self.contact_names = contact_names(session.contacts) if grounded else []
+        self.contact_frame = self.wrench_frame[0]
 
     # ------------------------------------------------------------ commands and services
     def command(self, idx, effort, position=None, velocity=None, stamp_ns=0):
@@ -198,6 +218,11 @@ class SimulatorLoop:
         if publish:
             self.published_k = k
         return Tick(ok, notes, self.clock_ns(k) if clock else None, publish)
+
+    def contact_forces(self):
+        """The contacts' forces (m, 3) on the robot, world axes, N, over the step that
+        reached the current state; None without contacts."""
+        return self.session.contact_forces()[1] if self.contact_names else None
 
     def clock_ns(self, k):
         """Simulated time of step k in ns with publish_clock (the stamps), else None."""

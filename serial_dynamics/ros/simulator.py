@@ -15,6 +15,9 @@ Inputs (checked in ``simulator_inputs``): efforts and servo targets on ``joint_c
 (``external_wrench``), a state to jump to (``~/set_state``), steps while paused
 (``~/step``). ``floating_base``: the base pose goes out on ``odom`` (nav_msgs/Odometry)
 beside ``joint_states`` and comes in on ``~/set_base_state`` (``floating_state``).
+``contacts`` on the ``ground.*`` plane: the steps are ``contacts.stepper``'s and each
+contact's force goes out on ``~/contacts/<name>`` (geometry_msgs/WrenchStamped) with
+``joint_states``.
 """
 from __future__ import annotations
 
@@ -35,6 +38,7 @@ from . import common, floating_state, parameters, simulator_inputs, simulator_pa
 from .common import Rejected
 from .parameters import StartupError
 from .simulator_parameters import PARAMETERS, RANGES
+from ..loops.progress import Heartbeat
 
 
 class Simulator(Node):
@@ -53,7 +57,8 @@ class Simulator(Node):
         self.loop = SimulatorLoop(session, p)
         for level, text in notes:
             common.log(self.get_logger(), level, text)
-        robot.warmup()
+        with Heartbeat(self.get_logger().info, "compiling the dynamics kernels"):
+            robot.warmup()
         self.reject = common.Rejections(self, hardware_id=robot.model.name)
         self.reject.watch(self.loop.report)
         self.state_pub = self.create_publisher(JointState, "joint_states", common.QOS_DEPTH)
@@ -68,6 +73,9 @@ class Simulator(Node):
             self.odom_pub = self.create_publisher(Odometry, "odom", common.QOS_DEPTH)
             common.subscribe(self, self.reject, Odometry, "~/set_base_state",
                              self.on_set_base_state)
+        self.contact_pubs = [self.create_publisher(WrenchStamped, f"~/contacts/{name}",
+                                                   common.QOS_DEPTH)
+                             for name in self.loop.contact_names]
         self.create_service(Trigger, "~/reset", self.on_reset)
         self.create_service(SetBool, "~/pause", self.on_pause)
         self.create_service(Trigger, "~/step", self.on_step)
@@ -173,6 +181,13 @@ class Simulator(Node):
             self.odom_pub.publish(floating_state.odometry(*base, *self.loop.frames,
                                                           msg.header.stamp))
             self.reject.put("odom")
+        if self.contact_pubs:       # each contact's force on the robot, world axes, same stamp
+            for pub, f in zip(self.contact_pubs, self.loop.contact_forces()):
+                out = WrenchStamped()
+                out.header.stamp, out.header.frame_id = msg.header.stamp, self.loop.contact_frame
+                out.wrench.force.x, out.wrench.force.y, out.wrench.force.z = f.tolist()
+                pub.publish(out)
+            self.reject.put("contacts")
 
     def close(self):
         self._stop.set()

@@ -6,9 +6,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from serial_dynamics.contacts import Contact, Ground
+from serial_dynamics.contacts.stepper import GroundSession
 from serial_dynamics.sim.session import TIMEOUT_ACTIONS, Session, has_base
 
 from ..loops.simulator import dt_ns
+from ..model.links import link_problem
 from . import floating_state, parameters
 
 PARAMETERS = {
@@ -59,11 +62,26 @@ PARAMETERS = {
                           "at start and after ~/reset, [x, y, z, qx, qy, qz, qw] in odom_frame "
                           "(the quaternion is normalized)"),
     "odom_frame": ("string", "odom", "floating_base: header.frame_id of odom (the world)"),
+    "contacts": ("string[]", [], "points that touch the ground: link names (each link's "
+                 "frame origin), or [collision] (the URDF's <collision> sphere centres and "
+                 "box corners); their forces on ~/contacts/<name>. [] = none: nothing "
+                 "touches the ground (a fixed-base arm's default)"),
+    "ground.enabled": ("bool", True, "a ground plane under the contacts (it acts only where "
+                       "contacts are given; false: they touch nothing)"),
+    "ground.height": ("double", 0.0, "the plane n . p = height (m), world axes: odom_frame on "
+                      "a floating base, the base link's frame on a fixed one"),
+    "ground.normal": ("double[]", [0.0, 0.0, 1.0], "the plane's upward normal n (normalized; "
+                      "not zero), world axes"),
+    "ground.friction": ("double", 1.0, "Coulomb friction coefficient mu of the contacts on "
+                        "the ground (> 0)"),
+    "ground.restitution": ("double", 0.0, "share of a contact's approach speed sent back at "
+                           "an impact, [0, 1] (0: plastic)"),
 }
 # parameter ranges (ParameterDescriptor; inclusive, so only those that include their ends)
 RANGES = {"real_time_factor": (0.0, 1e6), "command_timeout": (0.0, 1e9),
           "external_wrench_timeout": (0.0, 1e9), "step_count": (1, 10 ** 9),
-          "lockstep": (0, 10 ** 9), "lockstep_timeout": (0.0, 1e9)}
+          "lockstep": (0, 10 ** 9), "lockstep_timeout": (0.0, 1e9),
+          "ground.restitution": (0.0, 1.0)}
 
 
 COARSE_DT = 0.01   # s; a larger sim_dt is warned about (an arm needs steps of about 1 ms)
@@ -81,6 +99,55 @@ def check_initial_positions(robot, q0, given):
             f"initial_positions{'' if given else ' (not set: zeros)'}: {robot.joint_names[j]} = "
             f"{q0[j]} is outside its limits [{lo[j]}, {hi[j]}]; give positions within the "
             f"limits, e.g. the middle of each range: -p initial_positions:=[{example}]")
+
+
+def ground_contacts(robot, p: dict):
+    """(``sd.Ground``, [``sd.Contact``], notes) of the ``ground.*`` and ``contacts``
+    parameters; (None, [], notes) when nothing touches the ground. ValueError naming the
+    parameter and the fix."""
+    names = p["contacts"]
+    if not names:
+        return None, [], []
+    if not p["ground.enabled"]:
+        return None, [], [("warning", f"contacts {names} given but ground.enabled is false: "
+                           "they touch nothing (the robot falls freely)")]
+    if "collision" in names:
+        if names != ["collision"]:
+            raise ValueError(f"parameter 'contacts' = {names}: give [collision] alone (the "
+                             "URDF's <collision> spheres and boxes) or link names")
+        contacts = robot.contact_points()
+        if not contacts:
+            raise ValueError("parameter 'contacts' = [collision], but the URDF has no "
+                             "<collision> sphere or box on a link of the model (meshes are "
+                             "not read); name the links that touch the ground instead, e.g. "
+                             "-p contacts:=[FL_FOOT,FR_FOOT,HL_FOOT,HR_FOOT]")
+    else:
+        for i, name in enumerate(names):
+            problem = link_problem(robot.model, name)
+            if problem is not None:
+                raise ValueError(f"parameter 'contacts' [{i}]: {problem}; name links of the "
+                                 "model (or give [collision])")
+            if name in names[:i]:
+                raise ValueError(f"parameter 'contacts' names {name!r} twice; name each "
+                                 "link once")
+        contacts = [Contact(name) for name in names]
+    if not 0 < p["ground.friction"] < np.inf:
+        raise ValueError(f"parameter 'ground.friction' must be > 0 (Coulomb's coefficient, "
+                         f"e.g. 1.0), got {p['ground.friction']}")
+    normal = np.array(p["ground.normal"] or [], dtype=float)
+    if normal.shape != (3,) or not np.all(np.isfinite(normal)) or not np.any(normal):
+        raise ValueError(f"parameter 'ground.normal' must be 3 numbers, not all zero (the "
+                         f"plane's upward direction, world axes), e.g. [0.0, 0.0, 1.0]; got "
+                         f"{p['ground.normal']}")
+    if p["integrator"] != "semi_implicit_euler":
+        raise ValueError(f"parameter 'integrator' is {p['integrator']!r}: contacts with the "
+                         "ground are stepped by semi-implicit Euler; give "
+                         "-p integrator:=semi_implicit_euler (or no contacts)")
+    ground = Ground(p["ground.height"], tuple(normal), p["ground.friction"],
+                    p["ground.restitution"])
+    return ground, contacts, [("info", f"{len(contacts)} contacts on the ground (height "
+                               f"{ground.height:g} m, normal {list(ground.normal)}, friction "
+                               f"{ground.friction:g}): their forces on ~/contacts/<name>")]
 
 
 def session(robot, p: dict):
@@ -105,13 +172,16 @@ def session(robot, p: dict):
                       "simulated faithfully; was sim_dt:=0.001 meant?"))
     floating = has_base(robot)
     pose = floating_state.initial_pose(p["initial_base_pose"]) if floating else None
-    out = Session(robot, q0, base_pose=pose, integrator=p["integrator"], dt=dt_ns(p) * 1e-9,
-                  dissipation=p["dissipation.enabled"],
-                  position_limits=p["position_limits"],
-                  effort_limits=limit if p["clamp_effort"] else None, servo_kp=kp,
-                  servo_kd=kd, command_timeout=p["command_timeout"],
-                  command_timeout_action=p["command_timeout_action"],
-                  wrench_timeout=p["external_wrench_timeout"], paused=p["start_paused"])
+    ground, contacts, ground_notes = ground_contacts(robot, p)
+    notes += ground_notes
+    kind, more = ((GroundSession, dict(ground=ground, contacts=contacts)) if contacts
+                  else (Session, dict(integrator=p["integrator"])))
+    out = kind(robot, q0, base_pose=pose, dt=dt_ns(p) * 1e-9,
+               dissipation=p["dissipation.enabled"], position_limits=p["position_limits"],
+               effort_limits=limit if p["clamp_effort"] else None, servo_kp=kp,
+               servo_kd=kd, command_timeout=p["command_timeout"],
+               command_timeout_action=p["command_timeout_action"],
+               wrench_timeout=p["external_wrench_timeout"], paused=p["start_paused"], **more)
     if out.timeout_action != p["command_timeout_action"]:
         notes.append(("warning", "command_timeout_action 'brake' needs the joint servo "
                       f"(integrator {' or '.join(out.integrator.SERVO_METHODS)}): the arm "

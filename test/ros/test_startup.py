@@ -49,6 +49,13 @@ def cases(tmp):
         ("inverse_dynamics", {"gravity": [0.0, -9.81]}, "gravity"),
         ("simulator", {"floating_base": True, "initial_base_pose": [0.0] * 7},
          "initial_base_pose has a quaternion [qx, qy, qz, qw] = [0.0, 0.0, 0.0, 0.0] of length 0"),
+        # the ground and its contacts (issue 51): the parameter and the fix
+        ("simulator", {"contacts": ["tool0", "tool9"]}, "parameter 'contacts' [1]: link 'tool9' "
+         "is not a link of the model; its links are"),
+        ("simulator", {"contacts": ["tool0"], "ground.friction": 0.0}, "parameter "
+         "'ground.friction' must be > 0 (Coulomb's coefficient, e.g. 1.0), got 0.0"),
+        ("simulator", {"contacts": ["tool0"], "ground.normal": [0.0, 0.0, 0.0]}, "parameter "
+         "'ground.normal' must be 3 numbers, not all zero"),
     ]
 
 

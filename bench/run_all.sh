@@ -23,5 +23,6 @@ PY=${PYTHON:-.venv/bin/python}
 "$PY" bench/bench_trees.py
 "$PY" bench/bench_kinematics.py
 "$PY" bench/bench_threads.py
+"$PY" bench/bench_contacts.py                # needs the mujoco wheel (the bench extra)
 "$PY" bench/bench_gpu.py                    # GPU rows only where a card is
 "$PY" bench/bench_first_run.py              # empty caches of its own

@@ -7,6 +7,7 @@ bias torques, link poses, Jacobians and bias accelerations); docs/contacts.md.
 - ``collision.py``: ``contact_points``, from the URDF's ``<collision>`` spheres and boxes;
 - ``jacobians.py``: the stacked contact Jacobian, its J-dot v and the position errors;
 - ``constrained.py``: the KKT system by its Delassus matrix, proximal iterations;
+- ``dense.py``: M's Cholesky factor inverted (the solves as products, on one thread);
 - ``inverse.py`` and ``friction.py``: contact inverse dynamics, minimum-norm forces or
   forces in the friction cones (a second-order cone program, Clarabel);
 - ``states.py``: the checks of the states and settings;

@@ -4,14 +4,14 @@ unconstrained a0 in the metric M among those the contacts allow; Udwadia & Kalab
 
 The KKT system [M, -J^T; J, 0] [a; f] = [tau - b; -J-dot v] is solved through its Schur
 complement, the Delassus matrix G = J M^-1 J^T (Featherstone 2008, Sec. 8.5), with M^-1
-applied by M's Cholesky factor M = C C^T (LAPACK's, dense: in NumPy it is far faster on
-these sizes than the tree's sparse L^T D L of ``mass_matrix_factor``, whose loops run in
-Python; docs/contacts.md has the figures). G f = r is solved by proximal iterations
-(Carpentier et al. 2021, 'Proximal and sparse resolution of constrained dynamic equations',
-RSS):
-f_k+1 = (G + mu 1)^-1 (r + mu f_k), from f_0 = 0, which converge to the minimum-norm forces
-where G is singular (a redundant set: four feet in frame contact, two hands on one bar) and
-whose fixed point is the exact solution. ``mu`` is relative to G's largest diagonal entry.
+applied by M's Cholesky factor M = C C^T, inverted (``dense.py``: LAPACK's, dense; in NumPy
+it is far faster on these sizes than the tree's sparse L^T D L of ``mass_matrix_factor``,
+whose loops run in Python; docs/contacts.md has the figures). G f = r is solved by proximal
+iterations (Carpentier et al. 2021, 'Proximal and sparse resolution of constrained dynamic
+equations', RSS): f_k+1 = (G + mu 1)^-1 (r + mu f_k), from f_0 = 0, which converge to the
+minimum-norm forces where G is singular (a redundant set: four feet in frame contact, two
+hands on one bar) and whose fixed point is the exact solution, taken directly where G is far
+from singular (``DIRECT``). ``mu`` is relative to G's largest diagonal entry.
 A set whose rows no motion satisfies (more constraints than the robot can meet, at a
 velocity that breaks them) does not converge and is refused with the reason.
 
@@ -21,10 +21,15 @@ J a + J-dot v = -kd J v - kp e, e the position error of each anchored contact.
 from __future__ import annotations
 
 import numpy as np
+from scipy.linalg.lapack import dpotrf, dpotrs
 
 from .contact import check_contacts
+from .dense import inverse_factor
 from .jacobians import contact_rows
 from .states import positive, rows
+
+
+DIRECT = 1e-6   # a Delassus pivot^2 above this share of its largest diagonal: solved directly
 
 
 def settings(mu, tolerance, max_iterations, baumgarte):
@@ -47,21 +52,38 @@ def proximal_solve(G, r, mu, tolerance, max_iterations):
     a step |f_k+1 - f_k| is within tolerance times max(1, |f|) (Pinocchio's relative
     accuracy), or the residual |G f - r| is within tolerance times max(1, |r|) and no longer
     halves (its rounding floor: a redundant set's forces drift along G's null space by the
-    rounding of r over mu at each step, so their steps never vanish)."""
+    rounding of r over mu at each step, so their steps never vanish). (G + mu 1) is factored
+    once by LAPACK's Cholesky (dpotrf) and each iterate is two triangular solves (dpotrs).
+    Where G is far from singular (its pivots, ``DIRECT``) the fixed point G^-1 r is taken
+    directly when its residual meets the tolerance: the same answer, without iterating."""
     m = len(r)
     f = np.zeros(m)
     if m == 0:
         return f, True, 0.0
-    mu_abs = mu * max(float(np.max(np.diag(G))), np.finfo(float).tiny)
-    C = np.linalg.cholesky(G + mu_abs * np.eye(m))           # positive definite: mu > 0
-    scale = max(1.0, float(np.max(np.abs(r))))
-    residual = float(np.max(np.abs(r)))
+    scale = max(1.0, float(np.abs(r).max()))
+    g_max = max(float(G.diagonal().max()), np.finfo(float).tiny)
+    # G well away from singular (every pivot of its Cholesky factor above DIRECT of its
+    # largest diagonal entry): the iterations' fixed point G^-1 r directly, kept where its
+    # residual meets the tolerance (a redundant set has a vanishing pivot and iterates)
+    L, info = dpotrf(G, lower=1)
+    if info == 0 and float(L.diagonal().min()) ** 2 >= DIRECT * g_max:
+        f = dpotrs(L, r, lower=1)[0]
+        residual = float(np.abs(G @ f - r).max())
+        if residual <= tolerance * scale:
+            return f, True, residual
+        f = np.zeros(m)
+    mu_abs = mu * g_max
+    C, info = dpotrf(G + mu_abs * np.eye(m), lower=1)       # positive definite: mu > 0
+    if info != 0:
+        raise ValueError(f"the Delassus matrix plus mu is not positive definite (LAPACK "
+                         f"dpotrf info {info}): a NaN in the contact rows?")
+    residual = float(np.abs(r).max())
     for _ in range(max_iterations):
-        f_next = np.linalg.solve(C.T, np.linalg.solve(C, r + mu_abs * f))
-        step = float(np.max(np.abs(f_next - f)))
+        f_next = dpotrs(C, r + mu_abs * f, lower=1)[0]
+        step = float(np.abs(f_next - f).max())
         f = f_next
-        previous, residual = residual, float(np.max(np.abs(G @ f - r)))
-        if (step <= tolerance * max(1.0, float(np.max(np.abs(f))))
+        previous, residual = residual, float(np.abs(G @ f - r).max())
+        if (step <= tolerance * max(1.0, float(np.abs(f).max()))
                 or tolerance * scale >= residual > 0.5 * previous):
             return f, True, residual
     return f, False, residual
@@ -78,10 +100,10 @@ def forces_table(contacts, f):
 
 
 def _one(robot, q, v, tau, contacts, mu, tolerance, max_iterations, kp, kd):
-    C = np.linalg.cholesky(robot.mass_matrix(q))               # M = C C^T
-    rows_ = contact_rows(robot, q, v, contacts)
-    a0 = np.linalg.solve(C.T, np.linalg.solve(C, tau - robot.bias_torques(q, v)))   # M a0 = tau - b
-    Y = np.linalg.solve(C, rows_.J.T)                          # C^-1 J^T
+    Ci = inverse_factor(robot.mass_matrix(q))                   # C^-1, M = C C^T
+    rows_ = contact_rows(robot, q, v, contacts, positions=kp != 0.0)
+    a0 = Ci.T @ (Ci @ (tau - robot.bias_torques(q, v)))        # M a0 = tau - b
+    Y = Ci @ rows_.J.T                                         # C^-1 J^T
     G = Y.T @ Y                                                # Delassus: J M^-1 J^T
     # J a = -J-dot v - kd J v - kp e, with a = a0 + M^-1 J^T f: G f = r
     r = -rows_.drift - kd * rows_.velocity - kp * rows_.error - rows_.J @ a0
@@ -94,7 +116,7 @@ def _one(robot, q, v, tau, contacts, mu, tolerance, max_iterations, kp, kd):
             f"{residual:.3g} after {max_iterations} iterations. The set over-constrains the "
             "robot at this velocity: drop contacts or make frame contacts point contacts (if "
             "it is only ill-conditioned, raise max_iterations or lower mu)")
-    a = a0 + np.linalg.solve(C.T, Y @ f)
+    a = a0 + Ci.T @ (Y @ f)                                    # + M^-1 J^T f
     return a, forces_table(contacts, f)
 
 
@@ -108,12 +130,33 @@ def constrained_forward_dynamics(robot, q, v, tau, contacts, baumgarte=None, mu=
     mu, tolerance, max_iterations, kp, kd = settings(mu, tolerance, max_iterations, baumgarte)
     nv, n = robot.nv, robot.dof
     taus = (nv, n) if robot.is_floating else (nv,)
+    state = _one_state(q, v, tau, robot.nq, nv, taus)
+    if state is not None:                                      # one state: no batch views
+        q, v, tau = state
+        if tau.shape[0] != nv:                                 # joint torques, the base free
+            tau = np.concatenate((np.zeros(nv - n), tau))
+        return _one(robot, q, v, tau, contacts, mu, tolerance, max_iterations, kp, kd)
     single, N, (Q, V, T) = rows((("q", q, (robot.nq,)), ("v", v, (nv,)), ("tau", tau, taus)))
-    if T.shape[1] != nv:                                       # joint torques, the base free
+    if T.shape[1] != nv:
         T = np.concatenate([np.zeros((N, nv - T.shape[1])), T], axis=1)
     A, F = [], []
-    for i in range(N):
-        a, f = _one(robot, Q[i], V[i], T[i], contacts, mu, tolerance, max_iterations, kp, kd)
+    for i in range(N):                  # rows of broadcast views, copied for the kernels
+        a, f = _one(robot, np.array(Q[i]), np.array(V[i]), T[i], contacts, mu, tolerance,
+                    max_iterations, kp, kd)
         A.append(a)
         F.append(f)
     return (A[0], F[0]) if single else (np.array(A), np.array(F))
+
+
+def _one_state(q, v, tau, nq, nv, taus):
+    """(q, v, tau) when each is one finite float64 vector of its length, else None (``rows``
+    then takes them, and names the culprit)."""
+    xs = (q, v, tau)
+    if not all(x.__class__ is np.ndarray and x.ndim == 1 and x.dtype == np.float64
+               and x.flags.c_contiguous for x in xs):
+        return None
+    if q.shape[0] != nq or v.shape[0] != nv or tau.shape[0] not in taus:
+        return None
+    if not np.isfinite(np.concatenate(xs)).all():
+        return None
+    return xs

@@ -13,13 +13,21 @@ Rows (``Rows``), world axes at the contact point P (Pinocchio's LOCAL_WORLD_ALIG
 
 ``drift`` is the rows' acceleration at zero joint acceleration (J-dot v), ``velocity`` J v
 and ``error`` the position error Baumgarte's term reads (zero where nothing anchors it).
+
+Contacts with the environment whose position error is not read (``positions=False``) take
+a faster path on the compiled backend: each contact point as a frame of its body, so the
+kinematics kernels give its rows and bias acceleration directly (``world_rows``).
 """
 from __future__ import annotations
 
+import weakref
 from typing import NamedTuple
 
 import numpy as np
 from scipy.spatial.transform import Rotation
+
+from ..core import K, OK
+from ..robot import kinematics as _kin
 
 
 class Rows(NamedTuple):
@@ -97,8 +105,59 @@ def _frame_error(c, L1, P, L2):
     return np.concatenate([L1.R @ e[:3], L1.R @ e[3:]])
 
 
-def contact_rows(robot, q, v, contacts):
-    """``Rows`` of ``contacts`` (checked) at one state (q, v)."""
+_POINT_FRAMES = weakref.WeakKeyDictionary()     # robot -> {(link, point): (body, F)}
+
+
+def point_frames(robot, contacts):
+    """[(body, F)]: each contact's point as a frame of its body for the compiled kinematics
+    kernels (``robot/kinematics.frame``'s placement [R, p] with p moved by R point, the
+    link's axes kept), or None where those kernels do not answer (the NumPy backend, mimic
+    joints: their Jacobians are reduced on the facade)."""
+    if robot._P is None or robot.model.has_mimic_joints:
+        return None
+    known = _POINT_FRAMES.setdefault(robot, {})
+    out = []
+    for c in contacts:
+        key = (c.link, c.point)
+        if key not in known:
+            body, F = _kin.frame(robot, c.link)
+            R = F[:9].reshape(3, 3)
+            known[key] = (body, np.concatenate((F[:9], F[9:] + R @ np.asarray(c.point))))
+        out.append(known[key])
+    return out
+
+
+def world_rows(robot, q, v, contacts, frames):
+    """``Rows`` of contacts with the environment (no ``other_link``, no position error read)
+    from the compiled kernels at each contact point's frame (``point_frames``): the point's
+    Jacobian and classical bias acceleration come out of the kernel as a frame origin's."""
+    nv, P = len(v), robot._P
+    m = sum(c.size for c in contacts)
+    J, drift, zero = np.empty((m, nv)), np.empty(m), np.zeros(nv)
+    Jc, A = np.empty((6, nv)), np.empty((1, 6))
+    i = 0
+    for c, (body, F) in zip(contacts, frames):
+        if (K.frame_jacobian_one(P, q, body, F, Jc) != OK
+                or K.frame_acceleration(P, q[None], v[None], zero[None], body, F, A) != OK):
+            raise RuntimeError("a kinematics kernel refused validated states")
+        if not c.frame:                                         # the point's classical a
+            J[i:i + 3], drift[i:i + 3] = Jc[:3], A[0, :3]
+            i += 3
+            continue
+        # a frame: the spatial acceleration at P, a_P - w x v_P (Featherstone 2008, Sec. 2.11)
+        vP, w = Jc[:3] @ v, Jc[3:] @ v
+        J[i:i + 6], drift[i:i + 3], drift[i + 3:i + 6] = Jc, A[0, :3] - _x(w) @ vP, A[0, 3:]
+        i += 6
+    return Rows(J, drift, J @ v, np.zeros(m))
+
+
+def contact_rows(robot, q, v, contacts, positions=True):
+    """``Rows`` of ``contacts`` (checked) at one state (q, v); ``positions=False``: the
+    caller reads no position error (zeros where the compiled kernels answer)."""
+    if not positions and all(c.other_link is None for c in contacts):
+        frames = point_frames(robot, contacts)
+        if frames is not None:
+            return world_rows(robot, q, v, contacts, frames)
     cache, J, drift, error = {}, [], [], []
     nv = len(v)
     for c in contacts:

@@ -12,7 +12,8 @@ One step of dt from (q, v), in NumPy on the facade's public methods:
    lambda_n >= 0, u_n >= u*, lambda_n (u_n - u*) = 0 (the gap may close, never be crossed:
    u* = -phi / dt above the ground, ERP |phi| / dt out of a penetration, -e u_n(v) at an
    impact with restitution e) and |lambda_t| <= mu lambda_n, lambda_t opposite u_t where it
-   slides (Coulomb's law, maximum dissipation); by ``pgs``;
+   slides (Coulomb's law, maximum dissipation); by ``sticking`` where every contact
+   sticks (one solve), else by ``pgs``;
 4. v1 = v_f + M^-1 J^T lambda and q1 = q(dt v1) in the robot's chart (``group.py``'s
    semi-implicit Euler).
 
@@ -24,20 +25,25 @@ shows in ``energy_balance_error`` as a loss.
 """
 from __future__ import annotations
 
-import numpy as np
-from scipy.linalg import cho_factor, cho_solve
+import math
 
+import numpy as np
+from scipy.linalg.lapack import dpotrf, dpotrs
+
+from ..core import K, OK
 from ..sim.equations import EnergyGuard
 from ..sim.group import GroupRates
 from ..sim.result import SolverStats, finish
 from .contact import check_contacts
+from .dense import inverse_factor
 from .ground import Ground
-from .jacobians import point_rows
+from .jacobians import point_frames, point_rows
 
 MARGIN = 0.01            # m: points this close to the ground (plus their approach) are solved
 ERP = 0.2                # share of a penetration removed in one step (velocity level)
 TOLERANCE = 1e-9         # PGS stops when no impulse changes by more than this, relative
 MAX_ITERATIONS = 500
+STICK_PIVOT = 1e-6       # G's pivots^2 above this share of its diagonal: the sticking solve
 
 
 def check_ground(robot, ground, contacts, method):
@@ -63,6 +69,25 @@ def check_ground(robot, ground, contacts, method):
     return ground, contacts
 
 
+def sticking(G, u0, target, mu):
+    """The impulses lam (m, 3) that make every contact stick at once, u = (target, 0, 0)
+    (G lam = goal - u0 by G's Cholesky factor), where G is far from singular (each pivot^2
+    above ``STICK_PIVOT`` of its largest diagonal entry) and every lam lies in its cone
+    (lam_n >= 0, |lam_t| <= mu lam_n): then every condition ``pgs`` solves holds, with u_n at
+    its target, and this is its fixed point. Else None (a redundant set, a contact that
+    lifts off or slips: ``pgs``)."""
+    m = len(target)
+    L, info = dpotrf(G, lower=1)
+    if info != 0 or float(L.diagonal().min()) ** 2 < STICK_PIVOT * float(G.diagonal().max()):
+        return None
+    goal = np.zeros((m, 3))
+    goal[:, 0] = target
+    lam = dpotrs(L, goal.reshape(-1) - u0, lower=1)[0].reshape(m, 3)
+    if np.all(lam[:, 0] >= 0.0) and np.all(np.hypot(lam[:, 1], lam[:, 2]) <= mu * lam[:, 0]):
+        return lam
+    return None
+
+
 def pgs(G, u0, target, mu, lam, tolerance=TOLERANCE, max_iterations=MAX_ITERATIONS):
     """Projected Gauss-Seidel for the impulses lam (m, 3) [normal, t1, t2] of m contacts:
     u = u0 + G lam (G (3m, 3m) the Delassus matrix, u0 (3m,) the free velocities), with
@@ -77,14 +102,18 @@ def pgs(G, u0, target, mu, lam, tolerance=TOLERANCE, max_iterations=MAX_ITERATIO
     x = lam.reshape(-1).copy()
     u = u0 + G @ x
     d = np.diag(G)
-    blocks = [np.linalg.pinv(G[3 * i:3 * i + 3, 3 * i:3 * i + 3]) for i in range(m)]
+    diag = np.arange(m)
+    blocks = np.linalg.pinv(G.reshape(m, 3, m, 3)[diag, :, diag, :])   # (m, 3, 3), one call
+    goal = np.zeros((m, 3))
+    goal[:, 0] = target                                  # u = (target, 0, 0) where it sticks
     for it in range(1, max_iterations + 1):
         change = 0.0
         for i in range(m):
             r = 3 * i
             old = x[r:r + 3].copy()
-            stick = old - blocks[i] @ (u[r:r + 3] - (target[i], 0.0, 0.0))
-            if stick[0] >= 0 and np.hypot(stick[1], stick[2]) <= mu * stick[0]:
+            stick = old - blocks[i] @ (u[r:r + 3] - goal[i])
+            s0, s1, s2 = stick.tolist()
+            if s0 >= 0 and math.hypot(s1, s2) <= mu * s0:
                 u += G[:, r:r + 3] @ (stick - old)
                 x[r:r + 3] = stick
                 change = max(change, np.max(np.abs(stick - old)))
@@ -121,10 +150,23 @@ class GroundContacts:
         t1, t2 = ground.tangents()
         self.B = np.array([ground.normal, t1, t2])         # rows n, t1, t2 (world axes)
         self.lam = np.zeros((self.k, 3))                    # last impulses, contact frames
+        self.frames = point_frames(robot, contacts)          # None: the facade's kinematics
         self.solves = self.iterations = self.unconverged = 0
 
     def _kinematics(self, q):
-        """Contact points P (k, 3) and their Jacobians J_P (k, 3, nv), world axes."""
+        """Contact points P (k, 3) and their Jacobians J_P (k, 3, nv), world axes: each point
+        a frame of its body for the compiled kernels (``jacobians.point_frames``), else from
+        its link's pose and Jacobian."""
+        if self.frames is not None:
+            robot, nv = self.robot, self.robot.nv
+            P, JP = np.empty((self.k, 3)), np.empty((self.k, 3, nv))
+            X, J = np.empty((4, 4)), np.empty((6, nv))
+            for i, (body, F) in enumerate(self.frames):
+                if (K.frame_pose_one(robot._P, q, body, F, X) != OK
+                        or K.frame_jacobian_one(robot._P, q, body, F, J) != OK):
+                    raise RuntimeError("a kinematics kernel refused a checked state")
+                P[i], JP[i] = X[:3, 3], J[:3]
+            return P, JP
         cache, P, JP = {}, [], []
         for c, p in zip(self.contacts, self.points):
             if c.link not in cache:
@@ -152,9 +194,9 @@ class GroundContacts:
         if near.size == 0:
             return v_free, forces, active, 0.0
         J = rows[near].reshape(-1, v.shape[0])
-        factor = cho_factor(M)
-        MiJt = cho_solve(factor, J.T)
-        G = J @ MiJt
+        Ci = inverse_factor(M, "the mass matrix (plus the servo's D)")   # C^-1, M = C C^T
+        Y = Ci @ J.T
+        G, MiJt = Y.T @ Y, Ci.T @ Y                         # J M^-1 J^T, M^-1 J^T
         u0 = J @ v_free
         p = phi[near]
         # the normal target: close the gap, never cross it; out of a penetration at ERP
@@ -162,7 +204,9 @@ class GroundContacts:
         ub = u_before[near]
         impact = (ground.restitution > 0) & (ub < 0) & (p + dt * ub < 0)
         target = np.where(impact, np.maximum(target, -ground.restitution * ub), target)
-        lam, it = pgs(G, u0, target, ground.friction, self.lam[near])
+        lam, it = sticking(G, u0, target, ground.friction), 0    # all stick: no sweep
+        if lam is None:
+            lam, it = pgs(G, u0, target, ground.friction, self.lam[near])
         self.solves, self.iterations = self.solves + 1, self.iterations + it
         self.unconverged += it == MAX_ITERATIONS
         self.lam[near] = lam

@@ -27,7 +27,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..core import K, OK
-from ..robot import kinematics as _kin
+from ..algorithms.kinematics import frame_of
 
 
 class Rows(NamedTuple):
@@ -110,7 +110,7 @@ _POINT_FRAMES = weakref.WeakKeyDictionary()     # robot -> {(link, point): (body
 
 def point_frames(robot, contacts):
     """[(body, F)]: each contact's point as a frame of its body for the compiled kinematics
-    kernels (``robot/kinematics.frame``'s placement [R, p] with p moved by R point, the
+    kernels (``algorithms.kinematics.frame_of``'s placement [R, p] with p moved by R point, the
     link's axes kept), or None where those kernels do not answer (the NumPy backend, mimic
     joints: their Jacobians are reduced on the facade)."""
     if robot._P is None or robot.model.has_mimic_joints:
@@ -120,9 +120,8 @@ def point_frames(robot, contacts):
     for c in contacts:
         key = (c.link, c.point)
         if key not in known:
-            body, F = _kin.frame(robot, c.link)
-            R = F[:9].reshape(3, 3)
-            known[key] = (body, np.concatenate((F[:9], F[9:] + R @ np.asarray(c.point))))
+            body, R, p = frame_of(robot.model, c.link)     # the link in its body's joint frame
+            known[key] = (body, np.concatenate((R.ravel(), p + R @ np.asarray(c.point))))
         out.append(known[key])
     return out
 

@@ -15,30 +15,16 @@ import numpy as np
 from nav_msgs.msg import Odometry
 
 from .common import MAX_VALUE, Rejected
+# one check of a pose for both nodes (QUAT_TOLERANCE: re-exported, the simulator's rule too)
+from .requests import QUAT_TOLERANCE, unit_pose  # noqa: F401
 
 IDENTITY = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0]     # [x, y, z, qx, qy, qz, qw]
-# |1 - |quaternion|| accepted (and normalized) in a message: 4 digits typed by hand pass
-QUAT_TOLERANCE = 1e-3
-
-
-def _unit(pose, what, tolerance):
-    """pose (7,) with its quaternion of unit length, or Rejected naming ``what``."""
-    pose = np.array(pose, dtype=float)
-    if pose.shape != (7,) or not np.all(np.isfinite(pose)) or np.any(np.abs(pose) > MAX_VALUE):
-        raise Rejected(f"{what} values", f"{what} must be 7 finite numbers [x, y, z, qx, "
-                             f"qy, qz, qw] (m; a quaternion, w last), got {pose.tolist()}")
-    norm = float(np.linalg.norm(pose[3:]))
-    if norm == 0.0 or (tolerance is not None and abs(norm - 1.0) > tolerance):
-        raise Rejected(f"{what} quaternion", f"{what} has a quaternion [qx, qy, qz, qw] = "
-                             f"{pose[3:].tolist()} of length {norm:.6g}; give a unit quaternion "
-                             "(identity: [0, 0, 0, 1], w last)")
-    pose[3:] /= norm
-    return pose
 
 
 def initial_pose(values):
     """The ``initial_base_pose`` parameter -> (7,) (its quaternion normalized; [] = identity)."""
-    return _unit(IDENTITY if not values else values, "initial_base_pose", None)
+    return unit_pose(IDENTITY if not values else values, "initial_base_pose", tolerance=None,
+                     bound=MAX_VALUE)
 
 
 def odometry(pose, twist, frame_id, child_frame_id, stamp=None):
@@ -71,7 +57,8 @@ def base_state(msg, frame_id, child_frame_id):
                                  f"not the simulator's: give '' or {want!r} (pose in "
                                  f"{frame_id!r}, twist in the base frame {child_frame_id!r})")
     p, o = msg.pose.pose.position, msg.pose.pose.orientation
-    pose = _unit([p.x, p.y, p.z, o.x, o.y, o.z, o.w], "set_base_state pose", QUAT_TOLERANCE)
+    pose = unit_pose([p.x, p.y, p.z, o.x, o.y, o.z, o.w], "set_base_state pose",
+                     bound=MAX_VALUE)
     lin, ang = msg.twist.twist.linear, msg.twist.twist.angular
     twist = np.array([lin.x, lin.y, lin.z, ang.x, ang.y, ang.z])
     if not np.all(np.isfinite(twist)) or np.any(np.abs(twist) > MAX_VALUE):

@@ -12,7 +12,8 @@ answered in plain Python (no rclpy: the tests call these directly), and the log 
   ``request.apply``. No payload detected: the mass and its standard deviation, and empty
   com, inertia and their standard deviations; ``apply`` then clears the payload.
 - ``answer_time_parameterize(robot, request)``: ``trajectory.time_parameterize`` of the
-  request's path (a ``trajectory_msgs/JointTrajectory`` whose points' positions are read);
+  request's path (a ``trajectory_msgs/JointTrajectory`` whose points' positions are read;
+  at most ``MAX_WAYPOINTS`` of them, on a grid of at most ``MAX_GRID`` intervals);
   limits per joint in the path's joint order, or one for all, or empty for the robot's
   (none on acceleration); the timed trajectory in the robot's joint order with positions,
   velocities, accelerations, the efforts that produce them, and times from start.
@@ -36,6 +37,11 @@ DEFAULT_GRID = 200          # ~/time_parameterize's grid when the request gives 
 # ... and the most it takes: the solver's time and memory grow with the grid (a uint32 field
 # reaches 4.3e9 intervals, tens of GiB); 10,000 took 0.5-1.3 s here (UR5e, three waypoints)
 MAX_GRID = 10_000
+# The most waypoints ~/time_parameterize takes, checked before any is read: the solver's
+# time grows with the runs between corners (a corner at every waypoint: 1000 took 3.3 s
+# here, 10,000 took 41 s; 10,000 on a smooth curve 2.6 s); a planner's path has tens to
+# hundreds, and a straight stretch needs only its two ends
+MAX_WAYPOINTS = 1000
 
 
 class JointStateLog:
@@ -158,6 +164,10 @@ def answer_time_parameterize(robot, req, compensate=False):
     from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
     path = req.path
     index = joint_order(robot, path.joint_names)
+    if len(path.points) > MAX_WAYPOINTS:
+        raise Rejected("path", f"path has {len(path.points)} points; at most {MAX_WAYPOINTS} "
+                       "waypoints are accepted: give the corners and enough points to follow "
+                       "the curves (the timing follows the path's geometry, not its sampling)")
     if len(path.points) < 2:
         raise Rejected("path", f"path has {len(path.points)} points: give at least two "
                        "waypoints' positions")

@@ -9,7 +9,9 @@ tree's: two arms' joints, one leg's) in any order, the joints not named at zero 
 velocity, acceleration and effort, or empty for every joint in the robot's order
 (``robot.joint_names``); empty velocities, accelerations or efforts mean zeros;
 ``tip_wrench`` is exerted on the tip link at its origin, in base coordinates, and a zero
-wrench means none. Answers list the joints in the robot's order.
+wrench means none. Answers list the joints in the robot's order. ``unit_pose`` is the one
+check of a floating base's pose that both nodes make (``base_pose`` here, the simulator's
+``~/set_base_state`` and ``initial_base_pose``).
 """
 from __future__ import annotations
 
@@ -74,6 +76,29 @@ def joint_vector(robot, index, values, field, empty_is_zero=False):
     out = np.zeros(n)
     out[index] = a
     return out
+
+
+# |1 - |quaternion|| accepted (and normalized) in a message: 4 digits typed by hand pass
+QUAT_TOLERANCE = 1e-3
+
+
+def unit_pose(values, what, tolerance=QUAT_TOLERANCE, bound=np.inf):
+    """A floating base's pose [x, y, z, qx, qy, qz, qw] (m; a unit quaternion, w last) as
+    (7,), its quaternion normalized: every value finite and within +-``bound``, the
+    quaternion's length within ``tolerance`` of 1 (None: any but 0), else Rejected naming
+    ``what``. The one check of a pose in a message or parameter: the dynamics node's
+    ``base_pose``, the simulator's ``~/set_base_state`` and ``initial_base_pose``."""
+    pose = np.array(values, dtype=float)
+    if pose.shape != (7,) or not np.all(np.isfinite(pose)) or np.any(np.abs(pose) > bound):
+        raise Rejected(f"{what} values", f"{what} must be 7 finite numbers [x, y, z, qx, qy, "
+                       f"qz, qw] (m; a quaternion, w last), got {pose.tolist()}")
+    norm = float(np.linalg.norm(pose[3:]))
+    if norm == 0.0 or (tolerance is not None and abs(norm - 1.0) > tolerance):
+        raise Rejected(f"{what} quaternion", f"{what} has a quaternion [qx, qy, qz, qw] = "
+                       f"{pose[3:].tolist()} of length {norm:.6g}; give a unit quaternion "
+                       "(identity: [0, 0, 0, 1], w last)")
+    pose[3:] /= norm
+    return pose
 
 
 def tip_wrench(w):

@@ -12,6 +12,7 @@ from geometry_msgs.msg import Accel, Point, Pose, Twist
 from pin_reference import erd
 
 import serial_dynamics as sd
+from serial_dynamics.ros import floating_state
 from serial_dynamics.ros.contact_requests import answer_contact_inverse_dynamics as answer
 from serial_dynamics.ros.throttle import Rejected
 
@@ -114,19 +115,58 @@ def test_a_fixed_base_needs_no_force():
     ({"friction": -0.5}, "friction", r"friction = -0.5: give .* > 0, or 0 for none"),
     ({"friction": float("nan")}, "friction", "friction = nan"),
     ({"v": [0, 0, np.inf, 0, 0, 0]}, "base_velocity", "base_velocity has NaN or Inf"),
-    ({"base": [0, 0, 0.3, 0, 0, 0.5, 0.5]}, "base_pose", "base_pose.orientation .* length "
-     "0.707107: give a unit quaternion"),
+    ({"base": [0, 0, 0.3, 0, 0, 0.5, 0.5]}, "base_pose quaternion", r"base_pose has a "
+     r"quaternion \[qx, qy, qz, qw\] = \[0.0, 0.0, 0.5, 0.5\] of length 0.707107; give a unit "
+     "quaternion"),
+    ({"base": [0, np.nan, 0.3, 0, 0, 0, 1]}, "base_pose values", r"base_pose must be 7 finite "
+     r"numbers \[x, y, z, qx, qy, qz, qw\]"),
+    ({"links": FEET * 250 + ["FL_FOOT"]}, "contact_links", "contact_links has 1001 entries; at "
+     "most 1000 contacts are accepted"),
     ({"contact_points": [Point()]}, "contact_points", r"contact_points has 1 entries: give one "
      r"per contact_links entry \(4\), or none"),
     ({"contact_points": [Point(x=np.nan)] * 4}, "contact_points[0]", r"contact_points\[0\] has "
      "NaN"),
     ({"accelerations": [0.0] * 11}, "accelerations", "accelerations has 11 values"),
 ], ids=["unknown link", "no contact", "friction < 0", "friction NaN", "base velocity Inf",
-        "quaternion", "points count", "point NaN", "accelerations count"])
+        "quaternion", "base NaN", "too many contacts", "points count", "point NaN",
+        "accelerations count"])
 def test_refusals_name_the_field(solo, change, field, words):
     with pytest.raises(Rejected, match=words) as info:
         answer(solo, request(**change))
     assert info.value.cause == field
+
+
+def test_the_most_contacts_are_answered_and_carry_the_weight(solo):
+    """contact_requests.MAX_CONTACTS, 1000 (each foot 250 times), are taken; one more is
+    refused (above)."""
+    out = answer(solo, request(links=FEET * 250))
+    tau, f = solo.contact_inverse_dynamics(np.r_[BASE, LEGS], np.zeros(solo.nv),
+                                           np.zeros(solo.nv), [sd.Contact(x) for x in FEET * 250])
+    np.testing.assert_array_equal(out["efforts"], tau[6:])
+    got = forces(out)
+    np.testing.assert_array_equal(got[:, :3], f)
+    assert abs(got[:, 2].sum() - weight(solo)) < RTOL * weight(solo)
+
+
+def test_base_pose_is_checked_by_the_simulators_rule(solo):
+    """One check of a pose for both nodes (requests.unit_pose): the same quaternion is refused
+    in the same words as the simulator's ~/set_base_state refuses it, and one within
+    QUAT_TOLERANCE of unit length is normalized to the same bits."""
+    bad = [0.2, -0.1, 0.3, 0.0, 0.0, 0.6, 0.6]
+    with pytest.raises(Rejected) as ours:
+        answer(solo, request(base=bad))
+    with pytest.raises(Rejected) as simulator:
+        floating_state.base_state(floating_state.odometry(bad, np.zeros(6), "", ""), "odom",
+                                  solo.base_link)
+    assert str(simulator.value).startswith("set_base_state pose has a quaternion")
+    assert str(ours.value) == str(simulator.value).replace("set_base_state pose", "base_pose")
+    near = np.r_[BASE[:3], BASE[3:] * (1 + 0.9 * floating_state.QUAT_TOLERANCE)]
+    pose, _ = floating_state.base_state(floating_state.odometry(near, np.zeros(6), "", ""),
+                                        "odom", solo.base_link)
+    out = answer(solo, request(base=near))
+    tau, _ = solo.contact_inverse_dynamics(np.r_[pose, LEGS], np.zeros(solo.nv),
+                                           np.zeros(solo.nv), [sd.Contact(x) for x in FEET])
+    np.testing.assert_array_equal(out["efforts"], tau[6:])
 
 
 def test_contacts_that_cannot_carry_the_base_are_named(solo):

@@ -1,20 +1,25 @@
-"""Issue 52: a seeded message fuzz of the four nodes. The simulator, dynamics,
-computed_torque_controller and external_torque_observer run in their own processes, each in
-a namespace of its own; every batch sends each topic they subscribe to, the dynamics node's
-services, the simulator's ~/step and the controller's mode a seeded mix of valid messages,
+"""Issue 52: a seeded message fuzz of the four nodes. The simulator (with two contacts on a
+ground plane: its ~/contacts/<name> topics), dynamics, computed_torque_controller and
+external_torque_observer run in their own processes, each in a namespace of its own; every
+batch sends each topic they subscribe to, the dynamics node's services (among them
+~/contact_inverse_dynamics: unknown, empty and too many contact links, points and frame flags
+of other lengths, a negative or non-finite friction, a base pose on a fixed base), the
+simulator's ~/step and the controller's mode a seeded mix of valid messages,
 wrong lengths, unknown, duplicate and empty joint names, NaN and Inf, in-bound extremes
 (|x| up to common.MAX_VALUE) and values beyond the bound. One batch replays the issue's
 sequence: a position target, the command_timeout warning, then positions and velocities of
 1e6 (before 3b31d40 the simulation thread died there). After each batch every node must be
 healthy: alive, no internal error in its log, every call answered, and its answer to a
 valid input the library's numbers (the simulator: joint_states again after ~/reset and
-~/pause false). The fuzz found one more defect: a ~/time_parameterize grid of 2**32 - 1
+~/pause false, and the ground's forces on the contacts within the friction cone, where the
+links touch it). The fuzz found one more defect: a ~/time_parameterize grid of 2**32 - 1
 intervals made the dynamics node set out to allocate 15-32 GiB and stop answering (now refused
-beyond payload_timing.MAX_GRID)."""
+beyond payload_timing.MAX_GRID; paths beyond MAX_WAYPOINTS and requests beyond
+contact_requests.MAX_CONTACTS are refused likewise)."""
 import numpy as np
 import pytest
 from builtin_interfaces.msg import Duration, Time
-from geometry_msgs.msg import Vector3, Wrench, WrenchStamped
+from geometry_msgs.msg import Point, Vector3, Wrench, WrenchStamped
 from rcl_interfaces.srv import SetParameters
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
@@ -25,6 +30,7 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 import serial_dynamics as sd
 from serial_dynamics.observers import MomentumObserver
 from serial_dynamics.ros import payload_timing
+from serial_dynamics.ros.contact_requests import MAX_CONTACTS
 from serial_dynamics.ros.common import MAX_VALUE, Rejected
 
 from conftest import HOME, MATCH_SETTLE, Latest, wait_for_log
@@ -43,7 +49,10 @@ BEYOND = [MAX_VALUE * (1 + 1e-9), -1e7, 1e308, -1e308, np.nan, np.inf, -np.inf]
 SERVICES = {"inverse_dynamics": srv.InverseDynamics, "forward_dynamics": srv.ForwardDynamics,
             "mass_matrix": srv.MassMatrix, "trajectory_torques": srv.TrajectoryTorques,
             "task_space": srv.TaskSpace, "estimate_payload": srv.EstimatePayload,
-            "time_parameterize": srv.TimeParameterize}
+            "time_parameterize": srv.TimeParameterize,
+            "contact_inverse_dynamics": srv.ContactInverseDynamics}
+CONTACTS = ["forearm_link", "wrist_3_link"]      # the simulator's, on the ground ...
+GROUND = 0.3                                      # m: ... at this height (they start above it)
 BAD_LOG = ("internal error", "simulation stopped", "Traceback")
 
 
@@ -162,14 +171,51 @@ def service_request(rng, name):
     elif name == "estimate_payload":       # never apply: the model stays the library's
         req.window = float(rng.choice([0.0, 1.0, -1.0, np.nan, np.inf, 1e308]))
         req.link = str(rng.choice(LINKS))
+    elif name == "contact_inverse_dynamics":     # mostly a good state: the contacts checked
+        if rng.random() < 0.3:
+            state_fields(rng, req)
+        else:
+            req.positions, req.velocities = (x.tolist() for x in ROBOT.random_state(rng))
+        contact_request(rng, req)
     else:                                  # time_parameterize
         req.path = trajectory(rng, min_points=2) if rng.random() < 0.4 else JointTrajectory(
             joint_names=list(NAMES), points=[JointTrajectoryPoint(positions=ROBOT.random_state(
                 rng)[0].tolist()) for _ in range(rng.integers(2, 4))])     # one the solver takes
+        if rng.random() < 0.2:             # beyond MAX_WAYPOINTS: a corner at every one
+            many = int(rng.choice([payload_timing.MAX_WAYPOINTS + 1,
+                                   5 * payload_timing.MAX_WAYPOINTS]))
+            req.path = JointTrajectory(points=[JointTrajectoryPoint(positions=x) for x in
+                                               rng.uniform(-0.01, 0.01, (many, 6)).tolist()])
         for field in ("velocity_limits", "acceleration_limits", "effort_limits"):
             if rng.random() < 0.3:
                 setattr(req, field, np.abs(floats(rng, int(rng.choice([1, 6, 5])))).tolist())
         req.grid = int(rng.choice([0, 2, 50, 2**32 - 1]))      # the most a uint32 holds
+    return req
+
+
+def contact_request(rng, req):
+    """The contact fields of a fuzzed ~/contact_inverse_dynamics request (a fixed base: the
+    forces are zero, the efforts M a + b): links (valid, a bad one among them, none, or more
+    than MAX_CONTACTS), points and frame flags (none, one each, or a wrong count), friction
+    (0, mu, negative, non-finite, huge) and, now and then, base fields a fixed base refuses."""
+    k = int(rng.integers(1, 4))
+    kind = rng.choice(6, p=[0.4, 0.2, 0.1, 0.1, 0.1, 0.1])
+    req.contact_links = [rng.choice(CONTACTS, k).tolist(), rng.choice(LINKS, k).tolist(), [],
+                         [CONTACTS[1]] * MAX_CONTACTS, [CONTACTS[1]] * (MAX_CONTACTS + 1),
+                         [CONTACTS[0]] * 20 * MAX_CONTACTS][kind]
+    m = len(req.contact_links)
+    if m <= MAX_CONTACTS + 1 and rng.random() < 0.6:
+        req.contact_points = [Point(x=x, y=y, z=z) for x, y, z in
+                              np.reshape(floats(rng, 3 * length(rng, m)), (-1, 3)).tolist()]
+    if rng.random() < 0.5:
+        req.frame_contacts = (rng.random(length(rng, m)) < 0.5).tolist()
+    req.friction = float(rng.choice([0.0, 0.0, 0.8, 0.8, -0.5, np.nan, np.inf, 1e308]))
+    if rng.random() < 0.1:
+        x = floats(rng, 7)
+        o = req.base_pose.orientation
+        req.base_pose.position.x, o.x, o.y, o.z, o.w = x[0], *x[3:]
+    if rng.random() < 0.05:
+        req.base_velocity.angular.z = floats(rng, 1)[0]
     return req
 
 
@@ -192,7 +238,8 @@ class Fuzz:
         self.ros = ros
         sim, dyn, ctl, obs = (NS[k] for k in ("sim", "dyn", "ctl", "obs"))
         self.procs = {
-            "simulator": ros.start("simulator", {"initial_positions": HOME},
+            "simulator": ros.start("simulator", {"initial_positions": HOME, "contacts": CONTACTS,
+                                                 "ground.height": GROUND},
                                    ros_args=["-r", f"__ns:={sim}"]),
             "dynamics": ros.start("dynamics", ros_args=["-r", f"__ns:={dyn}"]),
             "controller": ros.start("computed_torque_controller",
@@ -228,6 +275,8 @@ class Fuzz:
         self.params = node.create_client(SetParameters,
                                          f"{ctl}/computed_torque_controller/set_parameters")
         self.states = Latest(ros, JointState, f"{sim}/joint_states", depth=100)
+        self.contacts = {c: Latest(ros, WrenchStamped, f"{sim}/simulator/contacts/{c}", 100)
+                         for c in CONTACTS}
         self.responses = Latest(ros, JointTrajectory, f"{dyn}/inverse_dynamics/response", 100)
         self.efforts = Latest(ros, Float64MultiArray, f"{ctl}/effort_commands", depth=100)
         self.estimates = Latest(ros, JointState, f"{obs}/estimated_external_torques", 100)
@@ -243,7 +292,8 @@ class Fuzz:
         return self.ros.call(self.params, req).results[0]
 
     def destroy(self):
-        for sub in (self.states, self.responses, self.efforts, self.estimates):
+        for sub in (self.states, self.responses, self.efforts, self.estimates,
+                    *self.contacts.values()):
             sub.destroy()
         for proc in self.procs.values():
             proc.stop()
@@ -287,7 +337,7 @@ def send_batch(f, rng):
             pub.publish(make(rng))
         f.ros.spin_for(0.01)
     for name in SERVICES:
-        for _ in range(2 if name == "time_parameterize" else 4):
+        for _ in range({"time_parameterize": 2, "contact_inverse_dynamics": 6}.get(name, 4)):
             calls.append((name, f.clients[name].call_async(service_request(rng, name))))
     calls.append(("simulator ~/step", f.step.call_async(Trigger.Request())))
     mode = ["computed_torque", "pd_gravity", "gravity_compensation", "no_such_mode", "",
@@ -322,7 +372,8 @@ def simulator_steps(f, rng):
     f.ros.spin_for(MATCH_SETTLE)
     assert f.ros.call(f.pause, SetBool.Request(data=True)).message == "paused"
     assert f.ros.call(f.reset, Trigger.Request()).success
-    f.states.clear()
+    for sub in (f.states, *f.contacts.values()):
+        sub.clear()
     try:
         f.states.wait(lambda m: np.allclose(m.position, HOME, atol=1e-9), 30,
                       "a joint_states at initial_positions after ~/reset")
@@ -335,6 +386,41 @@ def simulator_steps(f, rng):
     f.states.wait(lambda m: seen.add(tuple(m.position)) or len(seen) >= 20, 30,
                   "20 distinct joint_states after ~/reset and ~/pause false")
     assert np.all(np.isfinite([m.position + m.velocity for m in f.states.msgs]))
+    ground_pushes(f)
+
+
+def ground_pushes(f):
+    """The arm falls onto the ground (GROUND below its contacts at HOME): within 30 s a
+    ~/contacts/<name> message with a push. Every one since ~/reset: in the simulator's frame
+    (base_link), finite, a force alone, the ground's on the link (n = z): f_n >= 0 and
+    |f_t| <= mu f_n (Coulomb, ground.friction 1.0), and a push only where the library's
+    forward kinematics of the joint_states of the same stamp puts the link's origin on the
+    ground (within 5 mm: the step's own motion)."""
+    try:
+        f.ros.spin_until(lambda: any(m.wrench.force.z > 0 for c in CONTACTS
+                                     for m in f.contacts[c].msgs), 30, "a push of the ground")
+    except AssertionError:
+        got = {c: len(f.contacts[c].msgs) for c in CONTACTS}
+        raise AssertionError(f"no push of the ground on {CONTACTS} within 30 s (messages: "
+                             f"{got})") from None
+    f.ros.spin_for(MATCH_SETTLE)                    # the joint_states of the same stamps
+    states = {(m.header.stamp.sec, m.header.stamp.nanosec): m for m in f.states.msgs}
+    paired = 0
+    for c in CONTACTS:
+        for m in f.contacts[c].msgs:
+            w, t = m.wrench.force, m.wrench.torque
+            force = np.array([w.x, w.y, w.z])
+            assert m.header.frame_id == ROBOT.base_link, m.header.frame_id
+            assert np.all(np.isfinite(force)) and (t.x, t.y, t.z) == (0.0, 0.0, 0.0), m
+            assert force[2] >= 0.0 and np.hypot(*force[:2]) <= force[2] * (1 + 1e-9), \
+                f"{c}: {force.tolist()} is not in the ground's friction cone (mu 1)"
+            state = states.get((m.header.stamp.sec, m.header.stamp.nanosec))
+            if state is not None and force[2] > 0:
+                paired += 1
+                z = ROBOT.forward_kinematics(np.array(state.position), c)[2, 3]
+                assert z < GROUND + 5e-3, f"{c} pushed {force.tolist()} N at {z:.4f} m, " \
+                    f"above the ground ({GROUND} m)"
+    assert paired >= 1, "no push at the stamp of a joint_states"
 
 
 def dynamics_answers(f, rng):
@@ -355,6 +441,21 @@ def dynamics_answers(f, rng):
     f.pub["dynamics inverse_dynamics/request"].publish(request)
     m = f.responses.wait(lambda m: m.header.frame_id == key, 30, "the answer on the topic pair")
     np.testing.assert_allclose(m.points[0].effort, tau, rtol=1e-12, atol=1e-10)
+    # ~/contact_inverse_dynamics: on the fixed base, the library's efforts and zero forces
+    links = rng.choice(CONTACTS, 2).tolist()
+    points = rng.uniform(-0.05, 0.05, (2, 3))
+    r = f.ros.call(f.clients["contact_inverse_dynamics"], srv.ContactInverseDynamics.Request(
+        positions=q.tolist(), velocities=qd.tolist(), accelerations=qdd.tolist(),
+        contact_links=links, contact_points=[Point(x=x, y=y, z=z) for x, y, z in points.tolist()],
+        frame_contacts=[True, False], friction=0.8))
+    assert r.success, r.message
+    tau_c, forces = ROBOT.contact_inverse_dynamics(
+        q, qd, qdd, [sd.Contact(c, point=p, frame=k == 0)
+                     for k, (c, p) in enumerate(zip(links, points))], friction=0.8)
+    np.testing.assert_allclose(r.efforts, tau_c, rtol=1e-12, atol=1e-10)
+    got = [[w.force.x, w.force.y, w.force.z, w.torque.x, w.torque.y, w.torque.z]
+           for w in r.contact_wrenches]
+    assert got == [np.r_[x, np.zeros(6 - len(x))].tolist() for x in forces] == [[0.0] * 6] * 2
 
 
 def controller_commands(f, rng):

@@ -150,6 +150,22 @@ def test_time_parameterize_answer():
         pt.answer_time_parameterize(ROBOT, tp_request(path_msg(PATH), effort_limits=[20.0]))
 
 
+def test_time_parameterize_takes_at_most_max_waypoints():
+    """1000 waypoints on a straight stretch are taken (timed as its two ends: the timing
+    follows the geometry); 1001 are refused before any is read (points without positions:
+    read first, they would be refused for that)."""
+    line = PATH[0] + np.linspace(0.0, 1.0, 1000)[:, None] * (PATH[1] - PATH[0])
+    out = pt.answer_time_parameterize(ROBOT, tp_request(path_msg(line), grid=50))
+    ends = sd.trajectory.time_parameterize(ROBOT, PATH[:2], grid=50)
+    assert abs(out["duration"] - ends.duration) < 1e-9 * ends.duration
+    np.testing.assert_allclose(out["trajectory"].points[-1].positions, PATH[1], rtol=0,
+                               atol=1e-12)
+    with pytest.raises(Rejected, match=r"^path has 1001 points; at most 1000 waypoints are "
+                       "accepted: give the corners") as refused:
+        pt.answer_time_parameterize(ROBOT, tp_request(path_msg([[]] * 1001)))
+    assert refused.value.cause == "path"
+
+
 def ts_request(q, qd=(), qdd=(), names=(), link="", damping=0.0):
     return Msg(link=link, joint_names=list(names), positions=list(q), velocities=list(qd),
                accelerations=list(qdd), damping=damping)

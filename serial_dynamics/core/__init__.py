@@ -17,7 +17,7 @@
     planar_lanes.py  the same, B samples in SIMD lanes
     floating.py   a free-floating base on the instantaneous chain (six virtual joints, one free-flyer root)
     floating_derivatives.py  its derivatives: the fixed-base ones on that chain, the base's columns
-    tree.py       kinematic trees on the parent array   tree_lanes.py  their batches in lanes
+    tree.py       kinematic trees on the parent array (Newton-Euler: rnea.py's)  tree_lanes.py  in lanes
     tree_derivatives.py  the derivatives on trees    tree_derivatives_lanes.py  their batches in lanes
     mimic.py      mimic joints: the reduced system of one state in one call
     regressor.py  the torque regressor                energy.py      dT/dq, the symplectic step

@@ -18,7 +18,8 @@ from .data import new_kin
 from .status import BAD_LENGTH, status
 from .signatures import D2, D3, In1, Out1, Pm, f8, i8, internal
 from .joint import armature_torques, free_flyer, joint_rate, joint_transforms, project
-from .layout import G, H, IO, KIND, MASS, TIPP, W_ACC, W_ALL, W_ALPHA, W_OMEGA, W_WRENCH
+from .layout import (G, H, IO, KIND, MASS, PARENT, ROOT, TIPP, TIPPATH, W_ACC, W_ALL, W_ALPHA,
+                     W_OMEGA, W_WRENCH)
 from .spatial import finite, rotate_t, rotation, to_child, to_parent
 
 
@@ -149,14 +150,18 @@ def free_flyer_motion(qd, qdd, base, flags):
 
 
 @njit(cache=True, inline="always")
-def newton_euler(P, sc, R, p, f, q, qd, qdd, w, flags, tau, nb):
-    """tau = M(q) qdd + b(q, qd) - J^T w of a chain into ``tau``; fills the Data arrays sc,
-    R, p, f. ``w``: the external inputs (layout.W_*): the tip wrench (flag WRENCH), the base
-    motion (flag BASE). ``nb``, a constant of the caller: 0 (``rnea_core``), or 6: a floating
-    base's six coordinates (its virtual chain's first bodies) as one free-flyer root joint
-    (``floating_rnea_core``; tau[:6] the base wrench [f; n]).
+def newton_euler(P, sc, R, p, f, mo, q, qd, qdd, w, flags, tau, tree, nb):
+    """tau = M(q) qdd + b(q, qd) - J^T w into ``tau``; fills the Data arrays sc, R, p, f (and
+    mo on a tree). ``w``: the external inputs (layout.W_*): the tip wrench (flag WRENCH),
+    the base motion (flag BASE). ``tree``, a constant of the caller: the parent of body i is
+    lambda(i) = ``P[i, PARENT]`` and each body's (omega, alpha, acc) is kept in ``mo`` (n, 9)
+    for its children (Featherstone 2008, Table 5.1, written for trees), else i - 1, the
+    parent's motion in registers (a chain; ``mo`` unread). ``nb``: 0, or 6: a floating
+    base's six coordinates (its virtual chain's or tree's first bodies) as one free-flyer
+    root joint (tau[:6] the base wrench [f; n]).
     Returns 0.0, or NaN if an input has a NaN/Inf entry. Every operation is that of the
-    lane-parallel batch kernel (rnea_lanes.py) in the same order, so both give the same bits."""
+    lane-parallel batch kernels (rnea_lanes.py, tree_lanes.py) in the same order, so both
+    give the same bits; a tree kernel run on a chain gives the chain kernel's bits."""
     n = tau.shape[0]
     use_qdd, use_w = (flags & F.QDD) != 0, (flags & F.WRENCH) != 0
     chk = joint_transforms(P, sc, R, p, q, n, nb)
@@ -167,47 +172,84 @@ def newton_euler(P, sc, R, p, f, q, qd, qdd, w, flags, tau, nb):
             chk += joint_rates(qd, qdd, i, flags)[2]
         wx, wy, wz, ax, ay, az, lx, ly, lz = free_flyer_motion(qd, qdd, base, flags)
         k = nb - 1
+        if tree:
+            keep_motion(mo, k, wx, wy, wz, ax, ay, az, lx, ly, lz)
         f[k, 0], f[k, 1], f[k, 2], f[k, 3], f[k, 4], f[k, 5] = body_wrench(
             P, k, wx, wy, wz, ax, ay, az, lx, ly, lz)
+    # outward: each body's motion from its parent's, then its wrench
     for i in range(nb, n):
         dq, ddq, c = joint_rates(qd, qdd, i, flags)
         chk += c
+        if tree:                # the parent's (a chain's: the previous step's, in registers)
+            l = int(P[i, PARENT])
+            wx, wy, wz, ax, ay, az, lx, ly, lz = base if l < 0 else (
+                mo[l, 0], mo[l, 1], mo[l, 2], mo[l, 3], mo[l, 4], mo[l, 5], mo[l, 6], mo[l, 7],
+                mo[l, 8])
         wx, wy, wz, ax, ay, az, lx, ly, lz = outward_step(P, R, p, i, wx, wy, wz, ax, ay, az,
                                                           lx, ly, lz, dq, ddq)
+        if tree:
+            keep_motion(mo, i, wx, wy, wz, ax, ay, az, lx, ly, lz)
         f[i, 0], f[i, 1], f[i, 2], f[i, 3], f[i, 4], f[i, 5] = body_wrench(
             P, i, wx, wy, wz, ax, ay, az, lx, ly, lz)
-        if use_w:
+        if use_w and (not tree or P[i, TIPPATH] != 0.0):   # the tip wrench into frame i
             ex, ey, ez = to_child(R, i, ex, ey, ez)
             mx, my, mz = to_child(R, i, mx, my, mz)
-    # inward: tau_i = S_i^T (n; f)
-    k = n - 1
-    nx, ny, nz, fx, fy, fz = tip_load(P, n, f[k, 0], f[k, 1], f[k, 2], f[k, 3], f[k, 4], f[k, 5],
-                                      ex, ey, ez, mx, my, mz)
-    tau[k] = project(P[k, KIND], nz, fz)
-    for i in range(n - 2, nb - 1, -1):
-        nx, ny, nz, fx, fy, fz = inward_step(R, p, f, i, nx, ny, nz, fx, fy, fz)
+    k = n - 1                   # the load -w on the tip's body (n - 1; a chain's also w = 0)
+    if use_w or not tree:
+        f[k, 0], f[k, 1], f[k, 2], f[k, 3], f[k, 4], f[k, 5] = tip_load(
+            P, n, f[k, 0], f[k, 1], f[k, 2], f[k, 3], f[k, 4], f[k, 5], ex, ey, ez, mx, my, mz)
+    # inward: tau_i = S_i^T f_i;  f_lambda(i) += Xup_i^T f_i
+    nx, ny, nz, fx, fy, fz = f[k, 0], f[k, 1], f[k, 2], f[k, 3], f[k, 4], f[k, 5]
+    for i in range(n - 1, nb - 1, -1):
+        if tree:
+            nx, ny, nz, fx, fy, fz = f[i, 0], f[i, 1], f[i, 2], f[i, 3], f[i, 4], f[i, 5]
         tau[i] = project(P[i, KIND], nz, fz)
-    if nb > 0:                  # the free-flyer's generalized forces: the root's [f; n]
-        nx, ny, nz, fx, fy, fz = inward_step(R, p, f, nb - 1, nx, ny, nz, fx, fy, fz)
+        l = int(P[i, PARENT]) if tree else i - 1
+        if l >= 0:
+            nx, ny, nz, fx, fy, fz = to_parent(R, p, i, nx, ny, nz, fx, fy, fz)
+            if tree:
+                f[l, 0], f[l, 1], f[l, 2] = f[l, 0] + nx, f[l, 1] + ny, f[l, 2] + nz
+                f[l, 3], f[l, 4], f[l, 5] = f[l, 3] + fx, f[l, 4] + fy, f[l, 5] + fz
+            else:               # a chain carries the sum in registers
+                nx, ny, nz = nx + f[l, 0], ny + f[l, 1], nz + f[l, 2]
+                fx, fy, fz = fx + f[l, 3], fy + f[l, 4], fz + f[l, 5]
+    if nb > 0:                  # the free-flyer's generalized forces: [f; n] on the base
+        k = nb - 1
+        if tree:
+            nx, ny, nz, fx, fy, fz = f[k, 0], f[k, 1], f[k, 2], f[k, 3], f[k, 4], f[k, 5]
         tau[0], tau[1], tau[2], tau[3], tau[4], tau[5] = fx, fy, fz, nx, ny, nz
     armature_torques(P, qdd, use_qdd, tau, nb)      # tau_i += I_a,i qdd_i
     return chk
 
 
+@njit(cache=True, inline="always")
+def keep_motion(mo, i, wx, wy, wz, ax, ay, az, lx, ly, lz):
+    """Body i's (omega, alpha, acc) into mo[i] for its children (a tree)."""
+    mo[i, 0], mo[i, 1], mo[i, 2], mo[i, 3], mo[i, 4] = wx, wy, wz, ax, ay
+    mo[i, 5], mo[i, 6], mo[i, 7], mo[i, 8] = az, lx, ly, lz
+
+
 def rnea_core(P, sc, R, p, f, q, qd, qdd, w, flags, tau):
-    """``newton_euler`` on a fixed base (a moving one with flag BASE)."""
-    return newton_euler(P, sc, R, p, f, q, qd, qdd, w, flags, tau, 0)
+    """``newton_euler`` of a chain on a fixed base (a moving one with flag BASE)."""
+    return newton_euler(P, sc, R, p, f, f, q, qd, qdd, w, flags, tau, False, 0)
 
 
 def floating_rnea_core(P, sc, R, p, f, q, qd, qdd, w, flags, tau):
     """``newton_euler`` with a free-flyer root (a floating base's virtual chain)."""
-    return newton_euler(P, sc, R, p, f, q, qd, qdd, w, flags, tau, 6)
+    return newton_euler(P, sc, R, p, f, f, q, qd, qdd, w, flags, tau, False, 6)
+
+
+def tree_rnea_core(P, sc, R, p, f, mo, q, qd, qdd, w, flags, tau):
+    """``newton_euler`` of a tree (its free-flyer root where ``P[n, ROOT]`` = 6); mo (n, 9)."""
+    return newton_euler(P, sc, R, p, f, mo, q, qd, qdd, w, flags, tau, True,
+                        int(P[tau.shape[0], ROOT]))
 
 
 rnea_inline = njit(cache=True, inline="always")(rnea_core)   # into the single-state entries
 rnea_core = internal(f8(Pm, D2, D3, D2, D2, In1, In1, In1, In1, i8, Out1))(rnea_core)   # the others call it
 floating_rnea_core = internal(f8(Pm, D2, D3, D2, D2, In1, In1, In1, In1, i8, Out1))(
     floating_rnea_core)
+tree_rnea_core = internal(f8(Pm, D2, D3, D2, D2, D2, In1, In1, In1, In1, i8, Out1))(tree_rnea_core)
 
 
 # ------------------------------------------------------------------ entry points

@@ -1,16 +1,15 @@
-"""Kinematic trees, compiled: Newton-Euler, the composite-rigid-body algorithm, forward
-dynamics (the sparse L^T D L factor of M, or articulated bodies: ``aba.py`` serves
-chains and trees) and dT/dq (symplectic Euler's gradient) on the parent array lambda(i) (``P[i, PARENT]``; Featherstone 2008,
-Tables 5.1 and 6.2, whose loops are written for trees).
+"""Kinematic trees, compiled: the composite-rigid-body algorithm, forward dynamics (the
+sparse L^T D L factor of M, or articulated bodies: ``aba.py`` serves chains and trees),
+dT/dq (symplectic Euler's gradient) and the tree kernels' entry points, on the parent array
+lambda(i) (``P[i, PARENT]``; Featherstone 2008, Tables 5.1 and 6.2, whose loops are written
+for trees). Newton-Euler is ``rnea.newton_euler``, one skeleton for chains and trees
+(``tree_rnea_core``: its tree kernel).
 
-The same steps as the chain kernels (``rnea.py``'s ``outward_step``, ``body_wrench``,
-``tip_load``; ``spatial.to_parent``), with the recursion on lambda(i): the outward pass
-starts body i from its parent's motion (stored per body, ``mo``; a chain carries it in
-registers), the inward pass adds body i's joint wrench to its parent's, and the CRBA
-climbs the ancestors j = lambda(j) for the off-diagonal entries. A chain keeps the chain
-kernels (``Robot`` picks the table from the model; their bits are the chain's). The tip
-wrench acts on body n-1 (the last leaf) and is carried into its frame along its path
-(``P[i, TIPPATH]``).
+The CRBA climbs the ancestors j = lambda(j) for the off-diagonal entries, with the chain
+kernels' steps (``crba.add_in_parent``, ``joint.joint_momentum``; ``spatial.to_parent``). A
+chain keeps the chain kernels (``Robot`` picks the table from the model; their bits are the
+chain's). The tip wrench acts on body n-1 (the last leaf) and is carried into its frame along
+its path (``P[i, TIPPATH]``).
 """
 from numba import njit, types
 
@@ -24,71 +23,12 @@ from .data import new_art, new_chol, new_kin, scratch, square_lanes_fit, stack_e
 from .energy import axis_gradient, body_momentum, body_velocity
 from .joint import armature_diagonal, armature_torques, joint_momentum, joint_transforms, project
 from .layout import H, IO, KIND, LANES, MASS, PARENT, ROOT, TIPPATH, W_ALL, W_WRENCH
-from .rnea import base_state, body_wrench, free_flyer_motion, joint_rates, outward_step, tip_load
+from .rnea import tree_rnea_core
 from .signatures import D2, D3, In1, In2, Mat, Out1, Out2, Out3, Pm, Vec, f8, i8, internal
 from .spatial import finite, rotation, to_child, to_parent
 from .status import BAD_LENGTH, NOT_FINITE, OK, status
 from .tree_lanes import (floating_tree_fd_block, floating_tree_rnea_block, tree_crba_block,
                          tree_fd_block, tree_rnea_block)
-
-
-def tree_rnea_core(P, sc, R, p, f, mo, q, qd, qdd, w, flags, tau):
-    """tau = M qdd + b - J^T w of a tree into ``tau``; fills sc, R, p (the joint transforms),
-    f and mo (each body's omega, alpha, acc). Returns 0.0, or NaN on a NaN/Inf input."""
-    n = tau.shape[0]
-    use_qdd, use_w = (flags & F.QDD) != 0, (flags & F.WRENCH) != 0
-    nb = int(P[n, ROOT])
-    chk = joint_transforms(P, sc, R, p, q, n, nb)
-    base, (ex, ey, ez, mx, my, mz), chk = base_state(P, w, flags, n, chk)
-    if nb > 0:
-        # a floating base (the virtual tree's six coordinates, P[n, ROOT] = 6) as one free-
-        # flyer joint: the base body's motion at once (rnea.free_flyer_motion)
-        k = nb - 1
-        for i in range(nb):
-            chk += joint_rates(qd, qdd, i, flags)[2]
-        wx, wy, wz, ax, ay, az, lx, ly, lz = free_flyer_motion(qd, qdd, base, flags)
-        mo[k, 0], mo[k, 1], mo[k, 2], mo[k, 3], mo[k, 4] = wx, wy, wz, ax, ay
-        mo[k, 5], mo[k, 6], mo[k, 7], mo[k, 8] = az, lx, ly, lz
-        f[k, 0], f[k, 1], f[k, 2], f[k, 3], f[k, 4], f[k, 5] = body_wrench(
-            P, k, wx, wy, wz, ax, ay, az, lx, ly, lz)
-    for i in range(nb, n):
-        dq, ddq, c = joint_rates(qd, qdd, i, flags)
-        chk += c
-        l = int(P[i, PARENT])
-        # the parent's omega, alpha, acc (the base's: base_state), carried in and moved
-        wx, wy, wz, ax, ay, az, lx, ly, lz = base if l < 0 else (
-            mo[l, 0], mo[l, 1], mo[l, 2], mo[l, 3], mo[l, 4], mo[l, 5], mo[l, 6], mo[l, 7], mo[l, 8])
-        wx, wy, wz, ax, ay, az, lx, ly, lz = outward_step(P, R, p, i, wx, wy, wz, ax, ay, az,
-                                                          lx, ly, lz, dq, ddq)
-        mo[i, 0], mo[i, 1], mo[i, 2], mo[i, 3], mo[i, 4] = wx, wy, wz, ax, ay
-        mo[i, 5], mo[i, 6], mo[i, 7], mo[i, 8] = az, lx, ly, lz
-        f[i, 0], f[i, 1], f[i, 2], f[i, 3], f[i, 4], f[i, 5] = body_wrench(
-            P, i, wx, wy, wz, ax, ay, az, lx, ly, lz)
-        if use_w and P[i, TIPPATH] != 0.0:          # the tip wrench into frame i
-            ex, ey, ez = to_child(R, i, ex, ey, ez)
-            mx, my, mz = to_child(R, i, mx, my, mz)
-    if use_w:                                        # the load -w on the tip's body
-        k = n - 1
-        f[k, 0], f[k, 1], f[k, 2], f[k, 3], f[k, 4], f[k, 5] = tip_load(
-            P, n, f[k, 0], f[k, 1], f[k, 2], f[k, 3], f[k, 4], f[k, 5], ex, ey, ez, mx, my, mz)
-    # inward: tau_i = S_i^T f_i;  f_lambda(i) += Xup_i^T f_i
-    for i in range(n - 1, nb - 1, -1):
-        nx, ny, nz, fx, fy, fz = f[i, 0], f[i, 1], f[i, 2], f[i, 3], f[i, 4], f[i, 5]
-        tau[i] = project(P[i, KIND], nz, fz)
-        l = int(P[i, PARENT])
-        if l >= 0:
-            nx, ny, nz, fx, fy, fz = to_parent(R, p, i, nx, ny, nz, fx, fy, fz)
-            f[l, 0], f[l, 1], f[l, 2] = f[l, 0] + nx, f[l, 1] + ny, f[l, 2] + nz
-            f[l, 3], f[l, 4], f[l, 5] = f[l, 3] + fx, f[l, 4] + fy, f[l, 5] + fz
-    if nb > 0:                  # the free-flyer's generalized forces: [f; n] on the base
-        k = nb - 1
-        tau[0], tau[1], tau[2], tau[3], tau[4], tau[5] = (f[k, 3], f[k, 4], f[k, 5],
-                                                          f[k, 0], f[k, 1], f[k, 2])
-    armature_torques(P, qdd, use_qdd, tau, nb)      # tau_i += I_a,i qdd_i
-    return chk
-
-
-tree_rnea_core = internal(f8(Pm, D2, D3, D2, D2, D2, In1, In1, In1, In1, i8, Out1))(tree_rnea_core)
 
 
 def tree_crba_core(P, R, p, IC, M):

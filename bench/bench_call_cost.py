@@ -1,5 +1,5 @@
 """Where a single call's time goes: numba's dispatcher per array argument, the entry point
-called past it (core/_fastcall.c), the returned array and the facade, beside Pinocchio's
+called past it (core/_fastcall.c calling its numba.cfunc wrapper, core/cabi.py), the returned array and the facade, beside Pinocchio's
 call of the same quantity (one process, interleaved rounds, the minimum of each).
 
 Why it is measured: a single call of the mass matrix or of inverse dynamics takes 0.6-1 µs,
@@ -7,8 +7,8 @@ and most of it is not arithmetic. These rows say how much each part takes, so th
 of the facade (issue 25: one ``Robot`` with one kernel signature for every kind of robot)
 can be priced before it is built: an array argument more on every entry point costs what
 the first table's increments say, on every single call made through numba's dispatcher.
-Since _fastcall.c the single-state entry points are called past the dispatcher; the rows
-"through numba's dispatcher" say what that saves.
+The single-state entry points are called past the dispatcher (core/cabi.py); the rows
+"through numba's dispatcher" (the njit kernel called from Python) say what that saves.
 
     python bench/bench_call_cost.py            # writes the "call_cost" section of bench/BENCHMARKS.md
     python bench/bench_call_cost.py --no-write
@@ -31,7 +31,7 @@ from bench_speed import erd_path, pin                                   # noqa: 
 from _report import stamp, write_section                                # noqa: E402
 
 import serial_dynamics as sd                                            # noqa: E402
-from serial_dynamics.core import K, dispatch                            # noqa: E402
+from serial_dynamics.core import K, cabi                                # noqa: E402
 
 UR5 = "ur_description/urdf/ur5_robot.urdf"
 
@@ -95,8 +95,9 @@ def dispatch_rows(number, rounds):
     kernels = {1: _args1, 2: _args2, 3: _args3, 5: _args5, 7: _args7}
     calls = {(0, "numba"): lambda: _args0(), "nothing": lambda: None}
     for k, f in kernels.items():
-        fast = dispatch.fast_entry(f, f.nopython_signatures[0])
-        assert isinstance(fast, dispatch._fastcall.Entry)
+        # not cached: a wrapper's cache entry is keyed on cabi.py, not on this file
+        fast = cabi.entry(f"args{k}", f.py_func, f.nopython_signatures[0], cache=False)
+        assert isinstance(fast, cabi._fastcall.Entry)
         calls[k, "numba"] = lambda f=f, a=args[k]: f(*a)
         calls[k, "past"] = lambda f=fast, a=args[k]: f(*a)
     _args0()
@@ -127,8 +128,8 @@ def mass_matrix_rows(number, rounds):
              "robot.mass_matrix(q)": lambda: robot.mass_matrix(q),
              "robot.mass_matrix(q, out=M)": lambda: robot.mass_matrix(q, out=o),
              "K.crba(P, q, M): the entry point": lambda: crba(P, q, o),
-             "K.crba.dispatcher(P, q, M): through numba's dispatcher":
-                 lambda: crba.dispatcher(P, q, o),
+             "K.crba.kernel(P, q, M): through numba's dispatcher":
+                 lambda: crba.kernel(P, q, o),
              "K.crba(P, q, np.empty((6, 6)))": lambda: crba(P, q, empty(shape)),
              "an empty entry point of 3 arrays": lambda: _args3(P, q, o),
              "np.empty((6, 6))": lambda: empty(shape), "nothing": lambda: None}
@@ -156,8 +157,8 @@ def floating_rows(number, rounds):
                  lambda: robot.inverse_dynamics(q, v, a, out=o),
              "K.floating_rnea(chain, q, v, a, flags, tau): the entry point":
                  lambda: rnea(chain, q, v, a, 3, o),
-             "K.floating_rnea.dispatcher(...): through numba's dispatcher":
-                 lambda: rnea.dispatcher(chain, q, v, a, 3, o),
+             "K.floating_rnea.kernel(...): through numba's dispatcher":
+                 lambda: rnea.kernel(chain, q, v, a, 3, o),
              "an empty entry point of 5 arrays and an int": lambda: _args5_int(P, q, v, a, 3, o),
              "nothing": lambda: None}
     return best(calls, number, rounds)
@@ -205,12 +206,12 @@ def main():
     for what, rows, plain, out, entry, disp_row, empty in [
             ("the UR5's mass matrix", mm, "robot.mass_matrix(q)", "robot.mass_matrix(q, out=M)",
              "K.crba(P, q, M): the entry point",
-             "K.crba.dispatcher(P, q, M): through numba's dispatcher",
+             "K.crba.kernel(P, q, M): through numba's dispatcher",
              "an empty entry point of 3 arrays"),
             ("the floating UR5's inverse dynamics", fl, "robot.inverse_dynamics(q, v, a)",
              "robot.inverse_dynamics(q, v, a, out=tau)",
              "K.floating_rnea(chain, q, v, a, flags, tau): the entry point",
-             "K.floating_rnea.dispatcher(...): through numba's dispatcher",
+             "K.floating_rnea.kernel(...): through numba's dispatcher",
              "an empty entry point of 5 arrays and an int")]:
         peer = next(t for k, t in rows.items() if k.startswith("pinocchio"))
         part = {"the entry point past the dispatcher (checks, call, arithmetic)":

@@ -8,7 +8,9 @@ cache (``__pycache__``) in milliseconds. Numba compiles one function at a time i
 process, so ``precompile(jobs=2)`` starts a second process that compiles one half of them
 while this one compiles the other half, then loads that half from the cache it filled.
 Run it after installing (a container build, a CI cache step); the nodes' ``warmup()``
-then only loads. ``precompile(names=...)`` compiles some of them the same way (the demo:
+then only loads. It first removes the cache folders of other source versions
+(``core.cache.prune``: each version of the sources has its own folder; importing the
+package never deletes one). ``precompile(names=...)`` compiles some of them the same way (the demo:
 the single-state kernels its nodes run, ``Robot.kernels()``).
 """
 from __future__ import annotations
@@ -20,6 +22,7 @@ import time
 from contextlib import contextmanager
 
 from .core import ENTRY_POINTS, K
+from .core.cache import prune
 from .sim.compiled_euler import _loop
 
 # two halves of about equal cold-compile time (bench/BENCHMARKS.md, *First call*): the
@@ -81,6 +84,8 @@ def main(argv=None):
         load(argv[1].split(","))
         return
     jobs = 1 if argv[:1] == ["--serial"] else 2
+    for gone in prune():
+        print(f"removed {gone} (the cache of other sources)")
     seconds = precompile(jobs)
     print(f"compiled or loaded {len(ENTRY_POINTS) + 1} kernels in {seconds:.1f} s")
 

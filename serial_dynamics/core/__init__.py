@@ -12,7 +12,8 @@
     status.py     the status codes entry points return
     derivatives.py   derivatives of inverse and forward dynamics (forward mode)
     derivatives_lanes.py  the same over a batch, B states in SIMD lanes
-    dispatch.py   ENTRY_POINTS, K (built on first use), the numba hook, NUMBA_SUPPORTED
+    dispatch.py   ENTRY_POINTS, K (built on first use), NUMBA_SUPPORTED
+    cabi.py       a single-state entry point's numba.cfunc wrapper (one C ABI) for _fastcall.c
     planar.py     Newton-Euler and composite bodies of a planar chain in planar 3-vectors
     planar_lanes.py  the same, B samples in SIMD lanes
     floating.py   a free-floating base on the instantaneous chain (six virtual joints, one free-flyer root)
@@ -22,16 +23,18 @@
     mimic.py      mimic joints: the reduced system of one state in one call
     regressor.py  the torque regressor                energy.py      dT/dq, the symplectic step
     kinematics.py frame poses, Jacobians, center of mass, momentum (chains and trees)
-    stale_cache.py  deletes cached kernels that include a changed source (run on import)
+    cache.py      where numba caches the kernels: a folder per fingerprint of their sources
 
 Each algorithm is the same as its NumPy reference in ``algorithms/`` (same frames and
 symbols; docs/conventions.md). Entry points, ``K`` and the status codes: ``dispatch.py``.
 No fast-math flag anywhere: IEEE arithmetic, so results do not depend on what was compiled
 or inlined where (bitwise the same in every process, whatever the cache holds), and
-no cached kernel built from older sources (``stale_cache``).
+no cached kernel built from other sources: the functions decorated while the modules
+import are cached in the folder of the sources' fingerprint (``cache.in_folder``; nothing
+is deleted).
 """
-from .stale_cache import clear_stale
+from .cache import in_folder
 
-clear_stale()            # before any kernel compiles or loads (they do on first use)
-from .dispatch import (BAD_LENGTH, ENTRY_POINTS, FD_CALLS, K, NOT_CONVERGED, NOT_FINITE,  # noqa: F401
-                       NUMBA_SUPPORTED, OK, OTHER_TYPES, SINGLE_STATE)
+with in_folder("core"):      # numba picks each function's cache folder as it is decorated
+    from .dispatch import (BAD_LENGTH, ENTRY_POINTS, FD_CALLS, K, NOT_CONVERGED,  # noqa: F401
+                           NOT_FINITE, NUMBA_SUPPORTED, OK, OTHER_TYPES, SINGLE_STATE)

@@ -1,58 +1,43 @@
 """Dispatch: the compiled entry points (``ENTRY_POINTS``), ``K`` that builds them on first
-use, the numba hook of the single-state ones, and the status codes they return.
+use, and the status codes they return.
 
 ``K.rnea`` etc. (one attribute of ``_Kernels`` per entry point, listed below) compiles its
 entry point on first use with its explicit signature and ``cache=True``, after the typed
-algorithms it calls (seconds once per machine; loading from the numba cache in
-``__pycache__`` takes milliseconds); importing compiles nothing;
+algorithms it calls (seconds once per machine; loading from the numba cache takes
+milliseconds; ``core/cache.py`` says where it lies); importing compiles nothing;
 ``python -m serial_dynamics.precompile`` fills the cache. Entry points take the packed model
 ``P`` and float64 arrays, write into ``out`` and return a status (``status.py``: OK,
 NOT_FINITE, BAD_LENGTH, OTHER_TYPES, NOT_CONVERGED). Batch kernels take (N, n) inputs, or
 (1, n) to broadcast one row, and release the GIL so that ``Robot`` can split a large batch
 over the cores.
 
-The hook: a single-state entry point has one exact signature -- C-contiguous, writable
-float64 arrays, what a caller usually has -- which numba's dispatcher matches in C
-(~70 ns). For argument types it has no version for, numba calls the dispatcher's
-``_compile_for_args``; that internal method is replaced here by a function returning a
-function returning OTHER_TYPES, so that any other arguments (a list, a batch, another dtype
-or layout, a read-only array) get that status instead of a new compilation or an
-exception, and ``Robot`` takes its general path. (No exception is raised or caught to
-choose the path.) The hook depends on numba's internals: importing this module checks that
-the method exists and raises an ImportError naming the numba version and the supported
-range (``NUMBA_SUPPORTED``, the range setup.py pins) when it does not.
-
-Past the dispatcher: a single-state entry point is an ``Entry`` of ``_fastcall.c``, which
-checks in C that the arguments are of its one signature and then calls numba's compiled
-function directly (20-40 ns for one to seven arrays, against the dispatcher's ~95 and
-~33 for each further array, bench_call_cost.py); any other arguments, and a call whose function raised, go to the
-dispatcher itself. The same machine code runs either way (the same bits). ``fast_entry``
-makes one only where numba lays the function out as ``_fastcall.c`` assumes; without the
-extension (a build without a C compiler) or with ``SERIAL_DYNAMICS_FASTCALL=0`` in the
-environment every call goes through the dispatcher.
+A single-state entry point (``SINGLE_STATE``) has one exact signature -- C-contiguous,
+writable float64 arrays and int64s, what a caller usually has -- and is built by
+``cabi.entry``: a ``numba.cfunc`` wrapper of the njit kernel with one plain C ABI, called
+by ``_fastcall.Entry`` after it checks the arguments' types in C (a fraction of numba's
+dispatcher's price per array: docs/speed.md, bench/bench_call_cost.py). Any other
+arguments (a list, a batch, another dtype or layout, a read-only array) get OTHER_TYPES
+back without numba being called, and ``Robot`` takes its general path (no exception is
+raised or caught to choose the path). Only numba's documented interfaces are used:
+``njit``, ``cfunc`` and its ``.address``, ``carray``, ``NUMBA_CACHE_DIR``;
+``NUMBA_SUPPORTED`` is the range of numba releases the tests have run on (setup.py pins
+it). Without the extension (a build without a C compiler) or with
+``SERIAL_DYNAMICS_FASTCALL=0`` in the environment, ``cabi.Entry`` makes the same check in
+Python and calls the njit kernel (the same bits, slower by the check).
 """
-import os
-
-import numba
-from numba import njit, types
-from numba.core.dispatcher import Dispatcher
+from numba import njit
 
 from . import crba, crba_lanes, derivatives, derivatives_lanes, energy, floating, forward, kinematics
 from . import floating_derivatives
 from . import mimic, planar, planar_lanes
 from . import regressor
 from . import rnea, rnea_lanes, tree, tree_derivatives, tree_derivatives_lanes
-from .signatures import In2, Mat, Out2, Out3, Pm, Vec, compile_internal, f8, i8
+from .cabi import FASTCALL, entry  # noqa: F401 (FASTCALL re-exported)
+from .cache import in_folder
+from .signatures import In2, Mat, Out2, Out3, Pm, Vec, compile_internal, i8
 from .status import BAD_LENGTH, NOT_CONVERGED, NOT_FINITE, OK, OTHER_TYPES   # noqa: F401 (re-exported)
 
-try:
-    from . import _fastcall
-except ImportError:          # built without a C compiler: every call through the dispatcher
-    _fastcall = None
-FASTCALL = _fastcall is not None and os.environ.get("SERIAL_DYNAMICS_FASTCALL", "1") != "0"
-
 NUMBA_SUPPORTED = ">=0.59,<0.69"   # the numba releases the tests have run on (setup.py pins it)
-HOOK = "_compile_for_args"          # the dispatcher method the hook replaces
 
 FD_CALLS = ("aba_core", "cholesky_solve", "cholesky_core", "fd_block")
 FLOATING_FD_CALLS = ("floating_aba_core", "cholesky_solve", "floating_cholesky_core",
@@ -96,77 +81,15 @@ SINGLE_STATE = ("rnea", "rnea_wrench", "crba", "fd", "planar_rnea", "planar_rnea
                 *tree_derivatives.SINGLE_STATE, *mimic.SINGLE_STATE, *kinematics.SINGLE_STATE)
 
 
-def check_hook(dispatcher_class=Dispatcher, version=numba.__version__):
-    """Raise an ImportError unless numba's dispatcher has the method the hook replaces."""
-    if not callable(getattr(dispatcher_class, HOOK, None)):
-        raise ImportError(
-            f"serial_dynamics cannot run on numba {version}: its dispatcher has no {HOOK}, "
-            f"the internal method serial_dynamics.core.dispatch replaces so that a compiled "
-            f"call with arguments of other types returns a status instead of compiling. The "
-            f"supported numba releases are {NUMBA_SUPPORTED}: pip install 'numba{NUMBA_SUPPORTED}'.")
-
-
-check_hook()
-
-
-def _other_types(*args, **kwargs):
-    return lambda *a, **k: OTHER_TYPES
-
-
-def native_spec(kernel, sig):
-    """``_fastcall.Entry``'s spec of ``kernel``'s one signature (per argument 1, 2 or 3: a
-    C-contiguous writable float64 array of that ndim; i: an int64), or None where the
-    extension is off or numba's compiled function is not laid out as ``_fastcall.c``
-    assumes: int32 f(int64 *result, excinfo **, each array as meminfo, parent, nitems,
-    itemsize, data, shape, strides; each int64 as itself)."""
-    if not FASTCALL or sig.return_type != i8:
-        return None
-    spec, words = "", []
-    for t in sig.args:
-        if t == i8:
-            spec, words = spec + "i", words + ["i64"]
-        elif (isinstance(t, types.Array) and t.dtype == f8 and t.layout == "C" and t.mutable
-              and t.aligned and 1 <= t.ndim <= 3):
-            spec += str(t.ndim)
-            words += ["i8*", "i8*", "i64", "i64", "double*"] + ["i64"] * (2 * t.ndim)
-        else:
-            return None
-    try:
-        cres = kernel.overloads[sig.args]
-        conv = cres.target_context.call_conv
-        fnty = conv.get_function_type(cres.fndesc.restype, cres.fndesc.argtypes)
-    except (AttributeError, KeyError, TypeError):      # another numba: the dispatcher
-        return None
-    laid_out = ([str(fnty.return_type), str(fnty.args[0])] + [str(a) for a in fnty.args[2:]]
-                == ["i32", "i64*"] + words)
-    return spec if type(conv).__name__ == "CPUCallConv" and laid_out else None
-
-
-def fast_entry(kernel, sig):
-    """``kernel`` as a ``_fastcall.Entry`` (called past the dispatcher when the arguments
-    are of ``sig``'s types), or ``kernel`` itself where ``native_spec`` is None."""
-    spec = native_spec(kernel, sig)
-    if spec is None:
-        return kernel
-    cres = kernel.overloads[sig.args]
-    address = cres.library.get_pointer_to_function(cres.fndesc.llvm_func_name)
-    return _fastcall.Entry(kernel, address, spec) if address else kernel
-
-
 def build(name):
     """Compile (or load from the cache) entry point ``name``, after the typed algorithms it
-    calls; a single-state one gets its one signature and the hook, and is called through
-    ``fast_entry``."""
+    calls; a single-state one is ``cabi.entry``'s (its cfunc wrapper called from C)."""
     func, sig, nogil, calls = ENTRY_POINTS[name]
     compile_internal(calls)
-    if name in SINGLE_STATE:
-        kernel = njit(cache=True, nogil=nogil)(func)
-        kernel.compile(sig)
-        setattr(kernel, HOOK, _other_types)
-        kernel = fast_entry(kernel, sig)
-    else:
-        kernel = njit([sig], cache=True, nogil=nogil)(func)
-    return kernel
+    with in_folder("core"):
+        if name in SINGLE_STATE:
+            return entry(name, func, sig, nogil)
+        return njit([sig], cache=True, nogil=nogil)(func)
 
 
 class _EntryPoint:

@@ -22,12 +22,12 @@ m^2 beta and |m| tau_c (exact: its friction torque, times m by virtual work).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
 from ..algorithms import floating as fb
 from ..algorithms._batch import as_batch
 from ..core import OK
 from ..core import flags as F
+from ..core.cache import njit_in
 from ..core.floating import GW
 from ..core.layout import PARENT, WIDTH
 from ..core.mimic import (FM, FT, FW, IW, NF, NPAIRS, PAIR, PI, PJ, PM, PSI, PSJ, QMUL,
@@ -438,7 +438,7 @@ def mimic_layout(model, q_map, v_map, ind, followers, whole):
     return np.vstack([Gm, flat.reshape(-1, WIDTH), head]), parent_r
 
 
-@njit(cache=True)
+@njit_in("robot")
 def _not_finite(x):
     """1 if x has a NaN/Inf, else 0."""
     bad = 0
@@ -447,7 +447,7 @@ def _not_finite(x):
     return bad
 
 
-@njit(cache=True)
+@njit_in("robot")
 def _gather(src, m, o, x, out):
     """out = x[src] m + o (G x + o); returns 1 if x has a NaN/Inf, else 0."""
     bad = 0

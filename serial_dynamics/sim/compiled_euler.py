@@ -12,11 +12,12 @@ call it.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, types
+from numba import types
 
 from ..algorithms.aba import CROSSOVER
 from ..core import flags as F
 from ..core.aba import aba_core
+from ..core.cache import njit_in
 from ..core.data import heap_empty, new_art, new_chol, new_kin, stack_empty
 from ..core.forward import cholesky_core
 from ..core.signatures import In1, In2, Out2, Pm, compile_internal, f8, i8
@@ -74,7 +75,7 @@ def _loop():
     """The loop, compiled (or loaded from the numba cache) on first use."""
     if not _compiled:
         compile_internal(("aba_core", "cholesky_core"))
-        _compiled.append(njit([_SIGNATURE], cache=True)(semi_implicit_euler_loop))
+        _compiled.append(njit_in("sim", [_SIGNATURE])(semi_implicit_euler_loop))
     return _compiled[0]
 
 

@@ -3,12 +3,12 @@
 Owns ``semi_implicit_euler_step``: the step-by-step integrator (``fixed_step``) and the
 compiled whole-run loop both call it, so that the two give the same numbers. A plain
 loop with no fast-math flag: each update rounds exactly as NumPy's ``qd + dt * qdd``
-(a product, then a sum), bitwise. This module imports nothing from the package.
+(a product, then a sum), bitwise. It imports only ``core.cache`` (where numba caches it).
 """
-from numba import njit
+from ..core.cache import njit_in
 
 
-@njit(cache=True)
+@njit_in("sim")
 def semi_implicit_euler_step(q, qd, qdd, dt):
     """Advance (q, qd) in place by one step dt with the acceleration qdd (n,): velocity
     first, then position with the new velocity (Hairer, Lubich & Wanner, GNI, Sec. I.1.2;

@@ -1,8 +1,10 @@
-"""core/_fastcall.c: single-state entry points called past numba's dispatcher give the
-dispatcher's results bit for bit (every call the facade makes on eight robots of every
-kind, replayed both ways: every single-state entry point), send every other call to the dispatcher unchanged (other types,
-layouts, counts, keywords), a function that raises raises as numba raises it, and without
-the extension (a build without a C compiler) the package computes the same bits."""
+"""core/_fastcall.c and core/cabi.py: single-state entry points called through their
+numba.cfunc wrappers from C give the njit kernel's results bit for bit (every call the facade
+makes on eight robots of every kind, replayed both ways: every single-state entry point),
+return OTHER_TYPES for any other arguments (types, layouts, subclasses, read-only arrays,
+bools) in C and in the Python check alike, a kernel that raises raises as numba raises it,
+and without the extension (a build without a C compiler) the package computes the same
+bits."""
 import os
 import subprocess
 import sys
@@ -10,18 +12,18 @@ import warnings
 
 import numpy as np
 import pytest
-from numba import njit, types
+from numba import types
 
 import serial_dynamics as sd
-from serial_dynamics.core import dispatch
+from serial_dynamics.core import cabi, dispatch
 from serial_dynamics.core import flags as F
 from serial_dynamics.core.dispatch import K, OTHER_TYPES, SINGLE_STATE
-from serial_dynamics.core.signatures import Vec, i8
+from serial_dynamics.core.signatures import Mat, Vec, i8
 
 from pin_reference import erd
 
 pytestmark = pytest.mark.skipif(os.environ.get("SERIAL_DYNAMICS_FASTCALL") == "0",
-                                reason="SERIAL_DYNAMICS_FASTCALL=0: every call through numba")
+                                reason="SERIAL_DYNAMICS_FASTCALL=0: every call checked in Python")
 
 
 def load(rel, tips=None, **kw):
@@ -50,9 +52,9 @@ ROBOTS = {   # (make, a tip wrench): each kind and kernel table (chain, tree, fl
 
 def test_the_extension_is_built_and_every_single_state_entry_point_uses_it():
     # a build without a C compiler installs without it (setup.py: optional); here it must be
-    assert dispatch._fastcall is not None, "core/_fastcall.c was not built: pip install -e ."
+    assert cabi._fastcall is not None, "core/_fastcall.c was not built: pip install -e ."
     for name in SINGLE_STATE:
-        assert isinstance(getattr(K, name), dispatch._fastcall.Entry), name
+        assert isinstance(getattr(K, name), cabi._fastcall.Entry), name
 
 
 def _exercise(robot, wrench):
@@ -100,15 +102,16 @@ def recorded():
     return calls
 
 
-def test_every_call_the_facade_makes_gives_the_dispatchers_bits(recorded):
+def test_every_call_the_facade_makes_gives_the_kernels_bits(recorded):
     names = {name for name, _, _ in recorded}
     assert names == set(SINGLE_STATE), sorted(set(SINGLE_STATE) - names)   # every one reached
     for name, entry, args in recorded:
-        assert isinstance(entry, dispatch._fastcall.Entry), name
+        assert isinstance(entry, cabi._fastcall.Entry), name
+        python = cabi.Entry(entry.kernel, entry.spec)          # the check in Python, the njit kernel
         ours = [a.copy() if isinstance(a, np.ndarray) else a for a in args]
         theirs = [a.copy() if isinstance(a, np.ndarray) else a for a in args]
-        s_ours, s_theirs = entry(*ours), entry.dispatcher(*theirs)
-        assert s_ours == s_theirs, name
+        s_ours, s_theirs = entry(*ours), python(*theirs)
+        assert s_ours == s_theirs != OTHER_TYPES, name
         for a, b in zip(ours, theirs):
             if isinstance(a, np.ndarray):
                 assert a.tobytes() == b.tobytes(), name      # NaN in unwritten scratch too
@@ -125,62 +128,83 @@ def outcome(f, args):
     return status, [a.tobytes() for a in args if isinstance(a, np.ndarray)]
 
 
-def test_other_arguments_go_to_the_dispatcher():
+class _Sub(np.ndarray):
+    pass
+
+
+def test_other_arguments_return_other_types_without_numba():
     robot = sd.default_robot()
     P, q, o = robot._P, np.full(6, 0.3), np.empty((6, 6))
     crba = K.crba
+    python = cabi.Entry(crba.kernel, crba.spec)
     ro = q.copy()
     ro.flags.writeable = False
+    swapped = q.astype(">f8")
+    odd = np.zeros(6 * 8 + 1, np.uint8)[1:].view(np.float64)       # misaligned
     for args in [(P, q.astype(np.float32), o), (P, np.full(12, 0.3)[::2], o), (P, ro, o),
                  (P, list(q), o), (P, q[None], o), (P, q, np.asfortranarray(np.empty((6, 6)))),
-                 (P, q.view(np.matrix), o)]:
-        assert crba(*args) == crba.dispatcher(*args) == OTHER_TYPES
-    for args in [(P, q), (P, q, o, o)]:               # numba's TypeError, both ways
-        assert outcome(crba, args) == outcome(crba.dispatcher, args) == TypeError
-    assert crba(P, q, o) == 0
+                 (P, q.view(np.matrix), o), (P, q.view(_Sub), o), (P, swapped, o),
+                 (P, odd, o), (P, q, None), (P.astype(np.float32), q, o)]:
+        assert crba(*args) == python(*args) == OTHER_TYPES
+    assert not odd.flags.aligned
+    for args in [(P, q), (P, q, o, o)]:               # another count: a TypeError both ways
+        assert outcome(crba, args) == outcome(python, args) == TypeError
+    with pytest.raises(TypeError, match="takes 3 positional arguments"):
+        crba(P, q, out=o)                             # keywords too
+    assert crba(P, q, o) == python(P, q, o) == 0
     np.testing.assert_array_equal(robot.mass_matrix(q), o)
     rnea, v = K.rnea, np.full(6, 0.2)
-    for flags in (np.int64(F.QD | F.QDD), F.QD | F.QDD, True, 2**70, 3.0):
+    python = cabi.Entry(rnea.kernel, rnea.spec)
+    for flags, status in ((np.int64(F.QD | F.QDD), 0), (F.QD | F.QDD, 0), (True, OTHER_TYPES),
+                          (2**70, OTHER_TYPES), (3.0, OTHER_TYPES), (np.int32(3), OTHER_TYPES)):
         args = (P, q, v, v, flags, np.empty(6))
-        assert outcome(rnea, args) == outcome(rnea.dispatcher, args)
-    a, b = np.empty((6, 6)), np.empty((6, 6))       # keywords: numba's own handling
-    assert crba(P, q, out=a) == crba.dispatcher(P, q, out=b) == 0
-    assert a.tobytes() == b.tobytes() == o.tobytes()
+        assert outcome(rnea, args)[0] == outcome(python, args)[0] == status, flags
+        assert outcome(rnea, args) == outcome(python, args)
 
 
-@njit(cache=False)
 def _divide(x, k, out):
     out[0] = 1.0 / x[0]      # ZeroDivisionError when x[0] == 0 (numba's error model)
     return k
 
 
-def test_a_function_that_raises_raises_as_numba_raises_it():
-    sig = i8(Vec, i8, Vec)
-    _divide.compile(sig.args)
-    entry = dispatch.fast_entry(_divide, sig)
-    assert isinstance(entry, dispatch._fastcall.Entry)
+def test_a_kernel_that_raises_raises_as_numba_raises_it():
+    entry = cabi.entry("divide", _divide, i8(Vec, i8, Vec), cache=False)
+    assert isinstance(entry, cabi._fastcall.Entry) and entry.spec == "1i1"
     out = np.empty(1)
     assert entry(np.array([4.0]), 7, out) == 7 and out[0] == 0.25
     with pytest.raises(ZeroDivisionError):
         entry(np.array([0.0]), 7, out)
+    assert entry(np.array([2.0]), -7, out) == -7 and out[0] == 0.5   # and works on after
 
 
-def test_signatures_it_does_not_lay_out_stay_with_the_dispatcher():
+def test_the_wrapper_rebuilds_each_array_from_its_pointer_and_shape():
+    assert cabi.wrapper_source("crba", "212") == (
+        "def cabi_crba(data, dims, ints):\n"
+        "    try:\n"
+        "        return kernel(carray(data[0], (dims[0], dims[1],)), carray(data[1], (dims[2],)), "
+        "carray(data[2], (dims[3], dims[4],)))\n"
+        "    except Exception:\n"
+        "        return RAISED\n")
+    assert cabi.spec(i8(Mat, Vec, i8, Vec)) == "21i1"
+
+
+def test_signatures_outside_the_c_abi_are_refused_by_name():
     A = types.Array(types.float64, 1, "A")
     R = types.Array(types.float64, 1, "C", readonly=True)
-    for sig in (i8(A, i8, Vec), i8(R, i8, Vec), types.float64(Vec, i8, Vec),
-                i8(Vec, types.float64, Vec)):
-        assert dispatch.native_spec(_divide, sig) is None
-    assert dispatch.native_spec(_divide, i8(Vec, i8, Vec)) == "1i1"
+    for sig, culprit in ((i8(A, i8, Vec), "argument 0"), (i8(Vec, R), "argument 1"),
+                         (i8(Vec, types.float64), "argument 1"),
+                         (types.float64(Vec, i8, Vec), "returns float64")):
+        with pytest.raises(ValueError, match=culprit):
+            cabi.spec(sig)
 
 
-def test_without_the_extension_every_call_goes_through_numba_with_the_same_bits():
+def test_without_the_extension_every_call_is_checked_in_python_with_the_same_bits():
     # a build without a C compiler: importing _fastcall fails (None in sys.modules makes it)
     code = ("import sys; sys.modules['serial_dynamics.core._fastcall'] = None\n"
             "import numpy as np, serial_dynamics as sd\n"
-            "from serial_dynamics.core import dispatch\n"
-            "assert dispatch._fastcall is None and not dispatch.FASTCALL\n"
-            "assert type(dispatch.K.crba).__name__ == 'CPUDispatcher'\n"
+            "from serial_dynamics.core import cabi, dispatch\n"
+            "assert cabi._fastcall is None and not dispatch.FASTCALL\n"
+            "assert type(dispatch.K.crba) is cabi.Entry\n"
             "r = sd.default_robot(); q = np.full(6, 0.3)\n"
             "sys.stdout.write((r.mass_matrix(q).tobytes() + r.inverse_dynamics(q, q, q).tobytes()).hex())")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

@@ -4,8 +4,8 @@
 
 Every entry point of the compiled core (``core.K``) and the simulator's whole-run loop
 (``sim.compiled_euler``) is compiled once per machine and source version, then loaded from the
-cache (``__pycache__``) in milliseconds. Numba compiles one function at a time in a
-process, so ``precompile(jobs=2)`` starts a second process that compiles one half of them
+cache (``core/cache.py``: a folder per version of the sources) in milliseconds. Numba
+compiles one function at a time in a process, so ``precompile(jobs=2)`` starts a second process that compiles one half of them
 while this one compiles the other half, then loads that half from the cache it filled.
 Run it after installing (a container build, a CI cache step); the nodes' ``warmup()``
 then only loads. It first removes the cache folders of other source versions

@@ -113,7 +113,7 @@ def point_frames(robot, contacts):
     kernels (``algorithms.kinematics.frame_of``'s placement [R, p] with p moved by R point, the
     link's axes kept), or None where those kernels do not answer (the NumPy backend, mimic
     joints: their Jacobians are reduced on the facade)."""
-    if robot._P is None or robot.model.has_mimic_joints:
+    if robot.packed_model is None or robot.model.has_mimic_joints:
         return None
     known = _POINT_FRAMES.setdefault(robot, {})
     out = []
@@ -130,7 +130,7 @@ def world_rows(robot, q, v, contacts, frames):
     """``Rows`` of contacts with the environment (no ``other_link``, no position error read)
     from the compiled kernels at each contact point's frame (``point_frames``): the point's
     Jacobian and classical bias acceleration come out of the kernel as a frame origin's."""
-    nv, P = len(v), robot._P
+    nv, P = len(v), robot.packed_model
     m = sum(c.size for c in contacts)
     J, drift, zero = np.empty((m, nv)), np.empty(m), np.zeros(nv)
     Jc, A = np.empty((6, nv)), np.empty((1, 6))

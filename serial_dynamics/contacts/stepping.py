@@ -162,8 +162,8 @@ class GroundContacts:
             P, JP = np.empty((self.k, 3)), np.empty((self.k, 3, nv))
             X, J = np.empty((4, 4)), np.empty((6, nv))
             for i, (body, F) in enumerate(self.frames):
-                if (K.frame_pose_one(robot._P, q, body, F, X) != OK
-                        or K.frame_jacobian_one(robot._P, q, body, F, J) != OK):
+                if (K.frame_pose_one(robot.packed_model, q, body, F, X) != OK
+                        or K.frame_jacobian_one(robot.packed_model, q, body, F, J) != OK):
                     raise RuntimeError("a kinematics kernel refused a checked state")
                 P[i], JP[i] = X[:3, 3], J[:3]
             return P, JP

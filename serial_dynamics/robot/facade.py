@@ -397,6 +397,12 @@ class Robot:
         return energy.kinetic_energy_gradient(self.model, q, qd)
 
     @property
+    def packed_model(self):
+        """The packed model ``P`` (core/layout.py) the compiled kinematics kernels take for
+        this robot (a floating base's: its virtual chain's), or None on the NumPy backend."""
+        return self._P
+
+    @property
     def compiled_chain(self):
         """The packed model ``P`` that sim/'s compiled whole-step kernels (the semi-implicit
         Euler loop, the symplectic Euler step) run on in this robot's coordinates, or None

@@ -24,7 +24,7 @@ import numpy as np
 from scipy.linalg.lapack import dpotrf, dpotrs
 
 from .contact import check_contacts
-from .dense import inverse_factor
+from .dense import firm_factor, inverse_factor
 from .jacobians import contact_rows
 from .states import positive, rows
 
@@ -65,8 +65,8 @@ def proximal_solve(G, r, mu, tolerance, max_iterations):
     # G well away from singular (every pivot of its Cholesky factor above DIRECT of its
     # largest diagonal entry): the iterations' fixed point G^-1 r directly, kept where its
     # residual meets the tolerance (a redundant set has a vanishing pivot and iterates)
-    L, info = dpotrf(G, lower=1)
-    if info == 0 and float(L.diagonal().min()) ** 2 >= DIRECT * g_max:
+    L = firm_factor(G, DIRECT)
+    if L is not None:
         f = dpotrs(L, r, lower=1)[0]
         residual = float(np.abs(G @ f - r).max())
         if residual <= tolerance * scale:

@@ -10,6 +10,7 @@ dpotrf and dtrtri at these sizes, and the products, stay on the calling thread.
 """
 from __future__ import annotations
 
+import numpy as np
 from scipy.linalg.lapack import dpotrf, dtrtri
 
 
@@ -23,3 +24,14 @@ def inverse_factor(M, what="the mass matrix"):
             return Ci
     raise ValueError(f"{what} is not positive definite here (LAPACK info {info}); check the "
                      "model's inertias and the state")
+
+
+def firm_factor(G, share):
+    """G's lower Cholesky factor L (G = L L^T, LAPACK's dpotrf) where G is far from singular:
+    every pivot^2 at least ``share`` of G's largest diagonal entry; else None (G singular,
+    nearly so, or not positive definite)."""
+    L, info = dpotrf(G, lower=1)
+    if info != 0 or float(L.diagonal().min()) ** 2 < share * max(float(G.diagonal().max()),
+                                                                  np.finfo(float).tiny):
+        return None
+    return L

@@ -18,23 +18,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..sim.group import GroupRates
-from ..sim.servo import Servo, euler_servo
+from ..sim.group import GroupRates, Held, joints_view, on_joints
+from ..sim.servo import euler_servo
 from ..sim.session import Session
 from ..sim.stops import JointStops
 from .stepping import GroundContacts, check_ground
 
 METHOD = "semi_implicit_euler"
-
-
-class _Held:
-    """The torques and the wrench held over one step (``GroupRates``'s inputs)."""
-
-    def __init__(self, tau, wrench):
-        self.tau, self.wrench = tau, wrench
-
-    def __call__(self, t, q, v):
-        return self.tau, self.wrench
 
 
 class GroundStepper:
@@ -65,13 +55,11 @@ class GroundStepper:
         dt, rhs, chart, nb = self.dt, self.rhs, self.chart, self.rhs.nb
         q, v = np.asarray(q, dtype=float), np.asarray(qd, dtype=float)
         t = 0.0 if t is None else t
-        a, _, _, _ = rhs.rates(t, q, v, _Held(np.asarray(tau, dtype=float), wrench))
+        a, _, _, _ = rhs.rates(t, q, v, Held(np.asarray(tau, dtype=float), wrench))
         M = self.robot.mass_matrix(q)
         self.servo_torque = np.zeros(self.robot.dof)
         if servo is not None:        # the implicit servo on the joints' rows (module docstring)
-            z = np.zeros(nb)
-            s = Servo(*(np.concatenate([z, x]) for x in servo))
-            qj = np.concatenate([z, q[rhs.nqb:]])          # joint positions, aligned with v
+            s, qj = on_joints(servo, nb), joints_view(q, nb, rhs.nqb)
             a = a + euler_servo(M, qj, v, a, s, dt)[1]
             M = M + np.diag(dt * s.kd + dt * dt * s.kp)
         v1, self.forces, self.active, _ = self.solver.step(q, v, v + dt * a, M)
@@ -93,15 +81,16 @@ class GroundSession(Session):
 
     def __init__(self, robot, q0, *, ground, contacts, dt=1e-3, dissipation=True,
                  position_limits=False, **kwargs):
-        stepper = GroundStepper(robot, ground, contacts, dt, dissipation,
-                                position_limits=position_limits)
+        def stepper_for(robot):      # the session's robot, or one swapped in (a payload)
+            return GroundStepper(robot, ground, contacts, dt, dissipation,
+                                 position_limits=position_limits)
+
+        stepper = stepper_for(robot)
         self.forces, self.active = stepper.forces, stepper.active
         super().__init__(robot, q0, integrator=METHOD, dt=dt, dissipation=dissipation,
                          position_limits=position_limits, **kwargs)
         self.contacts = stepper.contacts
-        self._integrator_for = lambda robot: GroundStepper(
-            robot, stepper.ground, stepper.contacts, stepper.dt, dissipation,
-            position_limits=position_limits)
+        self._integrator_for = stepper_for
         self.integrator = stepper
 
     def reset(self):

@@ -28,14 +28,14 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.linalg.lapack import dpotrf, dpotrs
+from scipy.linalg.lapack import dpotrs
 
 from ..core import K, OK
 from ..sim.equations import EnergyGuard
 from ..sim.group import GroupRates
 from ..sim.result import SolverStats, finish
 from .contact import check_contacts
-from .dense import inverse_factor
+from .dense import firm_factor, inverse_factor
 from .ground import Ground
 from .jacobians import point_frames, point_rows
 
@@ -77,8 +77,8 @@ def sticking(G, u0, target, mu):
     its target, and this is its fixed point. Else None (a redundant set, a contact that
     lifts off or slips: ``pgs``)."""
     m = len(target)
-    L, info = dpotrf(G, lower=1)
-    if info != 0 or float(L.diagonal().min()) ** 2 < STICK_PIVOT * float(G.diagonal().max()):
+    L = firm_factor(G, STICK_PIVOT)
+    if L is None:
         return None
     goal = np.zeros((m, 3))
     goal[:, 0] = target
@@ -158,12 +158,12 @@ class GroundContacts:
         a frame of its body for the compiled kernels (``jacobians.point_frames``), else from
         its link's pose and Jacobian."""
         if self.frames is not None:
-            robot, nv = self.robot, self.robot.nv
+            model, nv = self.robot.packed_model, self.robot.nv
             P, JP = np.empty((self.k, 3)), np.empty((self.k, 3, nv))
             X, J = np.empty((4, 4)), np.empty((6, nv))
             for i, (body, F) in enumerate(self.frames):
-                if (K.frame_pose_one(robot.packed_model, q, body, F, X) != OK
-                        or K.frame_jacobian_one(robot.packed_model, q, body, F, J) != OK):
+                if (K.frame_pose_one(model, q, body, F, X) != OK
+                        or K.frame_jacobian_one(model, q, body, F, J) != OK):
                     raise RuntimeError("a kinematics kernel refused a checked state")
                 P[i], JP[i] = X[:3, 3], J[:3]
             return P, JP

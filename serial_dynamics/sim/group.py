@@ -114,7 +114,7 @@ class GroupStepIntegrator:
                              "one of those")
         tau = np.asarray(tau, dtype=float)
         q1, v1, _ = self.advance(0.0 if t is None else t, np.asarray(q, dtype=float),
-                                 np.asarray(qd, dtype=float), _Constant(tau, wrench), servo=servo)
+                                 np.asarray(qd, dtype=float), Held(tau, wrench), servo=servo)
         return q1, v1
 
     def advance(self, t, q, v, inputs, energy=False, servo=None):
@@ -123,8 +123,8 @@ class GroupStepIntegrator:
         a, tau, delta, p = rhs.rates(t, q, v, inputs)
         self.servo_torque = np.zeros(self.robot.dof)
         if servo is not None:                       # + the implicit servo (servo.py)
-            tau_s, y = euler_servo(self.robot.mass_matrix(q), _joints_view(q, nb, rhs.nqb), v,
-                                   a, _on_joints(servo, nb), dt)
+            tau_s, y = euler_servo(self.robot.mass_matrix(q), joints_view(q, nb, rhs.nqb), v,
+                                   a, on_joints(servo, nb), dt)
             self.servo_torque, a = tau_s[nb:], a + y
             tau = tau + self.servo_torque
         if self.method == "semi_implicit_euler":    # v1 = v + a dt; q1 = q(dt phi'(v1))
@@ -273,20 +273,20 @@ class GroupStepIntegrator:
         return np.concatenate([self.chart.rate(q, x[:nv], v), a, p])
 
 
-def _on_joints(s, nb):
+def on_joints(s, nb):
     """The joint servo ``s`` on the whole v: no gains, no targets on the base's nb rows."""
     z = np.zeros(nb)
     return Servo(*(np.concatenate([z, x]) for x in s))
 
 
-def _joints_view(q, nb, nqb):
+def joints_view(q, nb, nqb):
     """q's joint positions (after its nqb base coordinates) after ``nb`` zeros (the base's
     rows of v, where the servo has no gain): the positions the servo reads, aligned with v."""
     return np.concatenate([np.zeros(nb), q[nqb:]])
 
 
-class _Constant:
-    """Inputs held over one step of the node's integrator."""
+class Held:
+    """Inputs (joint torques, tip wrench) held over one step of the node's integrator."""
 
     def __init__(self, tau, wrench):
         self.tau, self.wrench = tau, wrench

@@ -225,5 +225,10 @@ PyMODINIT_FUNC PyInit__fastcall(void)
         Py_DECREF(m);
         return NULL;
     }
+    /* the calling convention's version (core/cabi.py refuses a build of another one) */
+    if (PyModule_AddIntConstant(m, "ABI", 2) < 0) {
+        Py_DECREF(m);
+        return NULL;
+    }
     return m;
 }

@@ -29,6 +29,7 @@ raises it. (core/ raises only numba's ZeroDivisionError; the facade checks its i
 first.)
 """
 import os
+import warnings
 from contextlib import nullcontext
 
 import numpy as np
@@ -38,9 +39,17 @@ from .cache import in_folder
 from .signatures import f8, i8
 from .status import OTHER_TYPES
 
+ABI = 2                      # _fastcall.c's calling convention (its module constant ABI)
 try:
     from . import _fastcall
 except ImportError:          # built without a C compiler: the Python Entry below
+    _fastcall = None
+if _fastcall is not None and getattr(_fastcall, "ABI", None) != ABI:
+    # a build from older sources (an editable install not rebuilt after a pull) would call
+    # the cfunc addresses by another convention and crash: the Python Entry instead
+    warnings.warn("serial_dynamics.core._fastcall was built from older sources; single calls "
+                  "take the slower Python check until it is rebuilt (pip install -e . again, "
+                  "or python setup.py build_ext --inplace)", RuntimeWarning, stacklevel=2)
     _fastcall = None
 FASTCALL = _fastcall is not None and os.environ.get("SERIAL_DYNAMICS_FASTCALL", "1") != "0"
 

@@ -211,3 +211,20 @@ def test_without_the_extension_every_call_is_checked_in_python_with_the_same_bit
     robot, q = sd.default_robot(), np.full(6, 0.3)
     assert out.stdout == (robot.mass_matrix(q).tobytes()
                           + robot.inverse_dynamics(q, q, q).tobytes()).hex()
+
+
+def test_an_extension_built_from_older_sources_is_not_called():
+    """A ``_fastcall`` of another calling convention (an editable install not rebuilt after a
+    pull: the old build called numba's internal convention) would crash on the cfunc
+    addresses: cabi refuses it with a RuntimeWarning and checks the arguments in Python."""
+    code = ("import sys, types, warnings\n"
+            "old = types.ModuleType('serial_dynamics.core._fastcall')\n"
+            "old.Entry = object\n"
+            "sys.modules['serial_dynamics.core._fastcall'] = old\n"
+            "with warnings.catch_warnings(record=True) as w:\n"
+            "    warnings.simplefilter('always')\n"
+            "    from serial_dynamics.core import cabi\n"
+            "print(cabi.FASTCALL, cabi._fastcall, [str(x.message)[:80] for x in w])\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout
+    assert out.startswith("False None ") and "built from older sources" in out, out

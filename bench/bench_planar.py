@@ -38,7 +38,7 @@ from numba import njit
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 import serial_dynamics as sd                                        # noqa: E402
-from serial_dynamics.algorithms.planar import planar_pack           # noqa: E402
+from serial_dynamics.core.planar_layout import planar_pack           # noqa: E402
 from serial_dynamics.core import K                                  # noqa: E402
 from _report import stamp, write_section                           # noqa: E402
 from serial_dynamics.core import flags as F                         # noqa: E402

@@ -401,6 +401,24 @@ def test_core_never_imports_rclpy():
     assert not bad, "the core library must not import rclpy at module level:\n" + "\n".join(bad)
 
 
+def test_the_compiled_core_imports_nothing_from_the_reference():
+    """Issue 50: ``core/`` and ``gpu/`` import nothing from ``algorithms/`` (the NumPy
+    reference), at module level or in a function: what the kernels freeze in (a layout's
+    columns) lies under core/'s cache fingerprint (core/cache.py), never outside it."""
+    bad = []
+    for mod, path in MODULES.items():
+        if path is None or not mod.startswith((PKG + ".core", PKG + ".gpu")):
+            continue
+        with open(path, encoding="utf-8") as fh:
+            tree = ast.parse(fh.read(), path)
+        for node, _ in _import_nodes(tree):
+            for target, _ in _resolve(mod, node):
+                if target == PKG + ".algorithms" or target.startswith(PKG + ".algorithms."):
+                    bad.append(f"{mod} ({path}:{node.lineno}) imports {target}")
+    assert any(m.startswith(PKG + ".core.") for m in MODULES)
+    assert not bad, "move what core/ needs into core/:\n" + "\n".join(bad)
+
+
 @pytest.mark.skipif(not HAVE_RCLPY, reason="rclpy not importable: serial_dynamics.ros skipped")
 def test_ros_modules_are_walked():
     assert any(_is_ros(m) for m in ALONE)

@@ -27,7 +27,7 @@ Jacobians, the NOC's base-frame twists) do not depend on that choice.
     regressor   the torque regressor Y (tau = Y phi)
     derivatives derivatives of inverse and forward dynamics
     floating    a free-floating base: Newton-Euler, CRBA, ABA through a 6-DoF root, SE(3)
-    planar      planar chains in planar 3-vectors, and planar_pack (is a chain planar)
+    planar      planar chains in planar 3-vectors (on core/planar_layout.py's Q)
     _batch      batching, 3-vector and spatial helpers
 
 ``serial_dynamics/core/`` holds the compiled equivalents, in the same frames and under

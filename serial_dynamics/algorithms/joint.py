@@ -6,7 +6,7 @@ A joint moves its body about (revolute) or along (prismatic) the z axis of its j
 (n; f), so S = e_2 (revolute) or e_5 (prismatic) and S^T x is x's angular or linear z. Every
 function takes a batch: vectors (N, 3) (or broadcastable), rates (N,).
 
-The algorithms call these instead of asking the type. (``algorithms/planar.py`` packs its own
+The algorithms call these instead of asking the type. (``core/planar_layout.py`` packs its own
 planar description of the same two types; ``noc.constraint_matrix``, a chain's constraint rows,
 spells both out, as Angeles & Lee's K does.)
 """

@@ -14,6 +14,7 @@
     derivatives_lanes.py  the same over a batch, B states in SIMD lanes
     dispatch.py   ENTRY_POINTS, K (built on first use), NUMBA_SUPPORTED
     cabi.py       a single-state entry point's numba.cfunc wrapper (one C ABI) for _fastcall.c
+    planar_layout.py  the planar fast path's packed model Q and planar_pack (is a chain planar)
     planar.py     Newton-Euler and composite bodies of a planar chain in planar 3-vectors
     planar_lanes.py  the same, B samples in SIMD lanes
     floating.py   a free-floating base on the instantaneous chain (six virtual joints, one free-flyer root)

@@ -33,7 +33,7 @@ import math
 
 from numba import njit
 
-from ..algorithms.planar import DX as PDX, DY as PDY, KIND as PKIND, SGN as PSGN
+from .planar_layout import DX as PDX, DY as PDY, KIND as PKIND, SGN as PSGN
 from .data import stack_empty
 from .layout import ARM, ARMATURE, KIND, XP, XR
 from .signatures import internal
@@ -330,7 +330,7 @@ def armature_diagonal(P, M, first):
             M[i, i] += P[i, ARM]
 
 
-# ---- planar joints: the planar fast path's layout Q (algorithms/planar.planar_pack), the
+# ---- planar joints: the planar fast path's layout Q (planar_layout.planar_pack), the
 # body's motion (omega_N; acc_x, acc_y) and wrench (n_N; f_x, f_y) as 3-vectors in the plane.
 # A revolute joint turns about SGN N, a prismatic one slides along d = (DX, DY); a loop reads
 # the joint once, ``planar_joint``, and passes the tuple.

@@ -28,7 +28,7 @@ import math
 from numba import njit
 
 from . import flags as F
-from ..algorithms.planar import (ANG, ARM, E1, E2, GX, GY, HX, HY, IZ, MASS,
+from .planar_layout import (ANG, ARM, E1, E2, GX, GY, HX, HY, IZ, MASS,
                                  NRM, RX, RY, SGN, TX, TY)
 from .data import stack_empty
 from .joint import planar_joint, planar_momentum, planar_origin, planar_project, planar_rate

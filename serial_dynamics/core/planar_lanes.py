@@ -9,7 +9,7 @@ The same equations, frames and symbols as ``planar.py`` (single states) and
 import math
 
 from . import flags as F
-from ..algorithms.planar import (ANG, ARM, E1, E2, GX, GY, HX, HY, IZ, MASS,
+from .planar_layout import (ANG, ARM, E1, E2, GX, GY, HX, HY, IZ, MASS,
                                  NRM, RX, RY, SGN, TX, TY)
 from .data import scratch, stack_empty
 from .joint import planar_joint, planar_momentum, planar_origin, planar_project, planar_rate

@@ -40,7 +40,7 @@ from . import task_space as _task_space
 from ..algorithms import aba, crba, energy, forward, kinematics, noc, rnea
 from ..algorithms._batch import as_batch
 from .charts import EUCLIDEAN
-from ..algorithms.planar import planar_pack
+from ..core.planar_layout import planar_pack
 from .base_motion import check_base_motion
 from .batches import kernel_rows as _rows
 from .batches import run_split

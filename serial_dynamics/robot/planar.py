@@ -3,8 +3,8 @@ fast path.
 
 A chain whose revolute axes are all parallel and whose prismatic axes are perpendicular
 to them moves in a plane; its joint torques need only planar twists (omega_z; v_x, v_y) and
-wrenches (n_z; f_x, f_y) (Angeles, Sec. 7.6.1): ``algorithms/planar.py`` (reference,
-detection ``planar_pack``) and ``core/planar.py`` (compiled).
+wrenches (n_z; f_x, f_y) (Angeles, Sec. 7.6.1): ``algorithms/planar.py`` (reference),
+``core/planar.py`` (compiled) and ``core/planar_layout.py`` (Q, the detection ``planar_pack``).
 ``sd.Robot(model)`` returns a
 ``PlanarRobot`` for such a chain; it answers inverse dynamics, bias and gravity torques and
 the mass matrix there (single states and batches, so that a state's result is bitwise the
@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..algorithms.planar import planar_pack
+from ..core.planar_layout import planar_pack
 from ..core import K, OK
 from .wrenches import generalized_forces
 from .common import QD as _QD

@@ -12,7 +12,7 @@ import os
 import pytest
 
 import serial_dynamics as sd
-from serial_dynamics.algorithms.planar import planar_pack
+from serial_dynamics.core.planar_layout import planar_pack
 from serial_dynamics.robot import FloatingMimicRobot, MimicRobot, PlanarRobot, Robot, kind_of
 
 from test_mimic import mimic_chain

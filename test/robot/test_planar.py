@@ -17,7 +17,7 @@ import pytest
 
 import serial_dynamics as sd
 from serial_dynamics.algorithms import planar as ref
-from serial_dynamics.algorithms.planar import (ANG, ARM, GX, GY, IZ, RX, RY, SGN, TX, TY,
+from serial_dynamics.core.planar_layout import (ANG, ARM, GX, GY, IZ, RX, RY, SGN, TX, TY,
                                                planar_pack)
 from serial_dynamics.core import flags as F
 from serial_dynamics.core import OTHER_TYPES

@@ -5,8 +5,11 @@
 Every entry point of the compiled core (``core.K``) and the simulator's whole-run loop
 (``sim.compiled_euler``) is compiled once per machine and source version, then loaded from the
 cache (``core/cache.py``: a folder per version of the sources) in milliseconds. Numba
-compiles one function at a time in a process, so ``precompile(jobs=2)`` starts a second process that compiles one half of them
-while this one compiles the other half, then loads that half from the cache it filled.
+compiles one function at a time in a process, so ``precompile(jobs=2)`` starts a second
+process; the two walk one list of the kernels (``ORDER``) from its two ends, each claiming a
+kernel before compiling it (an empty file made with O_EXCL in a shared folder: one process
+gets it), until they meet, so that they finish together whatever each kernel costs on this
+machine; this process then loads the other's from the cache it filled.
 Run it after installing (a container build, a CI cache step); the nodes' ``warmup()``
 then only loads. It first removes the cache folders of other source versions
 (``core.cache.prune``: each version of the sources has its own folder; importing the
@@ -15,8 +18,10 @@ the single-state kernels its nodes run, ``Robot.kernels()``).
 """
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from contextlib import contextmanager
@@ -25,15 +30,15 @@ from .core import ENTRY_POINTS, K
 from .core.cache import prune
 from .sim.compiled_euler import _loop
 
-# two halves of about equal cold-compile time (bench/BENCHMARKS.md, *First call*): the
-# dynamics kernels as listed, then the others alternating between the halves
-# (measured 2026-11-23, each half alone on an empty cache: 19.9 s and 20.4 s)
-HALVES = (("fd", "fd_batch", "compiled_euler", "planar_rnea_batch", "planar_crba",
-           "planar_crba_batch"),
-          ("rnea", "rnea_wrench", "crba", "rnea_batch", "crba_batch", "planar_rnea",
-           "planar_rnea_wrench"))
-_REST = sorted(set(ENTRY_POINTS) - set(HALVES[0] + HALVES[1]))
-HALVES = (HALVES[0] + tuple(_REST[0::2]), HALVES[1] + tuple(_REST[1::2]))
+# the other process walks ORDER from the front (the forward-dynamics kernels first), this one
+# from the back (inverse dynamics and the mass matrix first); the rest alternate between the
+# ends, so that the costly kernels of each kind are spread over both processes
+_FRONT = ("fd", "fd_batch", "compiled_euler", "planar_rnea_batch", "planar_crba",
+          "planar_crba_batch")
+_BACK = ("rnea", "rnea_wrench", "crba", "rnea_batch", "crba_batch", "planar_rnea",
+         "planar_rnea_wrench")
+_REST = sorted(set(ENTRY_POINTS) - set(_FRONT + _BACK))
+ORDER = _FRONT + tuple(_REST[0::2]) + tuple(reversed(_REST[1::2])) + tuple(reversed(_BACK))
 
 
 def load(names):
@@ -42,18 +47,34 @@ def load(names):
         _loop() if name == "compiled_euler" else getattr(K, name)
 
 
+def claim_and_load(names, claims):
+    """``load`` each of ``names`` that no other process has claimed in the folder ``claims``
+    (claimed by making the file ``claims/<name>``; O_EXCL: exactly one process succeeds)."""
+    mine = []
+    for name in names:
+        try:
+            os.close(os.open(os.path.join(claims, name), os.O_CREAT | os.O_EXCL | os.O_WRONLY))
+        except FileExistsError:
+            continue
+        load([name])
+        mine.append(name)
+    return mine
+
+
 def precompile(jobs=2, names=None):
     """Every kernel (or those ``names``), compiled by ``jobs`` (1 or 2) processes into the
     cache and loaded here. Returns the seconds it took."""
     t0 = time.perf_counter()
-    other, mine = HALVES if names is None else (tuple(k for k in half if k in set(names))
-                                                 for half in HALVES)
-    helper = (subprocess.Popen([sys.executable, "-m", "serial_dynamics.precompile", "--only",
-                                ",".join(other)]) if jobs > 1 and other and mine else None)
-    load(mine)
-    if helper is not None and helper.wait() != 0:
-        raise RuntimeError(f"the process compiling {other} failed (exit {helper.returncode})")
-    load(other)                          # from the cache the helper filled (jobs=2)
+    order = ORDER if names is None else tuple(k for k in ORDER if k in set(names))
+    if jobs > 1 and len(order) > 1:
+        with tempfile.TemporaryDirectory(prefix="serial_dynamics-precompile-") as claims:
+            helper = subprocess.Popen([sys.executable, "-m", "serial_dynamics.precompile",
+                                       "--claim", claims, ",".join(order)])
+            claim_and_load(order[::-1], claims)
+            if helper.wait() != 0:
+                raise RuntimeError(f"the process compiling the kernels {order} from the front "
+                                   f"failed (exit {helper.returncode})")
+    load(order)                          # the other process's, from the cache it filled
     return time.perf_counter() - t0
 
 
@@ -80,8 +101,8 @@ def ticking(log, what, first=1.0, every=3.0):
 
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else argv
-    if argv[:1] == ["--only"]:
-        load(argv[1].split(","))
+    if argv[:1] == ["--claim"]:            # the second process of precompile(jobs=2)
+        claim_and_load(argv[2].split(","), argv[1])
         return
     jobs = 1 if argv[:1] == ["--serial"] else 2
     for gone in prune():

@@ -3,6 +3,7 @@
 demo precompiles ``robot.kernels()`` on two cores with progress lines while it waits;
 ``python -m serial_dynamics.precompile`` still compiles everything. (Cold first-run
 times: bench/BENCHMARKS.md, *Cold first run of the demo*.)"""
+import os
 import subprocess
 import sys
 import time
@@ -49,12 +50,17 @@ def test_the_kernels_of_a_robot():
     assert sd.Robot(robot.model, backend="numpy").kernels() == ()
 
 
-def test_precompile_of_some_kernels_splits_them_as_the_whole(monkeypatch):
-    started, loaded = [], []
+def test_precompile_splits_the_kernels_by_claims_from_both_ends(monkeypatch):
+    """The second process walks the list from the front, this one from the back; a kernel is
+    compiled by the one process that claimed it, and everything is loaded here after."""
+    loaded, took = [], []
 
-    class Helper:
+    class Helper:                 # the second process: it has claimed its first two already
         def __init__(self, argv):
-            started.append(argv[-1].split(","))
+            assert argv[1:4] == ["-m", "serial_dynamics.precompile", "--claim"], argv
+            for name in argv[5].split(",")[:2]:
+                open(os.path.join(argv[4], name), "x").close()
+                took.append(name)
 
         def wait(self):
             return 0
@@ -62,11 +68,32 @@ def test_precompile_of_some_kernels_splits_them_as_the_whole(monkeypatch):
     monkeypatch.setattr(precompile.subprocess, "Popen", Helper)
     monkeypatch.setattr(precompile, "load", lambda names: loaded.append(list(names)))
     precompile.precompile(jobs=2, names=SINGLE_KERNELS)
-    assert started == [["fd"]] and loaded == [["rnea", "rnea_wrench", "crba"], ["fd"]]
-    started.clear(), loaded.clear()
-    precompile.precompile(jobs=2)                         # everything: the two halves
-    assert started == [list(precompile.HALVES[0])]
-    assert loaded == [list(precompile.HALVES[1]), list(precompile.HALVES[0])]
+    order = [k for k in precompile.ORDER if k in SINGLE_KERNELS]
+    assert sorted(order) == sorted(SINGLE_KERNELS) and took == order[:2]
+    assert loaded == [[order[3]], [order[2]], order]      # from the back, then all
+    assert sorted(precompile.ORDER) == sorted(set(precompile.ENTRY_POINTS) | {"compiled_euler"})
+
+
+def test_two_walkers_from_both_ends_compile_each_kernel_once(tmp_path, monkeypatch):
+    """Claims are exclusive (O_EXCL) whatever the timing: two threads walking 60 names from
+    the two ends, at random speeds, compile each exactly once between them."""
+    import random
+    import threading
+    names = [f"k{i}" for i in range(60)]
+    done = []
+    monkeypatch.setattr(precompile, "load",
+                        lambda ks: (time.sleep(random.random() * 2e-3), done.extend(ks)))
+    mine = {}
+    threads = [threading.Thread(target=lambda w, ns: mine.__setitem__(w, precompile.claim_and_load(
+        ns, str(tmp_path))), args=(w, ns)) for w, ns in (("front", names), ("back", names[::-1]))]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert sorted(done) == sorted(names)
+    assert sorted(mine["front"] + mine["back"]) == sorted(names)
+    assert mine["front"] == names[:len(mine["front"])]     # each took a run from its own end
+    assert mine["back"] == names[::-1][:len(mine["back"])]
 
 
 def test_ticking_says_how_long_it_waits_and_nothing_when_quick():

@@ -94,8 +94,9 @@ def _aba(model, q, qd, tau, g, w, base=None, root=None):
         R_tip = _tip_rotation(model, R)                                 # base <- joint frame n-1
         f = mtv(R_tip, w[:, :3])
         m = mtv(R_tip, w[:, 3:]) + np.cross(model.Xtip_p, f)
-        pA[:, n - 1, :3] -= m
-        pA[:, n - 1, 3:] -= f
+        pA_tip = pA[:, n - 1] if n else pA_root                 # a free body: on the root
+        pA_tip[:, :3] -= m
+        pA_tip[:, 3:] -= f
     # --- pass 2, inward
     U = np.empty((N, n, 6))
     D = np.empty((N, n))

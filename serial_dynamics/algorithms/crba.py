@@ -39,14 +39,14 @@ def crba(model, q, I_root=None):
     IC = np.repeat(rigid_body_inertia(model.mass, model.h, model.I_O)[None], N, axis=0)
     M = np.zeros((N, n, n))
     root = I_root is not None
-    IC_root, F_root = None, (np.empty((N, 6, n)) if root else None)
+    IC_root, F_root = (np.repeat(I_root[None], N, axis=0), np.empty((N, 6, n))) if root else (
+        None, None)
     for i in range(n - 1, -1, -1):
         l = model.parent[i]
         if l >= 0:                                                  # IC_l += X^T IC_i X
             IC[:, l] += np.swapaxes(Xup[:, i], -1, -2) @ IC[:, i] @ Xup[:, i]
         elif root:                                                  # the root's: IC_-1
-            IC_root = (I_root if IC_root is None else IC_root) + (
-                np.swapaxes(Xup[:, i], -1, -2) @ IC[:, i] @ Xup[:, i])
+            IC_root = IC_root + np.swapaxes(Xup[:, i], -1, -2) @ IC[:, i] @ Xup[:, i]
         F = IC[:, i] @ S[i]                                         # F = IC_i S_i
         M[:, i, i] = F @ S[i]                                       # M_ii = S_i^T F
         j = i

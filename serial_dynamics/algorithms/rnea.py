@@ -67,12 +67,16 @@ def _rnea(model, q, qd, qdd, g, w, base=None, root=False):
         fB[:, i], nB[:, i] = body_wrench(model, i, *motion[i])
     # --- inward: joint forces; the tip load -w acts on the environment
     carried = [None] * n                 # what the children (and the tip load) pass to body i
+    into_base = None
     if w is not None:                    # -w in joint frame n-1, moment about its origin
         R_tip = _tip_rotation(model, R)  # base <- joint frame n-1
         f = -mtv(R_tip, w[:, :3])
-        carried[n - 1] = (f, -mtv(R_tip, w[:, 3:]) + np.cross(model.Xtip_p, f))
+        load = (f, -mtv(R_tip, w[:, 3:]) + np.cross(model.Xtip_p, f))
+        if n:
+            carried[n - 1] = load
+        else:                            # a free body: its tip is on the base
+            into_base = load
     tau = np.empty((N, n))
-    into_base = None
     for i in range(n - 1, -1, -1):
         f, nm = carried[i] or (0.0, 0.0)
         f, nm = f + fB[:, i], nm + nB[:, i]
@@ -85,6 +89,8 @@ def _rnea(model, q, qd, qdd, g, w, base=None, root=False):
         elif root:
             into_base = (f, nm) if into_base is None else (into_base[0] + f, into_base[1] + nm)
     tau += model.armature * qdd        # + I_a qdd (the rotors' inertia, reflected), after the passes
+    if root and into_base is None:     # a free body: nothing hangs from the base
+        into_base = (np.zeros((N, 3)), np.zeros((N, 3)))
     return (tau, into_base) if root else tau
 
 
@@ -109,6 +115,8 @@ def rigid_wrench(m, h, I_O, omega, alpha, acc):
 
 def _tip_rotation(model, R):
     """R0 of the last joint frame (base <- joint frame n-1) from the joint rotations R."""
+    if model.dof == 0:                   # a free body: the tip is on the base
+        return np.broadcast_to(np.eye(3), (R.shape[0], 3, 3))
     path = model.ancestors(model.dof - 1)
     R0 = R[:, path[0]]
     for i in path[1:]:

@@ -61,6 +61,8 @@ from ..joints import PRISMATIC, REVOLUTE  # noqa: F401  (re-exported)
 
 def _frozen(a, shape=None, dtype=float):
     a = np.ascontiguousarray(np.array(a, dtype=dtype))
+    if shape is not None and a.size == 0 and 0 in shape:
+        a = a.reshape(shape)          # no joints (a free body): empty lists of any shape
     if shape is not None and a.shape != shape:
         raise ModelError(f"expected an array of shape {shape}, got {a.shape}")
     a.setflags(write=False)
@@ -194,7 +196,7 @@ class Model:
         ``base_inertia``: (mass, com, inertia about the com) of a free-floating base, in the
         base frame (None: a fixed base); ``gravity`` is then in the world frame."""
         n = len(joint_names)
-        if n == 0:
+        if n == 0 and base_inertia is None:     # a free body (floating base only) has none
             raise ModelError(f"chain {base_link!r} -> {tip_link!r} has no movable joint")
         full = lambda v, fill: _frozen(np.full(n, fill) if v is None else v, (n,))  # noqa: E731
         given = np.array(axis, dtype=float).reshape(n, 3)
@@ -323,10 +325,11 @@ def axis_frame(axis) -> np.ndarray:
 def _joint_frames(model) -> dict:
     """The bodies in joint frames (module docstring), derived from the tree as given."""
     n = model.dof
-    A = np.array([axis_frame(a) for a in model.axis])
+    A = np.array([axis_frame(a) for a in model.axis]).reshape(n, 3, 3)
     A_prev = np.concatenate([np.eye(3)[None], A])[model.parent + 1]   # the parent's (-1: base)
     At_prev = np.swapaxes(A_prev, 1, 2)
     c, I_c, h, I_O = inertia_in_joint_frames(A, model.mass, model.com, model.inertia)
+    A_tip = A[-1] if n else np.eye(3)          # a free body's tip is its base
     jframes = {link: (b, R if b < 0 else A[b].T @ R, p if b < 0 else A[b].T @ p)
                for link, (b, R, p) in model.frames.items()}
     return dict(
@@ -334,7 +337,7 @@ def _joint_frames(model) -> dict:
         Xtree_p=_frozen(np.einsum("nji,nj->ni", A_prev, model.p_parent), (n, 3)),
         c=_frozen(c, (n, 3)), I_c=_frozen(I_c, (n, 3, 3)), h=_frozen(h, (n, 3)),
         I_O=_frozen(I_O, (n, 3, 3)),
-        Xtip_R=_frozen(A[-1].T @ model.tip_R, (3, 3)), Xtip_p=_frozen(A[-1].T @ model.tip_p, (3,)),
+        Xtip_R=_frozen(A_tip.T @ model.tip_R, (3, 3)), Xtip_p=_frozen(A_tip.T @ model.tip_p, (3,)),
         jframes=MappingProxyType({k: (int(b), _frozen(R, (3, 3)), _frozen(p, (3,)))
                                   for k, (b, R, p) in jframes.items()}))
 

@@ -124,7 +124,7 @@ class Equations:
         self.names = list(robot.joint_names)
         vl = np.asarray(robot.velocity_limit, float)
         self.speed_bound = np.where(np.isfinite(vl) & (vl > 0), SPEED_BOUND_FACTOR * vl, 1e5)
-        self.prismatic = np.array([t == "prismatic" for t in robot.joint_types])
+        self.prismatic = np.array([t == "prismatic" for t in robot.joint_types], dtype=bool)
         self.calls = 0       # calls to the dynamics
         self.states = 0      # states evaluated (a batch of N counts N)
 

@@ -28,7 +28,7 @@ from ..model.errors import HeldJointsWarning, URDFError
 from ..model.model import Model
 from .mass_matrix import check_mass_matrix
 from .transmissions import reflected_inertias
-from .tree import check_tree, movable_leaves, path_up, single_chain_tip
+from .tree import check_tree, has_movable, movable_leaves, path_up, single_chain_tip
 from .joint_types import MOVABLE, elementary_joints
 from .xml_checks import (check_elements, check_well_formed, without_harmless_header,
                          without_undeclared_prefixes)
@@ -178,7 +178,10 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
                             f"{sorted(links)}")
     if tip_link is not None and tip_links is not None:
         raise URDFError("give tip_link (one chain) or tip_links (a subtree), not both")
-    if tip_links is None:          # one chain, or the whole tree when the joints branch
+    if tip_links is None and tip_link is None and floating_base \
+            and not has_movable(base_link, children):
+        tips = [base_link]         # a free body: the floating root is its only joint
+    elif tip_links is None:        # one chain, or the whole tree when the joints branch
         tip = tip_link if tip_link is not None else single_chain_tip(base_link, children)
         tips = [tip] if tip is not None else movable_leaves(base_link, children)
     else:
@@ -270,7 +273,7 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
     rotors = _armature(xml, bodies, armature, scope)
     leader, multiplier, offset = _mimic(bodies, scope)
 
-    if not bodies:
+    if not bodies and not floating_base:
         raise URDFError(f"no movable joint between {base_link!r} and {tip_link!r}; "
                         "choose a base_link and tip_link with revolute or prismatic joints between")
     lumped = {i: combine_inertias(p) if p else (0.0, np.zeros(3), np.zeros((3, 3)))
@@ -285,7 +288,7 @@ def load_model(source, base_link=None, tip_link=None, gravity=(0.0, 0.0, -9.81),
     for i, (m, c, I) in lumped.items():        # judged as the dynamics sees them
         who = _body_name(i, bodies, base_link, carrying.get(i, []))
         lumped[i] = (m, c, physical_body(who, m, I, sizes[i], repair_inertia))
-    mass, com, inertia = zip(*(lumped[i] for i in range(len(bodies))))
+    mass, com, inertia = [[lumped[i][k] for i in range(len(bodies))] for k in range(3)]
     for i, b in enumerate(bodies):       # the links between a URDF joint's elementary ones
         if b["link"] not in frames:
             frames[b["link"]] = (i, np.eye(3), np.zeros(3))

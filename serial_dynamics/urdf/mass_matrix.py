@@ -41,6 +41,8 @@ def check_mass_matrix(model) -> None:
         return _check_reduced_mass_matrix(model, qs)
     if model.floating:
         _check_floating_mass_matrix(model, qs)
+    if model.dof == 0:                  # a free body: its 6 x 6 block, checked above
+        return
     diag, pivot = _diagonal_and_pivots(model, qs)
     for q, M_ii, D in zip(qs, diag, pivot):
         scale = max(np.max(np.abs(M_ii)), 1e-300)

@@ -58,6 +58,17 @@ def _movable(base, children):
     return movable
 
 
+def has_movable(base, children):
+    """Whether any movable joint lies below ``base`` (a walk with an explicit stack)."""
+    stack = [base]
+    while stack:
+        for joint in children[stack.pop()]:
+            if joint.type != "fixed":
+                return True
+            stack.append(joint.child)
+    return False
+
+
 def single_chain_tip(base, children):
     """The end of the chain when the movable joints below ``base`` form a single path: the
     child of the last movable joint, followed down a unique tail of fixed joints; None

@@ -205,11 +205,17 @@ def free_flyer_root(P, QV, RB, PB, FB, ST, TB, nl, end):
     """``newton_euler_lanes``' root joint on a floating base's virtual chain, bodies 0-5 as one
     free-flyer (``rnea.newton_euler``'s nb = 6): before the outward pass (``end`` False) the
     root body's motion into ST and its wrench into FB (``root_body``); after the inward
-    pass its joint wrench [f; n], the base's generalized forces, into TB[:6]."""
+    pass its joint wrench [f; n], the base's generalized forces, into TB[:6]: body 6's
+    carried in (``carry_in``), or on a free body (no body 6: the root is the last body,
+    whose joint wrench the inward pass's first step left in ST) ST's own."""
     k = 5
     fk = 6 * k
+    alone = P.shape[0] - 1 == 6          # a free body: nothing hangs from the root
     for b in range(nl):
-        if end:
+        if end and alone:
+            TB[0, b], TB[1, b], TB[2, b], TB[3, b], TB[4, b], TB[5, b] = (
+                ST[0, b], ST[1, b], ST[2, b], ST[3, b], ST[4, b], ST[5, b])
+        elif end:
             TB[0, b], TB[1, b], TB[2, b], TB[3, b], TB[4, b], TB[5, b] = carry_in(
                 RB, PB, FB, ST, k, b)
         else:

@@ -101,6 +101,9 @@ def test_the_dynamics_are_newton_and_euler(backend):
         assert rel_err(robot.gravity_torques(q), newton_euler(q, np.zeros(6), np.zeros(6))) < 1e-13
         M = mass_matrix(q)
         assert rel_err(robot.mass_matrix(q), M) < 1e-14
+        assert rel_err(robot.coriolis_matrix(q, v) @ v + robot.gravity_torques(q),
+                       robot.bias_torques(q, v)) < 1e-13
+        assert rel_err(robot.regressor(q, v, a) @ robot.inertial_parameters(), tau) < 1e-13
         for method in ("aba", "cholesky"):
             assert rel_err(robot.forward_dynamics(q, v, tau, method=method), a) < 1e-12
             free = robot.forward_dynamics(q, v, np.zeros(0), method=method)   # no joint torque
@@ -277,3 +280,19 @@ def test_a_dropped_box_lands_on_its_corners():
     assert np.max(np.abs(res.qd[-1])) < 1e-6
     assert abs(res.q[-1, 2] - (SIZE[2] / 2 - C[2])) < 2e-3          # on its bottom face
     assert abs(res.contact_forces[-1, :, 2].sum() + MASS * GRAVITY[2]) < 0.01 * MASS * 9.81
+
+
+def test_the_simulator_session_publishes_only_the_base():
+    """The simulator node's rclpy-free session (sim/session.py): no joint to publish, the
+    base's pose and twist; semi-implicit Euler from rest: v = g t, z = z0 - g dt^2 k(k+1)/2."""
+    from serial_dynamics.sim.session import Session
+    pose = np.array([0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0])
+    s = Session(box(), np.zeros(0), base_pose=pose, dt=1e-3, dissipation=False)
+    for _ in range(10):
+        assert s.step()[0]
+    reading = s.joint_state()
+    assert reading.position.shape == reading.velocity.shape == reading.effort.shape == (0,)
+    p, twist = reading.base
+    np.testing.assert_allclose(twist, np.r_[10e-3 * GRAVITY, np.zeros(3)], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(p, pose + np.r_[0, 0, 55e-6 * GRAVITY[2], np.zeros(4)], rtol=0,
+                               atol=1e-15)

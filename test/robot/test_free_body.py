@@ -165,7 +165,8 @@ def central(f, robot, q, v, x, h=1e-6):
     """d f/d q along the tangent (integrate(q, e_k, +-h)) and d f/d v, central differences."""
     dq, dv = np.empty((6, 6)), np.empty((6, 6))
     for k, e in enumerate(np.eye(6)):
-        dq[:, k] = (f(robot.integrate(q, e, h), v, x) - f(robot.integrate(q, e, -h), v, x)) / (2 * h)
+        up, down = robot.integrate(q, e, h), robot.integrate(q, e, -h)
+        dq[:, k] = (f(up, v, x) - f(down, v, x)) / (2 * h)
         dv[:, k] = (f(q, v + h * e, x) - f(q, v - h * e, x)) / (2 * h)
     return dq, dv
 

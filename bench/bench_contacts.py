@@ -309,9 +309,10 @@ def main():
     out += [f"- {name} constrained forward dynamics <= 1.0x `constraintDynamics`: "
             f"{verdict(a / b, 1.0)};" for name, _, a, b in single]
     out[-1] = out[-1][:-1] + "."
-    out += ["", "Ours is NumPy on the compiled facade (some forty NumPy calls a step or a "
-            "call); the peers' are one compiled call each (`mj_step`, `constraintDynamics`) "
-            "or a few (Pinocchio's ADMM loop)."]
+    out += ["", "Our step is NumPy on the compiled facade (some forty NumPy calls a step); our "
+            "`constrained_forward_dynamics` of one state is one compiled call "
+            "(`contacts/compiled.py`), as the peers' are one compiled call each (`mj_step`, "
+            "`constraintDynamics`) or a few (Pinocchio's ADMM loop)."]
     text = "\n".join(out) + "\n"
     print(text)
     if not args.no_write:

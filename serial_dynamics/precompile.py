@@ -3,7 +3,7 @@
     python -m serial_dynamics.precompile        # or: python -m serial_dynamics.core
 
 Every entry point of the compiled core (``core.K``) and the simulator's whole-run loop
-(``sim.compiled_euler``) is compiled once per machine and source version, then loaded from the
+(``sim.compiled_euler``) and constrained forward dynamics (``contacts.compiled``) are compiled once per machine and source version, then loaded from the
 cache (``core/cache.py``: a folder per version of the sources) in milliseconds. Numba
 compiles one function at a time in a process, so ``precompile(jobs=2)`` starts a second
 process; the two walk one list of the kernels (``ORDER``) from its two ends, each claiming a
@@ -37,14 +37,24 @@ _FRONT = ("fd", "fd_batch", "compiled_euler", "planar_rnea_batch", "planar_crba"
           "planar_crba_batch")
 _BACK = ("rnea", "rnea_wrench", "crba", "rnea_batch", "crba_batch", "planar_rnea",
          "planar_rnea_wrench")
-_REST = sorted(set(ENTRY_POINTS) - set(_FRONT + _BACK))
+# contacts/compiled.py's constrained forward dynamics, one kernel per kind of robot
+CONTACTS = ("constrained_chain", "constrained_tree", "constrained_floating",
+            "constrained_floating_tree")
+_REST = sorted(set(ENTRY_POINTS) - set(_FRONT + _BACK)) + list(CONTACTS)
 ORDER = _FRONT + tuple(_REST[0::2]) + tuple(reversed(_REST[1::2])) + tuple(reversed(_BACK))
 
 
 def load(names):
-    """Compile, or load from the cache, the kernels ``names`` ("compiled_euler": the simulator's whole-run loop)."""
+    """Compile, or load from the cache, the kernels ``names`` ("compiled_euler": the
+    simulator's whole-run loop; CONTACTS: constrained forward dynamics)."""
     for name in names:
-        _loop() if name == "compiled_euler" else getattr(K, name)
+        if name == "compiled_euler":
+            _loop()
+        elif name in CONTACTS:
+            from .contacts.compiled import kernel
+            kernel(name.removeprefix("constrained_"))
+        else:
+            getattr(K, name)
 
 
 def claim_and_load(names, claims):
@@ -108,7 +118,7 @@ def main(argv=None):
     for gone in prune():
         print(f"removed {gone} (the cache of other sources)")
     seconds = precompile(jobs)
-    print(f"compiled or loaded {len(ENTRY_POINTS) + 1} kernels in {seconds:.1f} s")
+    print(f"compiled or loaded {len(ORDER)} kernels in {seconds:.1f} s")
 
 
 if __name__ == "__main__":

@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg.lapack import dpotrf, dpotrs
 
-from .contact import check_contacts
+from . import compiled
 from .dense import firm_factor, inverse_factor
 from .jacobians import contact_rows
 from .states import positive, rows
@@ -125,38 +125,46 @@ def constrained_forward_dynamics(robot, q, v, tau, contacts, baumgarte=None, mu=
     """(a, f): accelerations (nv,) and contact forces (k, 3) or (k, 6) (world axes, exerted
     by the environment or by ``other_link`` on the robot) with M a + b = tau + J^T f and every
     contact's acceleration zero (or Baumgarte's, ``baumgarte=(kp, kd)``). ``tau`` as
-    ``forward_dynamics`` takes it; a batch (N, .) gives (N, nv) and (N, k, .)."""
-    contacts = check_contacts(robot, contacts)
-    mu, tolerance, max_iterations, kp, kd = settings(mu, tolerance, max_iterations, baumgarte)
-    nv, n = robot.nv, robot.dof
-    taus = (nv, n) if robot.is_floating else (nv,)
-    state = _one_state(q, v, tau, robot.nq, nv, taus)
-    if state is not None:                                      # one state: no batch views
-        q, v, tau = state
-        if tau.shape[0] != nv:                                 # joint torques, the base free
-            tau = np.concatenate((np.zeros(nv - n), tau))
-        return _one(robot, q, v, tau, contacts, mu, tolerance, max_iterations, kp, kd)
+    ``forward_dynamics`` takes it; a batch (N, .) gives (N, nv) and (N, k, .). One state of
+    float64 vectors is one compiled call (``compiled.py``) where the robot has its kernel,
+    and a batch runs row by row through it; the rest, and a call the kernel does not answer
+    (not converged, a factor that fails), here in NumPy (``_one``: the reference)."""
+    contacts, cset = compiled.checked(robot, contacts)
+    mu, tolerance, max_iterations, kp, kd, num = _settings(mu, tolerance, max_iterations,
+                                                           baumgarte)
+    out = compiled.solve(robot, q, v, tau, cset, num, kp)      # one state: one compiled call
+    if out is not None:
+        return out
+    # the rest (other types, batches, no kernel, a status: rows() names a bad state)
+    nv = robot.nv
+    taus = (nv, robot.dof) if robot.is_floating else (nv,)
     single, N, (Q, V, T) = rows((("q", q, (robot.nq,)), ("v", v, (nv,)), ("tau", tau, taus)))
     if T.shape[1] != nv:
         T = np.concatenate([np.zeros((N, nv - T.shape[1])), T], axis=1)
     A, F = [], []
     for i in range(N):                  # rows of broadcast views, copied for the kernels
-        a, f = _one(robot, np.array(Q[i]), np.array(V[i]), T[i], contacts, mu, tolerance,
-                    max_iterations, kp, kd)
+        qi, vi, ti = np.array(Q[i]), np.array(V[i]), np.array(T[i])     # (C, writable)
+        out = compiled.solve(robot, qi, vi, ti, cset, num, kp)
+        a, f = out if out is not None else _one(robot, qi, vi, ti, contacts, mu, tolerance,
+                                                max_iterations, kp, kd)
         A.append(a)
         F.append(f)
     return (A[0], F[0]) if single else (np.array(A), np.array(F))
 
 
-def _one_state(q, v, tau, nq, nv, taus):
-    """(q, v, tau) when each is one finite float64 vector of its length, else None (``rows``
-    then takes them, and names the culprit)."""
-    xs = (q, v, tau)
-    if not all(x.__class__ is np.ndarray and x.ndim == 1 and x.dtype == np.float64
-               and x.flags.c_contiguous for x in xs):
-        return None
-    if q.shape[0] != nq or v.shape[0] != nv or tau.shape[0] not in taus:
-        return None
-    if not np.isfinite(np.concatenate(xs)).all():
-        return None
-    return xs
+_SETTINGS = {}      # (mu, tolerance, max_iterations, DIRECT) -> _settings' answer
+
+
+def _settings(mu, tolerance, max_iterations, baumgarte):
+    """``settings`` and the kernel's numbers (``compiled.numbers``); those of two floats and
+    an int without Baumgarte's terms (the usual call) remembered (up to 64)."""
+    key = ((mu, tolerance, max_iterations, DIRECT) if baumgarte is None and type(mu) is float
+           and type(tolerance) is float and type(max_iterations) is int else None)
+    known = _SETTINGS.get(key)
+    if known is None:
+        s = settings(mu, tolerance, max_iterations, baumgarte)
+        known = (*s, compiled.numbers(*s, DIRECT))
+        if key is not None and len(_SETTINGS) < 64:
+            _SETTINGS[key] = known
+    return known
+

@@ -100,14 +100,14 @@ def wrapper(name, kernel, spec, cache=True):
     return cfunc(C_SIGNATURE, cache=cache)(scope[f"cabi_{name}"])
 
 
-def entry(name, func, sig, nogil=False, cache=True):
+def entry(name, func, sig, nogil=False, cache=True, folder="core"):
     """Entry point ``name``: ``func`` compiled for ``sig`` (the njit kernel) and called
     through its cfunc wrapper when the arguments are exactly of ``sig``'s types; OTHER_TYPES
     otherwise. A ``_fastcall.Entry`` with the extension, else the Python ``Entry``.
-    ``cache=True`` is for core/'s functions only: the wrapper's cache entry is keyed on
-    this file, and its folder (``cache.folder("core")``) on core/'s sources."""
+    With ``cache=True`` both are cached in ``cache.folder(folder)`` ("core" for core/'s
+    functions, "contacts" for contacts/'): a folder keyed on the sources they include."""
     kind = spec(sig)
-    with in_folder("core") if cache else nullcontext():
+    with in_folder(folder) if cache else nullcontext():
         kernel = njit(cache=cache, nogil=nogil)(func)      # compiled for sig by the wrapper
         if not FASTCALL:
             kernel.compile(sig)

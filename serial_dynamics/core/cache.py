@@ -5,8 +5,8 @@ the entry holds the machine code of every njit function it calls or inlines, fro
 files too: after an edit of a step in ``spatial.py`` a cached ``rnea_core`` would go on
 running the old step. So the package's compiled functions are cached in a folder named by
 a fingerprint (SHA-256) of every source they may include: ``core`` holds core/'s
-functions (fingerprint of core/), ``sim`` and ``robot`` theirs (of core/ and their own
-folder). An edit makes a new fingerprint, hence a new, empty folder, and the next process
+functions (fingerprint of core/), ``sim``, ``robot`` and ``contacts`` theirs (of core/ and
+their own folder). An edit makes a new fingerprint, hence a new, empty folder, and the next process
 compiles afresh; a checkout that changed nothing finds its folder full. Nothing is deleted
 at import: DESIGN.md's "the same bits whatever the numba cache holds" holds because a
 folder only ever holds code built from the sources its name says. ``precompile`` removes
@@ -30,7 +30,8 @@ from pathlib import Path
 from numba import config, njit
 
 PACKAGE = Path(__file__).resolve().parent.parent
-INCLUDES = {"core": ("core",), "sim": ("core", "sim"), "robot": ("core", "robot")}
+INCLUDES = {"core": ("core",), "sim": ("core", "sim"), "robot": ("core", "robot"),
+            "contacts": ("core", "contacts")}
 PREFIX = "serial_dynamics-"
 _FOLDERS = {}          # (package, name): its folder (computed once a process)
 _DIGESTS = {}          # package: {source folder: digest}

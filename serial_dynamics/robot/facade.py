@@ -403,6 +403,12 @@ class Robot:
         return self._P
 
     @property
+    def packed_dynamics_model(self):
+        """The packed model the compiled mass-matrix and Newton-Euler kernels take for this
+        robot (``packed_model`` but on a floating base), or None on the NumPy backend."""
+        return self._P
+
+    @property
     def compiled_chain(self):
         """The packed model ``P`` that sim/'s compiled whole-step kernels (the semi-implicit
         Euler loop, the symplectic Euler step) run on in this robot's coordinates, or None

@@ -359,6 +359,12 @@ class Floating:
         out[:6] = 0.0
         return out
 
+    @property
+    def packed_dynamics_model(self):
+        """The packed model the compiled mass-matrix and Newton-Euler kernels take: the
+        instantaneous chain (or tree) with the free-flyer root (core/floating.py), or None."""
+        return self._chain
+
     compiled_chain = None    # sim/'s whole-step kernels know no floating base (sim/group.py)
 
     # ------------------------------------------------------------- kinematics, energy, momentum

@@ -71,7 +71,8 @@ def test_precompile_splits_the_kernels_by_claims_from_both_ends(monkeypatch):
     order = [k for k in precompile.ORDER if k in SINGLE_KERNELS]
     assert sorted(order) == sorted(SINGLE_KERNELS) and took == order[:2]
     assert loaded == [[order[3]], [order[2]], order]      # from the back, then all
-    assert sorted(precompile.ORDER) == sorted(set(precompile.ENTRY_POINTS) | {"compiled_euler"})
+    assert sorted(precompile.ORDER) == sorted(set(precompile.ENTRY_POINTS) | {"compiled_euler"}
+                                             | set(precompile.CONTACTS))
 
 
 def test_two_walkers_from_both_ends_compile_each_kernel_once(tmp_path, monkeypatch):

@@ -39,6 +39,7 @@ from ..core import K, OK
 from ..core import flags as FL
 from ..core.cholesky import cholesky_factor, cholesky_solve_factored
 from ..core.data import scratch, stack_empty
+from ..core.kinematics import not_finite_one
 from ..core.cabi import entry
 from ..core.signatures import Mat, Pm, Vec, compile_internal, i8
 from ..core.status import BAD_LENGTH, NOT_CONVERGED, NOT_FINITE
@@ -185,14 +186,7 @@ def constrained_one(crba, rnea, frame_pose_one, frame_jacobian_one, frame_accele
             or spec.shape[1] != WIDTH or num.shape[0] != NUMBERS):
         return BAD_LENGTH
     info = stack_empty((2,))
-    chk = 0.0
-    for i in range(q.shape[0]):
-        chk += q[i] * 0.0
-    for i in range(nv):
-        chk += v[i] * 0.0
-    for i in range(tau.shape[0]):
-        chk += tau[i] * 0.0
-    if chk != 0.0:
+    if not_finite_one(q) or not_finite_one(v) or not_finite_one(tau):
         return NOT_FINITE
     M, b, h = scratch((nv, nv), nv * nv), stack_empty((nv,)), stack_empty((nv,))
     for i in range(nv):

@@ -2,9 +2,10 @@
 
     python -m serial_dynamics.precompile        # or: python -m serial_dynamics.core
 
-Every entry point of the compiled core (``core.K``) and the simulator's whole-run loop
-(``sim.compiled_euler``) and constrained forward dynamics (``contacts.compiled``) are compiled once per machine and source version, then loaded from the
-cache (``core/cache.py``: a folder per version of the sources) in milliseconds. Numba
+Every entry point of the compiled core (``core.K``), the simulator's whole-run loop
+(``sim.compiled_euler``), constrained forward dynamics (``contacts.compiled``) and the step
+with a ground and its run (``contacts.compiled_step``) are compiled once per machine and
+source version, then loaded from the cache (``core/cache.py``: a folder per version of the sources) in milliseconds. Numba
 compiles one function at a time in a process, so ``precompile(jobs=2)`` starts a second
 process; the two walk one list of the kernels (``ORDER``) from its two ends, each claiming a
 kernel before compiling it (an empty file made with O_EXCL in a shared folder: one process
@@ -37,19 +38,28 @@ _FRONT = ("fd", "fd_batch", "compiled_euler", "planar_rnea_batch", "planar_crba"
           "planar_crba_batch")
 _BACK = ("rnea", "rnea_wrench", "crba", "rnea_batch", "crba_batch", "planar_rnea",
          "planar_rnea_wrench")
-# contacts/compiled.py's constrained forward dynamics, one kernel per kind of robot
+# contacts/compiled.py's constrained forward dynamics, one kernel per kind of robot, and
+# compiled_step.py's step with a ground and its whole run ("ground_<kind>": both, the run
+# calling the step, so one process compiles them)
 CONTACTS = ("constrained_chain", "constrained_tree", "constrained_floating",
-            "constrained_floating_tree")
+            "constrained_floating_tree", "ground_chain", "ground_tree", "ground_floating",
+            "ground_floating_tree")
 _REST = sorted(set(ENTRY_POINTS) - set(_FRONT + _BACK)) + list(CONTACTS)
 ORDER = _FRONT + tuple(_REST[0::2]) + tuple(reversed(_REST[1::2])) + tuple(reversed(_BACK))
 
 
 def load(names):
     """Compile, or load from the cache, the kernels ``names`` ("compiled_euler": the
-    simulator's whole-run loop; CONTACTS: constrained forward dynamics)."""
+    simulator's whole-run loop; CONTACTS: constrained forward dynamics, the step with a
+    ground and its run)."""
     for name in names:
         if name == "compiled_euler":
             _loop()
+        elif name.startswith("ground_"):
+            from .contacts.compiled_step import kernel
+            kind = name.removeprefix("ground_")
+            kernel(f"ground_step_{kind}")
+            kernel(f"ground_run_{kind}")
         elif name in CONTACTS:
             from .contacts.compiled import kernel
             kernel(name.removeprefix("constrained_"))

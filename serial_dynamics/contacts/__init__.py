@@ -12,7 +12,9 @@ bias torques, link poses, Jacobians and bias accelerations); docs/contacts.md.
   forces in the friction cones (a second-order cone program, Clarabel);
 - ``states.py``: the checks of the states and settings;
 - ``ground.py`` and ``stepping.py``: ``Ground`` and unilateral frictional contacts with it
-  in simulation (velocity-level time stepping, projected Gauss-Seidel; ``sd.simulate``).
+  in simulation (velocity-level time stepping, projected Gauss-Seidel; the NumPy reference);
+  ``compiled_step.py``: the same step in one compiled call, and a whole run of them;
+  ``stepper.py``: the step one at a time (the simulator node) and ``sd.simulate``'s run.
 """
 from .collision import contact_points
 from .constrained import constrained_forward_dynamics

@@ -2,7 +2,9 @@
 time-stepping scheme (Stewart and Trinkle 1996; Anitescu and Potra 1997) solved by projected
 Gauss-Seidel over the Delassus matrix; docs/simulation.md ("Contacts with the ground").
 
-One step of dt from (q, v), in NumPy on the facade's public methods:
+One step of dt from (q, v), in NumPy on the facade's public methods (the reference;
+``compiled_step.py`` takes the same step in one compiled call where it covers the robot and
+the inputs, ``stepper.GroundStepper.advance`` choosing):
 
 1. the free velocity v_f = v + dt M^-1 (tau + delta - b) (the joints' torques, their
    dissipation, link wrenches; ``GroupRates``);
@@ -31,9 +33,6 @@ import numpy as np
 from scipy.linalg.lapack import dpotrs
 
 from ..core import K, OK
-from ..sim.equations import EnergyGuard
-from ..sim.group import GroupRates
-from ..sim.result import SolverStats, finish
 from .contact import check_contacts
 from .dense import firm_factor, inverse_factor
 from .ground import Ground
@@ -216,51 +215,3 @@ class GroundContacts:
         forces[near] = lam @ self.B / dt
         active[near] = lam[:, 0] > 0.0
         return v1, forces, active, work
-
-
-def run_with_ground(robot, duration, q0, v0, inputs, dt, dissipation, output_dt, check_energy,
-                    bar, ground, contacts):
-    """``simulate`` with contacts on a ground (semi-implicit Euler, module docstring)."""
-    method = "semi_implicit_euler"
-    rhs = GroupRates(robot, dissipation, method, dt)
-    eq, chart, nb = rhs.eq, robot.chart, rhs.nb
-    solver = GroundContacts(robot, ground, contacts, dt)
-    nsteps = int(np.ceil(duration / dt - 1e-9))
-    every = 1 if output_dt is None else max(1, int(round(output_dt / dt)))
-    guard = EnergyGuard(eq, q0, v0, method, dt, check_energy)
-    q, v, W = q0.copy(), v0.copy(), np.zeros(3)
-    rows, F, A = [], [], []
-
-    def one_step(t, q, v):
-        a, tau, delta, p = rhs.rates(t, q, v, inputs)
-        v1, forces, active, work = solver.step(q, v, v + dt * a, robot.mass_matrix(q))
-        phi0 = chart.centre(q)
-        q1 = chart.point(q, dt * chart.rate(q, phi0, v1) + phi0)
-        dW = np.array([dt * tau @ v1[nb:], dt * delta @ v1[nb:], dt * p[2] + work])
-        return q1, v1, (v1 - v) / dt, tau, delta, dW, forces, active
-
-    for k in range(nsteps + 1):
-        t = k * dt
-        q1, v1, a, tau, delta, dW, forces, active = one_step(t, q, v)
-        if k % every == 0 or k == nsteps:      # the last sample: the forces it would feel
-            rows.append((t, q, v, a, tau, delta, W.copy()))
-            F.append(forces)
-            A.append(active)
-        if k == nsteps:
-            break
-        rhs.check(t + dt, q1, v1)
-        q, v, W = q1, v1, W + dW
-        if (k + 1) % 50 == 0:
-            guard((k + 1) * dt, q, v, W)
-            bar((k + 1) * dt)
-    guard(nsteps * dt, q, v, W)
-    stats = SolverStats(method, steps=nsteps, nfev=nsteps,
-                        message=f"fixed step dt = {dt:g} s; contacts: {solver.solves} solves, "
-                        f"{solver.iterations} PGS sweeps"
-                        + (f", {solver.unconverged} at the iteration limit"
-                           if solver.unconverged else ""))
-    t, Q, V, Acc, TAU, DELTA, Ws = (np.array(c) for c in zip(*rows))
-    out = finish(eq, t, Q, V, Acc, TAU, DELTA, Ws, stats, robot.joint_names)
-    out.contact_forces, out.contact_active = np.array(F), np.array(A)
-    return out
-

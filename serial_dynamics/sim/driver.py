@@ -29,7 +29,8 @@ import time
 
 import numpy as np
 
-from ..contacts.stepping import check_ground, run_with_ground
+from ..contacts.stepper import run_with_ground
+from ..contacts.stepping import check_ground
 from ..model.errors import SimulationError
 from ..robot.base_motion import BaseMotion
 from ..robot.wrenches import generalized_forces

@@ -51,8 +51,9 @@ setup(
         # drivers >= 525; for a CUDA 13 driver, numba-cuda[cu13]). The release the tests ran on.
         "gpu": ["numba-cuda[cu12]==0.30.*"],
         # numba-cuda without a toolkit: the gpu tests run in numba's CUDA simulator
-        "test": ["pytest", "hypothesis", "pin", "example-robot-data", "matplotlib", "mpmath",
-                 "numba-cuda==0.30.*"],
+        # pytest-xdist: the suite runs in two workers (setup.cfg)
+        "test": ["pytest", "pytest-xdist", "hypothesis", "pin", "example-robot-data",
+                 "matplotlib", "mpmath", "numba-cuda==0.30.*"],
         "bench": ["pin", "example-robot-data", "mujoco", "matplotlib"],
     },
     zip_safe=False,

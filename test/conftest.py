@@ -25,27 +25,49 @@ for _d in sorted(os.listdir(HERE), reverse=True):
 sys.path.insert(0, HERE)
 
 
+# The suite runs in two pytest-xdist workers (setup.cfg: -n 2 --dist loadfile; the machine
+# has two cores and much of the suite waits on subprocesses and ROS graphs). WORKER is "gw0",
+# "gw1", ... in a worker and "" in the controller or in a run without xdist (-n 0).
+WORKER = os.environ.get("PYTEST_XDIST_WORKER", "")
+REPRODUCIBILITY = os.path.join(HERE, "core", "test_reproducibility.py")
+
+
 def pytest_sessionstart(session):
     """Compile (or load) every numba kernel once, before any test: on a fresh clone the
-    cache is cold, and the ROS tests' node processes then load it instead of each
-    compiling the kernels again."""
+    cache is cold, and the workers and the ROS tests' node processes then load it instead
+    of each compiling the kernels again. xdist's controller runs this before it starts the
+    workers; a worker loads each kernel when a test first calls it."""
+    if WORKER:
+        return
     from serial_dynamics.precompile import precompile
     print(f"\nnumba kernels compiled or loaded in {precompile(jobs=2):.1f} s (two processes)")
+    # xdist's controller collects nothing: it starts the cold runs where its arguments name
+    # test_reproducibility's file or a folder above it
+    if session.config.getoption("numprocesses", None) and any(
+            os.path.commonpath([os.path.abspath(a.split("::")[0]), REPRODUCIBILITY])
+            == os.path.abspath(a.split("::")[0]) for a in session.config.args):
+        _start_cold_runs()
+
+
+def _start_cold_runs():
+    """test_reproducibility's two compiles from an empty cache (``start_cold_runs``)."""
+    import test_reproducibility
+    try:
+        test_reproducibility.start_cold_runs()
+    except pytest.skip.Exception:  # example-robot-data missing: the test skips itself
+        pass
 
 
 def pytest_collection_modifyitems(session, config, items):
-    """test_reproducibility's test_identical_across_processes runs last: its two compiles
-    from an empty cache (a minute each on a core) start when the tests are collected
-    (below) and run beside the single-threaded tests at the start of the suite, long before
-    the ROS tests, which a loaded machine would disturb."""
+    """test_reproducibility's test_identical_across_processes runs last (in a run without
+    xdist; in xdist's workers with its file): its two compiles from an empty cache (a few
+    minutes each on a core) start when the session starts (xdist's controller) or when
+    the tests are collected (below), and run beside the first tests."""
     last = [item for item in items if item.name == "test_identical_across_processes"]
     items[:] = [item for item in items if item not in last] + last
 
 
 def pytest_collection_finish(session):
-    for item in session.items:
-        if item.name == "test_identical_across_processes":
-            try:
-                item.module.start_cold_runs()
-            except pytest.skip.Exception:  # example-robot-data missing: the test skips itself
-                pass
+    if any(item.name == "test_identical_across_processes" for item in session.items):
+        if not WORKER:     # in xdist's workers the controller started them (sessionstart)
+            _start_cold_runs()

@@ -20,9 +20,11 @@ cache holds, and whatever was called before.
 - ``test_compare_catches_one_ulp``: the comparison itself, on planted 1-ulp differences.
 """
 import atexit
+import json
 import os
 import pathlib
 import shutil
+import signal
 import subprocess
 import sys
 import sysconfig
@@ -155,7 +157,9 @@ print(f"{len(result)} arrays, order {order}")
 
 
 def _start_helper(root, tag, order, cache_dir, second):
-    """Start the helper (in the background) in ``root``; its output goes to files there."""
+    """Start the helper (in the background) in ``root``; its output goes to files there,
+    and its exit status to ``<tag>.rc`` when it ends (so that another process of the
+    session, an xdist worker, can wait for it: ``_Run``)."""
     script = root / "reproduce.py"
     if not script.exists():
         script.write_text(HELPER)
@@ -164,51 +168,75 @@ def _start_helper(root, tag, order, cache_dir, second):
     src = os.path.dirname(os.path.dirname(os.path.abspath(sd.__file__)))
     env = dict(os.environ, NUMBA_CACHE_DIR=str(cache_dir),
                PYTHONPATH=os.pathsep.join([src] + [p for p in [os.environ.get("PYTHONPATH")] if p]))
+    (root / f"{tag}.t0").write_text(repr(time.time()))
     with open(root / f"{tag}.out", "w") as out, open(root / f"{tag}.err", "w") as err:
-        proc = subprocess.Popen([sys.executable, str(script), order, str(root / f"{tag}.npz"),
-                                 *second], env=env, stdout=out, stderr=err, text=True)
-    return proc, time.time()
+        proc = subprocess.Popen(["sh", "-c", '"$0" "$@"; echo $? > "$RC"', sys.executable,
+                                 str(script), order, str(root / f"{tag}.npz"), *second],
+                                env=dict(env, RC=str(root / f"{tag}.rc")), stdout=out,
+                                stderr=err, text=True, start_new_session=True)
+    return proc
 
 
-def _finish_helper(root, tag, started):
+class _Run:
+    """A helper started by ``_start_helper``, in this process or another of the session:
+    ``wait`` for its ``<tag>.rc``; ``t0`` when it started."""
+
+    def __init__(self, root, tag):
+        self.rc, self.t0 = root / f"{tag}.rc", float((root / f"{tag}.t0").read_text())
+
+    def wait(self, timeout):
+        end = time.time() + timeout
+        while not self.rc.exists() or not self.rc.read_text().strip():
+            if time.time() > end:
+                raise TimeoutError(f"{self.rc.name[:-3]} did not end in {timeout} s")
+            time.sleep(0.5)
+        return int(self.rc.read_text())
+
+
+def _finish_helper(root, tag, timeout=900):
     """Wait for a helper; (its arrays, seconds from its start to its output written)."""
-    proc, t0 = started
-    try:
-        code = proc.wait(timeout=600)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        raise
+    run = _Run(root, tag)
+    code = run.wait(timeout)
     stdout, stderr = (root / f"{tag}.out").read_text(), (root / f"{tag}.err").read_text()
     assert stdout.startswith(os.path.abspath(sd.__file__)), (stdout, sd.__file__)
     assert code == 0, f"process {tag} failed (exit {code}):\n{stderr[-4000:]}"
-    elapsed = os.stat(root / f"{tag}.npz").st_mtime - t0
+    elapsed = os.stat(root / f"{tag}.npz").st_mtime - run.t0
     with np.load(root / f"{tag}.npz") as data:
         return {k: data[k] for k in data.files}, elapsed
 
 
-# (a) and (c) compile everything from an empty cache, about a minute each. test/conftest.py
-# starts them as soon as the suite is collected (start_cold_runs), so that they compile
-# beside the single-threaded tests at its start, and runs this test last.
+# (a) and (c) compile everything from an empty cache, a few minutes each. test/conftest.py
+# starts them when the session starts (start_cold_runs: in xdist's controller, which then
+# names their folder to the workers in COLD_RUNS), so that they compile beside the first
+# tests, and runs this test last; a run of this file alone starts them here.
+COLD_RUNS = "SERIAL_DYNAMICS_TEST_COLD_RUNS"
 _EARLY = {}
 
 
 def start_cold_runs():
+    """Start (a) and (c), or find those another process of the session started."""
     if _EARLY:
+        return
+    if os.environ.get(COLD_RUNS):
+        root = pathlib.Path(os.environ[COLD_RUNS])
+        _EARLY.update(root=root, second=tuple(json.loads((root / "second.json").read_text())))
         return
     path, base, tip = _second_robot()
     root = pathlib.Path(tempfile.mkdtemp(prefix="reproducibility_"))
-    _EARLY.update(root=root, second=(path, base, tip),
-                  a=_start_helper(root, "a_cold", "forward", root / "numba_cache_a", (path, base, tip)),
-                  c=_start_helper(root, "c_cold_reversed", "reverse", root / "numba_cache_c",
-                                  (path, base, tip)))
+    (root / "second.json").write_text(json.dumps([path, base, tip]))
+    _EARLY.update(root=root, second=(path, base, tip), procs=[
+        _start_helper(root, "a_cold", "forward", root / "numba_cache_a", (path, base, tip)),
+        _start_helper(root, "c_cold_reversed", "reverse", root / "numba_cache_c",
+                      (path, base, tip))])
+    os.environ[COLD_RUNS] = str(root)          # for the workers xdist starts after this
     atexit.register(_stop_cold_runs)
 
 
 def _stop_cold_runs():
-    for tag in "ac":
-        if _EARLY[tag][0].poll() is None:
-            _EARLY[tag][0].kill()
-            _EARLY[tag][0].wait()
+    for proc in _EARLY["procs"]:
+        if proc.poll() is None:                  # the shell and the helper it runs
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
     shutil.rmtree(_EARLY["root"], ignore_errors=True)
 
 
@@ -281,8 +309,7 @@ def test_identical_across_processes():
     start_cold_runs()                    # a no-op when conftest.py started them
     root, second = _EARLY["root"], _EARLY["second"]
     cold_a, cold_c = root / "numba_cache_a", root / "numba_cache_c"
-    (a, ta), (c, tc) = (_finish_helper(root, "a_cold", _EARLY["a"]),
-                        _finish_helper(root, "c_cold_reversed", _EARLY["c"]))
+    (a, ta), (c, tc) = _finish_helper(root, "a_cold"), _finish_helper(root, "c_cold_reversed")
     cached = sorted(f for _, _, fs in os.walk(cold_a) for f in fs)
     assert any(f.endswith(".nbi") for f in cached), \
         f"process (a) left no index in NUMBA_CACHE_DIR={cold_a}: (b) would not test a warm cache"
@@ -293,8 +320,10 @@ def test_identical_across_processes():
     # each on its own cache: side by side
     started = (_start_helper(root, "b_warm", "forward", cold_a, second),
                _start_helper(root, "d_warm_from_reversed", "forward", cold_c, second))
-    (b, tb), (d, td) = (_finish_helper(root, "b_warm", started[0]),
-                        _finish_helper(root, "d_warm_from_reversed", started[1]))
+    (b, tb), (d, td) = (_finish_helper(root, "b_warm"),
+                        _finish_helper(root, "d_warm_from_reversed"))
+    for proc in started:
+        proc.wait()
     recompiled = sorted(os.path.relpath(p, cold_a) for dirpath, _, fs in os.walk(cold_a)
                         for f in fs for p in [os.path.join(dirpath, f)]
                         if snapshot.get(p) != os.stat(p).st_mtime_ns)

@@ -11,7 +11,11 @@ import pytest
 
 rclpy = pytest.importorskip("rclpy")
 
-DOMAIN = 1 + (os.getpid() % 50) * 2        # odd ids 1..99; the demo test uses DOMAIN + 1
+# Odd ids 1..99 (the demo tests use DOMAIN + 1): 2 (pid % 25) + worker picks one of 50, even
+# for xdist's worker gw0 and odd for gw1, so the two workers of a session never share a
+# graph; the pid keeps most other sessions apart.
+_WORKER = int(os.environ.get("PYTEST_XDIST_WORKER", "gw0")[2:] or 0)
+DOMAIN = 1 + (((os.getpid() % 25) * 2 + _WORKER) % 50) * 2
 os.environ["ROS_DOMAIN_ID"] = str(DOMAIN)
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 os.environ.setdefault("RCUTILS_LOGGING_BUFFERED_STREAM", "0")

@@ -5,9 +5,9 @@
 Every entry point of the compiled core (``core.K``), the simulator's whole-run loop
 (``sim.compiled_euler``), constrained forward dynamics (``contacts.compiled``) and the step
 with a ground and its run (``contacts.compiled_step``) are compiled once per machine and
-source version, then loaded from the cache (``core/cache.py``: a folder per version of the sources) in milliseconds. Numba
-compiles one function at a time in a process, so ``precompile(jobs=2)`` starts a second
-process; the two walk one list of the kernels (``ORDER``) from its two ends, each claiming a
+source version, then loaded from the cache (``core/cache.py``: a folder per version of the
+sources) in milliseconds. Numba compiles one function at a time in a process, so
+``precompile(jobs=2)`` starts a second process; the two walk one list of the kernels (``ORDER``) from its two ends, each claiming a
 kernel before compiling it (an empty file made with O_EXCL in a shared folder: one process
 gets it), until they meet, so that they finish together whatever each kernel costs on this
 machine; this process then loads the other's from the cache it filled.

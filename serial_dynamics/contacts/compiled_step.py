@@ -574,18 +574,19 @@ class CompiledGround:
                         q1, v1, forces, self.out)
         if st != OK and st != DIVERGED:
             return None
-        self.count(self.out[None])
+        self.count(self.out[SWEEPS:UNCONVERGED + 1].tolist())
         return q1, v1, forces, st
 
-    def count(self, OUT):
-        """The solver's counters, from the rows of ``out`` of the steps taken."""
-        s, totals = self.solver, OUT[:, SWEEPS:UNCONVERGED + 1].sum(axis=0).tolist()
+    def count(self, totals):
+        """The solver's counters plus ``totals``: (sweeps, solves, unconverged) of the
+        steps taken (``out``'s SWEEPS .. UNCONVERGED, summed over a run)."""
+        s = self.solver
         s.iterations += int(totals[0])
         s.solves += int(totals[1])
         s.unconverged += int(totals[2])
 
     def active(self, out):
-        """Which contacts pushed, from ``out`` (a step's or a run's)."""
+        """Which contacts pushed, from ``out`` (a step's, or a run's rows)."""
         return out[..., ACTIVE:ACTIVE + self.k] > 0.0
 
     def servo_torque(self):
@@ -604,5 +605,5 @@ class CompiledGround:
             np.ascontiguousarray(v0, dtype=float), np.ascontiguousarray(TAU, dtype=float),
             self.joints, self.spec, self.num, self.solver.lam, e.flags, Q, V, F, OUT)
         done = max(int(done), 0)
-        self.count(OUT[:done])
+        self.count(OUT[:done, SWEEPS:UNCONVERGED + 1].sum(axis=0).tolist())
         return done, Q, V, F, OUT

@@ -72,20 +72,21 @@ class GroundStepper:
         dW the works of the actuators, the dissipation and the environment over the step
         (with ``energy``, else None). ``check``: the new state's divergence check. The
         compiled step where it applies (joint torques, no wrench), else NumPy's."""
-        dt, rhs, nb = self.dt, self.rhs, self.rhs.nb
-        fast = (self.fast.step(q, v, tau, servo)
-                if self.fast is not None and w is None and tau.shape[0] == rhs.n else None)
-        if fast is not None:
-            q1, v1, self.forces, status = fast
-            self.active = self.fast.active(self.fast.out)
-            self.servo_torque = (self.fast.servo_torque() if servo is not None
-                                 else np.zeros(self.robot.dof))
+        dt, rhs, compiled = self.dt, self.rhs, self.fast
+        step = (compiled.step(q, v, tau, servo)
+                if compiled is not None and w is None and tau.shape[0] == rhs.n else None)
+        if step is not None:
+            q1, v1, self.forces, status = step
+            out = compiled.out
+            self.active = compiled.active(out)
+            self.servo_torque = (compiled.servo_torque() if servo is not None
+                                 else np.zeros(rhs.n))
             if check and status == DIVERGED:
                 rhs.check(t + dt, q1, v1)                # raises, naming the joint
-            delta = self.eq.delta(v[nb:]) if energy else None
-            out = self.fast.out
-            dW = (np.array([dt * out[POWER_TAU], dt * out[POWER_DELTA], out[WORK]])
-                  if energy else None)
+            delta, dW = None, None
+            if energy:
+                delta = self.eq.delta(v[rhs.nb:])
+                dW = np.array([dt * out[POWER_TAU], dt * out[POWER_DELTA], out[WORK]])
         else:
             q1, v1, tau, delta, dW = self._numpy_step(t, q, v, tau, w, servo, energy)
             if check:

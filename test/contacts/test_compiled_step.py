@@ -14,6 +14,7 @@ from scipy.spatial.transform import Rotation
 
 from contact_cases import FEET, SOLO
 from pin_reference import erd
+from test_ground_simulation import SIDE, box
 
 import serial_dynamics as sd
 from serial_dynamics.contacts.stepper import GroundStepper
@@ -21,15 +22,6 @@ from serial_dynamics.model.errors import SimulationError
 from serial_dynamics.sim.servo import servo
 
 DT = 1e-3
-G, MASS, SIDE = 9.81, 2.0, 0.2
-BOX = f"""<robot name="box">
- <link name="base_link">
-  <inertial><mass value="{MASS}"/>
-   <inertia ixx="{MASS * SIDE**2 / 6}" iyy="{MASS * SIDE**2 / 5}" izz="{MASS * SIDE**2 / 7}"
-            ixy="0" ixz="0" iyz="0"/></inertial>
-  <collision><geometry><box size="{SIDE} {SIDE} {SIDE}"/></geometry></collision>
- </link>
-</robot>"""
 LEGS = np.array([0.0, 0.8, -1.6, 0.0, 0.8, -1.6, 0.0, -0.8, 1.6, 0.0, -0.8, 1.6])
 
 
@@ -67,11 +59,6 @@ def agree(fast, ref, q, v, steps, torque, servo_of=None):
         pushing += bool(ref.active.any())
         q, v = r1, w1
     return worst, pushing, ref.solver.iterations
-
-
-def box(alpha=0.0):
-    return sd.load_urdf(BOX, floating_base=True,
-                        gravity=(G * np.sin(alpha), 0.0, -G * np.cos(alpha)))
 
 
 def test_solo12_standing_steps_agree():

@@ -51,17 +51,19 @@ def control(tau0, qj, vj):
 
 
 # ------------------------------------------------------------------ ours
-def ours_simulate(robot, q0, feet, tau0, steps):
-    """Seconds per step of sd.simulate (semi-implicit Euler, ground, the control a callable)
-    and the base's largest drift from q0 (m)."""
+def ours_simulate(robot, q0, feet, tau0, steps, feedback=True):
+    """Seconds per step of sd.simulate (semi-implicit Euler, ground) and the base's largest
+    drift from q0 (m): the control a callable (``feedback``), else the standing torques
+    alone, known in advance (no PD: no Python in the loop, the whole run one compiled call)."""
     def torque(t, q, v):
         return control(tau0, q[7:], v[6:])
-    kw = dict(torque=torque, ground=sd.Ground(friction=FRICTION), contacts=feet,
-              method="semi_implicit_euler", dt=DT)
+    kw = dict(torque=torque if feedback else tau0, ground=sd.Ground(friction=FRICTION),
+              contacts=feet, method="semi_implicit_euler", dt=DT)
     sd.simulate(robot, 20 * DT, q0, **kw)                       # warm
     t0 = time.perf_counter()
     res = sd.simulate(robot, steps * DT, q0, **kw)
     wall = (time.perf_counter() - t0) / steps
+    assert feedback or "compiled loop" in res.stats.message
     return wall, float(np.max(np.abs(res.q[:, :3] - q0[:3])))
 
 
@@ -244,9 +246,10 @@ def main():
         runs.append((*ours_simulate(robot, q0, feet, tau0, steps),
                      *ours_stepper(robot, q0, feet, tau0, steps),
                      *mujoco_steps(robot, q0, tau0, steps),
-                     *pinocchio_steps(robot, q0, tau0, steps)))
-    t_sim, d_sim, t_step, d_step, t_mj, d_mj, mass_mj, t_pin, d_pin = runs[0]
-    t_sim, t_step, t_mj, t_pin = (min(r[i] for r in runs) for i in (0, 2, 4, 7))
+                     *pinocchio_steps(robot, q0, tau0, steps),
+                     *ours_simulate(robot, q0, feet, tau0, steps, feedback=False)))
+    t_sim, d_sim, t_step, d_step, t_mj, d_mj, mass_mj, t_pin, d_pin, t_run, d_run = runs[0]
+    t_sim, t_step, t_mj, t_pin, t_run = (min(r[i] for r in runs) for i in (0, 2, 4, 7, 9))
     single = constrained_rows(rounds)
     load = max(load, os.getloadavg()[0])
     mass = robot.model.base_mass + robot.model.mass.sum()
@@ -266,8 +269,12 @@ def main():
            "base's largest displacement over the run.", "",
            "- **ours**: `sd.simulate(..., ground=sd.Ground(friction=1.0), contacts=feet, "
            "method='semi_implicit_euler', dt=1e-3)` (velocity-level time stepping: all contacts "
-           "sticking solved at once, else projected Gauss-Seidel; NumPy on the compiled facade), and `GroundStepper.step` alone (the "
-           "simulator node's step);",
+           "sticking solved at once, else projected Gauss-Seidel), each step one compiled "
+           "call (`contacts/compiled_step.py`) between the calls of the control, and "
+           "`GroundStepper.step` alone (the simulator node's step, the same call); a third "
+           "row, not like for like, `sd.simulate` with the torques known in advance (the "
+           "standing torques alone, no PD): the whole run one compiled call, no Python in "
+           "the loop;",
            "- **MuJoCo** " + mujoco.__version__ + ": the same URDF compiled by MuJoCo's own "
            "URDF importer (`MjSpec.from_string`) with every `<visual>` and `<collision>` "
            "element removed (meshes dropped) and `fusestatic=\"false\"`, then a free joint on "
@@ -285,6 +292,8 @@ def main():
            "| simulation | per step | ours / peer | base drift |", "|---|---|---|---|",
            f"| ours: `sd.simulate` | {fmt_t(t_sim)} | — | {d_sim:.1e} m |",
            f"| ours: `GroundStepper.step` | {fmt_t(t_step)} | — | {d_step:.1e} m |",
+           f"| ours: `sd.simulate`, torques known in advance (one compiled call) | "
+           f"{fmt_t(t_run)} | — | {d_run:.1e} m |",
            f"| MuJoCo `mj_step` | {fmt_t(t_mj)} | {t_sim / t_mj:.1f}x (`simulate`), "
            f"{t_step / t_mj:.1f}x (stepper) | {d_mj:.1e} m |",
            f"| Pinocchio ADMM from Python | {fmt_t(t_pin)} | {t_sim / t_pin:.2f}x (`simulate`), "
@@ -309,10 +318,13 @@ def main():
     out += [f"- {name} constrained forward dynamics <= 1.0x `constraintDynamics`: "
             f"{verdict(a / b, 1.0)};" for name, _, a, b in single]
     out[-1] = out[-1][:-1] + "."
-    out += ["", "Our step is NumPy on the compiled facade (some forty NumPy calls a step); our "
-            "`constrained_forward_dynamics` of one state is one compiled call "
-            "(`contacts/compiled.py`), as the peers' are one compiled call each (`mj_step`, "
-            "`constraintDynamics`) or a few (Pinocchio's ADMM loop)."]
+    out += ["", "Our step is one compiled call (`contacts/compiled_step.py`: M, b, the free "
+            "velocity, the feet's kinematics, G, the sticking solve or PGS, the chart's update "
+            "of q), as the peers' are one compiled call each (`mj_step`) or a few (Pinocchio's "
+            "ADMM loop: `aba`, the constraints' `calc`, `computeMinverse`, the solver); the "
+            "rest of a row's time is Python's: the control's call and, in `sd.simulate`, "
+            "recording the step. Our `constrained_forward_dynamics` of one state is one "
+            "compiled call (`contacts/compiled.py`), as `constraintDynamics` is."]
     text = "\n".join(out) + "\n"
     print(text)
     if not args.no_write:

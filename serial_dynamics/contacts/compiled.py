@@ -7,9 +7,10 @@ Per call, one numba kernel (``constrained_one``):
    acceleration (``crba``/``rnea``, or their tree and floating-base versions: the ones
    ``mass_matrix`` and ``bias_torques`` call), M = L L^T and a0 = M^-1 (tau - b)
    (``core/cholesky.py``);
-2. each contact's rows from the kinematics kernels at its link's frame (``frame_pose_one``,
-   ``frame_jacobian_one``, ``frame_acceleration`` at zero acceleration), moved to the
-   contact point as ``jacobians.contact_rows`` moves them (``compiled_rows.py``); a set of
+2. each contact's rows at its link's frame from the poses of every body, computed once
+   (the steps of the core's ``frame_pose_one``, ``frame_jacobian_one`` and
+   ``frame_acceleration`` at zero acceleration), moved to the contact point as
+   ``jacobians.contact_rows`` moves them (``compiled_rows.py``); a set of
    contacts with the environment whose position errors are not read takes each point as a
    frame of its body, as ``jacobians.world_rows`` does (``contact_table``: the point folded
    into the frame);
@@ -169,11 +170,10 @@ def _proximal(G, r, mu, tolerance, max_iterations, direct, L, f, x, info):
 
 # ------------------------------------------------------------------ the kernel
 @njit(inline="always")
-def constrained_one(crba, rnea, frame_pose_one, frame_jacobian_one, frame_acceleration,
-                    floating, Pd, Pk, q, v, tau, spec, num, flags, a, F):
+def constrained_one(crba, rnea, floating, Pd, Pk, q, v, tau, spec, num, flags, a, F):
     """a (nv,) and the forces table F (k, 3 or 6) of one state (module docstring): ``crba``
     and ``rnea`` the robot's kernels on ``Pd`` (a floating base's instantaneous chain, or
-    the model's ``Pk``), the kinematics kernels on ``Pk``; tau (nv,) or a floating base's
+    the model's ``Pk``), the contacts' kinematics on ``Pk``; tau (nv,) or a floating base's
     joint torques (the base's then zero); ``flags`` Newton-Euler's for b."""
     nv, k = v.shape[0], spec.shape[0]
     m, width = 0, 3
@@ -204,8 +204,7 @@ def constrained_one(crba, rnea, frame_pose_one, frame_jacobian_one, frame_accele
     cholesky_solve_factored(M, a)
     # 2. the rows: J, J-dot v, position errors
     Jc, drift, err = scratch((m, nv), m * nv), stack_empty((m,)), stack_empty((m,))
-    if not contact_rows(frame_pose_one, frame_jacobian_one, frame_acceleration, Pk, q, v, spec,
-                 num[KP], Jc, drift, err):
+    if not contact_rows(Pk, q, v, spec, num[KP], Jc, drift, err):
         return NOT_FINITE
     # 3. Y = L^-1 J^T, G = Y^T Y = J M^-1 J^T, r = -J-dot v - kd J v - kp e - J a0
     Y = scratch((nv, m), nv * m)
@@ -258,28 +257,26 @@ KINDS = {"chain": ("crba", "rnea"), "tree": ("tree_crba", "tree_rnea"),
          "floating_tree": ("floating_tree_crba", "floating_tree_rnea")}
 chain_crba = chain_rnea = tree_crba = tree_rnea = None
 floating_crba = floating_rnea = floating_tree_crba = floating_tree_rnea = None
-pose_kernel = jacobian_kernel = acceleration_kernel = None
 
 
 def chain_one(Pd, Pk, q, v, tau, spec, num, flags, a, F):
-    return constrained_one(chain_crba, chain_rnea, pose_kernel, jacobian_kernel,
-                           acceleration_kernel, False, Pd, Pk, q, v, tau, spec, num, flags, a, F)
+    return constrained_one(chain_crba, chain_rnea, False, Pd, Pk, q, v, tau, spec, num, flags,
+                           a, F)
 
 
 def tree_one(Pd, Pk, q, v, tau, spec, num, flags, a, F):
-    return constrained_one(tree_crba, tree_rnea, pose_kernel, jacobian_kernel,
-                           acceleration_kernel, False, Pd, Pk, q, v, tau, spec, num, flags, a, F)
+    return constrained_one(tree_crba, tree_rnea, False, Pd, Pk, q, v, tau, spec, num, flags,
+                           a, F)
 
 
 def floating_one(Pd, Pk, q, v, tau, spec, num, flags, a, F):
-    return constrained_one(floating_crba, floating_rnea, pose_kernel, jacobian_kernel,
-                           acceleration_kernel, True, Pd, Pk, q, v, tau, spec, num, flags, a, F)
+    return constrained_one(floating_crba, floating_rnea, True, Pd, Pk, q, v, tau, spec, num,
+                           flags, a, F)
 
 
 def floating_tree_one(Pd, Pk, q, v, tau, spec, num, flags, a, F):
-    return constrained_one(floating_tree_crba, floating_tree_rnea, pose_kernel,
-                           jacobian_kernel, acceleration_kernel, True, Pd, Pk, q, v, tau, spec,
-                           num, flags, a, F)
+    return constrained_one(floating_tree_crba, floating_tree_rnea, True, Pd, Pk, q, v, tau,
+                           spec, num, flags, a, F)
 
 
 _FUNCTIONS = {"chain": chain_one, "tree": tree_one, "floating": floating_one,
@@ -298,9 +295,6 @@ def kernel(kind):
         g = globals()
         crba, rnea = KINDS[kind]
         g[f"{kind}_crba"], g[f"{kind}_rnea"] = getattr(K, crba).kernel, getattr(K, rnea).kernel
-        g["pose_kernel"] = K.frame_pose_one.kernel
-        g["jacobian_kernel"] = K.frame_jacobian_one.kernel
-        g["acceleration_kernel"] = K.frame_acceleration
         compile_internal(("cholesky_factor", "cholesky_solve_factored"))
         _KERNELS[kind] = entry(f"constrained_{kind}", _FUNCTIONS[kind], SIGNATURE,
                                  folder="contacts")

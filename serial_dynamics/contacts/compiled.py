@@ -78,6 +78,25 @@ def _factor(L):
 
 
 @njit(inline="always")
+def _firm_factor(G, L, pivot):
+    """L L^T = G (L a copy of G factored by ``_factor``) where G is firm: every squared
+    pivot at least ``pivot`` of G's largest diagonal entry (``dense.firm_factor``'s test).
+    False where the factor fails or a pivot is below that."""
+    m = G.shape[0]
+    g_max = TINY
+    for i in range(m):
+        g_max = max(g_max, G[i, i])
+        for j in range(m):
+            L[i, j] = G[i, j]
+    if not _factor(L):
+        return False
+    for i in range(m):
+        if L[i, i] ** 2 < pivot * g_max:
+            return False
+    return True
+
+
+@njit(inline="always")
 def _lower_solve(L, B, Y):
     """Y = L^-1 B^T (L lower triangular (n, n), B (m, n)): forward substitution, a row of
     Y at a time (its columns contiguous)."""
@@ -127,21 +146,14 @@ def _proximal(G, r, mu, tolerance, max_iterations, direct, L, f, x, info):
     scale, g_max = 1.0, TINY
     for i in range(m):
         scale, g_max = max(scale, abs(r[i])), max(g_max, G[i, i])
-    for i in range(m):
-        for j in range(m):
-            L[i, j] = G[i, j]
     info[1] = 0.0
-    if _factor(L):
-        firm = True
+    if _firm_factor(G, L, direct):
         for i in range(m):
-            firm = firm and L[i, i] ** 2 >= direct * g_max
-        if firm:
-            for i in range(m):
-                f[i] = r[i]
-            cholesky_solve_factored(L, f)
-            info[0] = _residual(G, f, r)
-            if info[0] <= tolerance * scale:
-                return OK
+            f[i] = r[i]
+        cholesky_solve_factored(L, f)
+        info[0] = _residual(G, f, r)
+        if info[0] <= tolerance * scale:
+            return OK
     mu_abs = mu * g_max
     for i in range(m):
         for j in range(m):

@@ -41,7 +41,7 @@ from ..core.signatures import Mat, Pm, Vec, compile_internal, f8, i8
 from ..core.status import BAD_LENGTH, NOT_FINITE
 from ..sim.equations import PRISMATIC_BOUND
 from . import compiled
-from .compiled import _factor, _lower_solve, _upper_solve
+from .compiled import _firm_factor, _lower_solve, _upper_solve
 from .stepping import ERP, MARGIN, MAX_ITERATIONS, STICK_PIVOT, TOLERANCE
 
 DIVERGED = 5                 # a status: the new state fails GroupRates.check's bounds
@@ -111,17 +111,7 @@ def _sticking(G, u0, target, mu, pivot, L, lam):
     contact) where G is firm (every pivot^2 >= ``pivot`` of its largest diagonal entry) and
     every lam in its cone. True where it holds (lam then the answer)."""
     m = u0.shape[0]
-    g_max = 2.2250738585072014e-308
-    for i in range(m):
-        g_max = max(g_max, G[i, i])
-        for j in range(m):
-            L[i, j] = G[i, j]
-    if not _factor(L):
-        return False
-    low = L[0, 0]
-    for i in range(m):
-        low = min(low, L[i, i])
-    if low * low < pivot * g_max:
+    if not _firm_factor(G, L, pivot):
         return False
     for i in range(m):
         lam[i] = (target[i // 3] if i % 3 == 0 else 0.0) - u0[i]

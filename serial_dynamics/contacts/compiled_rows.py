@@ -17,9 +17,8 @@ from numba import njit
 
 from ..algorithms.kinematics import frame_of
 from ..core.data import new_poses, stack_empty
-from ..core.joint import cross, world_column, world_joint_rate
-from ..core.kinematics import frame_of as body_pose, root_and_bodies, rotate
-from ..core.layout import KIND, PARENT
+from ..core.kinematics import (acceleration_at, ancestors, jacobian_at, pose_at,
+                               root_and_bodies)
 
 # the table's columns (F1, F2, ANCHOR: 12 each; POINT: 3) and its width
 BODY, FRAME, OTHER, BODY2, ANCHORED, F1, POINT, F2, ANCHOR = 0, 1, 2, 3, 4, 5, 17, 20, 32
@@ -122,76 +121,21 @@ def _se3_log(R, px, py, pz):
 
 # ------------------------------------------------------------------ the rows
 @njit(inline="always")
-def _link(P, ps, nb, v, z, body, F, pose, rates, X, J, A, S):
+def _link(P, ps, nb, v, z, body, F, pose, rates, X, J, A, S, path):
     """One link's kinematics at (q, v), world axes, from the poses ``ps`` of every body
-    (``root_and_bodies`` of q, once for all contacts): its pose X (where ``pose``), the
-    Jacobian J at the frame F's origin and S's rows a_o, alpha (acceleration at zero joint
-    acceleration: z, zeros), v_o, w (where ``rates``, else zeros). The steps, in their
-    order, of core/kinematics.py's ``pose_of``, ``jacobian_of`` and ``frame_acceleration``
-    after their ``root_and_bodies``, so the same bits; the core's kernels walk from the root
-    once per call, three calls a contact."""
-    n, nv = P.shape[0] - 1, J.shape[1]
-    jv = nv - n               # the first joint's column
-    R0, o, Rb, pb = ps.R0, ps.o, ps.Rb, ps.pb
-    Ri, oi = body_pose(Rb, pb, R0, o, body)
-    fx, fy, fz = rotate(Ri, F[9], F[10], F[11])
-    x0, x1, x2 = oi[0] + fx, oi[1] + fy, oi[2] + fz
-    if pose:                  # R = R0_b R_f, x = o_b + R0_b p_f
-        for r in range(3):
-            for c in range(3):
-                X[r, c] = Ri[r, 0] * F[c] + Ri[r, 1] * F[3 + c] + Ri[r, 2] * F[6 + c]
-            X[3, r] = 0.0
-        X[0, 3], X[1, 3], X[2, 3], X[3, 3] = x0, x1, x2, 1.0
-    for r in range(6):        # J: revolute [z_j x (x - o_j); z_j], prismatic [z_j; 0]
-        for j in range(nv):
-            J[r, j] = 0.0
-    if nb:                    # a free-flyer root: [R_b, -[x - p_b]x R_b; 0, R_b]
-        dx, dy, dz = x0 - pb[0], x1 - pb[1], x2 - pb[2]
-        for c in range(3):
-            J[0, c], J[1, c], J[2, c] = Rb[0, c], Rb[1, c], Rb[2, c]
-            J[3, 3 + c], J[4, 3 + c], J[5, 3 + c] = Rb[0, c], Rb[1, c], Rb[2, c]
-            J[0, 3 + c], J[1, 3 + c], J[2, 3 + c] = cross(Rb[0, c], Rb[1, c], Rb[2, c], dx, dy, dz)
-    path = stack_empty((n,))  # the ancestors of body, from it to the root
-    k, j = 0, body
-    while j >= 0:
-        (J[0, jv + j], J[1, jv + j], J[2, jv + j], J[3, jv + j], J[4, jv + j],
-         J[5, jv + j]) = world_column(P[j, KIND], R0[j, 0, 2], R0[j, 1, 2], R0[j, 2, 2],
-                                      x0 - o[j, 0], x1 - o[j, 1], x2 - o[j, 2])
-        path[k] = j
-        k += 1
-        j = int(P[j, PARENT])
-    # outward from the base: a_i = a_l + alpha_l x d + omega_l x (omega_l x d), then the
-    # joint's rates (Featherstone 2008, Sec. 2.11; ``frame_acceleration``)
-    wx = wy = wz = bx = by = bz = ax = ay = az = 0.0
-    if nb:
-        wx, wy, wz = rotate(Rb, v[3], v[4], v[5])
-        bx, by, bz = rotate(Rb, z[3], z[4], z[5])
-        cx, cy, cz = cross(v[3], v[4], v[5], v[0], v[1], v[2])
-        ax, ay, az = rotate(Rb, z[0] + cx, z[1] + cy, z[2] + cz)
-    ox, oy, oz = pb[0], pb[1], pb[2]
-    for m in range(k - 1, -1, -1):
-        j = int(path[m])
-        dx, dy, dz = o[j, 0] - ox, o[j, 1] - oy, o[j, 2] - oz
-        ex, ey, ez = cross(bx, by, bz, dx, dy, dz)
-        gx, gy, gz = cross(wx, wy, wz, dx, dy, dz)
-        gx, gy, gz = cross(wx, wy, wz, gx, gy, gz)
-        ax, ay, az = ax + ex + gx, ay + ey + gy, az + ez + gz
-        zx, zy, zz = R0[j, 0, 2], R0[j, 1, 2], R0[j, 2, 2]
-        hx, hy, hz = cross(wx, wy, wz, zx, zy, zz)
-        wx, wy, wz, bx, by, bz, ax, ay, az = world_joint_rate(
-            P[j, KIND], wx, wy, wz, bx, by, bz, ax, ay, az, zx, zy, zz, hx, hy, hz,
-            v[jv + j], z[jv + j])
-        ox, oy, oz = o[j, 0], o[j, 1], o[j, 2]
-    ex, ey, ez = cross(bx, by, bz, fx, fy, fz)       # the frame's origin from its body's
-    gx, gy, gz = cross(wx, wy, wz, fx, fy, fz)
-    hx, hy, hz = cross(wx, wy, wz, gx, gy, gz)
-    A[0], A[1], A[2] = ax + ex + hx, ay + ey + hy, az + ez + hz
-    A[3], A[4], A[5] = bx, by, bz
+    (``root_and_bodies`` of q, once for all contacts; core/kinematics.py's per-state steps,
+    so the bits of its kernels): its pose X (where ``pose``), the Jacobian J at the frame F's
+    origin and S's rows a_o, alpha (acceleration at zero joint acceleration: z, zeros), v_o,
+    w (where ``rates``, else zeros). ``path``: scratch for the link's ancestors."""
+    if pose:
+        pose_at(ps, body, F, X)
+    jacobian_at(P, ps, nb, body, F, J)
+    acceleration_at(P, ps, nb, path, ancestors(P, body, path), v, z, body, F, A)
     for r in range(3):
         S[0, r], S[1, r] = A[r], A[3 + r]
         S[2, r], S[3, r] = 0.0, 0.0
         if rates:
-            for j in range(nv):
+            for j in range(v.shape[0]):
                 S[2, r] += J[r, j] * v[j]
                 S[3, r] += J[3 + r, j] * v[j]
 
@@ -237,7 +181,7 @@ def contact_rows(Pk, q, v, spec, kp, Jc, drift, err):
     J1, J2 = stack_empty((6, nv)), stack_empty((6, nv))
     X1, X2, A = stack_empty((4, 4)), stack_empty((4, 4)), stack_empty((6,))
     S1, S2 = stack_empty((4, 3)), stack_empty((4, 3))
-    F = stack_empty((12,))
+    F, path = stack_empty((12,)), stack_empty((n,))
     z = stack_empty((nv,))
     for j in range(nv):
         z[j] = 0.0
@@ -253,13 +197,13 @@ def contact_rows(Pk, q, v, spec, kp, Jc, drift, err):
         pose = kp != 0.0 or other or ux != 0.0 or uy != 0.0 or uz != 0.0
         for k in range(12):
             F[k] = row[F1 + k]
-        _link(Pk, ps, nb, v, z, int(row[BODY]), F, pose, pose or frame, X1, J1, A, S1)
+        _link(Pk, ps, nb, v, z, int(row[BODY]), F, pose, pose or frame, X1, J1, A, S1, path)
         rx, ry, rz = _rotate(X1, ux, uy, uz) if pose else (0.0, 0.0, 0.0)
         Px, Py, Pz = X1[0, 3] + rx, X1[1, 3] + ry, X1[2, 3] + rz     # the point (if pose)
         if other:
             for k in range(12):
                 F[k] = row[F2 + k]
-            _link(Pk, ps, nb, v, z, int(row[BODY2]), F, True, True, X2, J2, A, S2)
+            _link(Pk, ps, nb, v, z, int(row[BODY2]), F, True, True, X2, J2, A, S2, path)
         _point_rows(J1, rx, ry, rz, 1.0, Jc, i)
         if not frame:                  # p1'' - p2'' (classical accelerations)
             drift[i], drift[i + 1], drift[i + 2] = _classical(S1, rx, ry, rz)

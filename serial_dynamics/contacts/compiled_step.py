@@ -9,8 +9,9 @@ Per step from (q, v), one numba kernel (``ground_step``):
    per-kind table), M = L L^T, a = M^-1 (tau + delta - b), delta = -beta qd (viscous
    dissipation, or none); with the servo of ``sim/servo.py`` (``euler_servo``):
    (M + D) y = e, a += y, and L the factor of M + D (D = dt Kd + dt^2 Kp);
-2. v_f = v + dt a; each contact point's pose and Jacobian (``frame_pose_one``,
-   ``frame_jacobian_one`` at the point folded into a frame of its body), its rows
+2. v_f = v + dt a; each contact point's pose and Jacobian (core/kinematics.py's
+   ``pose_at``, ``jacobian_at`` at the point folded into a frame of its body, on the poses
+   of every body computed once: the bits of ``frame_pose_one``, ``frame_jacobian_one``), its rows
    [n; t1; t2] J_P, gap phi and normal speed; the contacts within MARGIN (plus twice their
    approach in a step) are solved;
 3. Y = L^-1 J^T, G = Y^T Y, u0 = J v_f, the targets; lambda by the sticking solve where it
@@ -35,8 +36,8 @@ from numba import njit, types
 from ..core import K, OK
 from ..core.cabi import entry
 from ..core.cholesky import cholesky_factor, cholesky_solve_factored
-from ..core.data import scratch, stack_empty
-from ..core.kinematics import not_finite_one
+from ..core.data import new_poses, scratch, stack_empty
+from ..core.kinematics import jacobian_at, not_finite_one, pose_at, root_and_bodies
 from ..core.signatures import Mat, Pm, Vec, compile_internal, f8, i8
 from ..core.status import BAD_LENGTH, NOT_FINITE
 from ..sim.equations import PRISMATIC_BOUND
@@ -238,8 +239,8 @@ def _chart_step(floating, q, v1, dt, q1):
 
 
 @njit(inline="always")
-def ground_step(crba, rnea, frame_pose_one, frame_jacobian_one, floating, Pd, Pk, q, v,
-                tau, joints, spec, num, lam, flags, q1, v1, forces, out):
+def ground_step(crba, rnea, floating, Pd, Pk, q, v, tau, joints, spec, num, lam, flags, q1,
+                v1, forces, out):
     """One step (module docstring) from (q, v) under the joint torques ``tau`` (n,): q1, v1,
     the contact forces (k, 3, world axes, N), ``lam`` (k, 3) the impulses (the next step's
     warm start), ``out`` (WORK .. ACTIVE + k + n). OK, DIVERGED (q1, v1 written), or
@@ -298,6 +299,9 @@ def ground_step(crba, rnea, frame_pose_one, frame_jacobian_one, floating, Pd, Pk
         vf[i] = v[i] + dt * a[i]
     # 2. the contacts' rows [n; t1; t2] J_P, gaps and approach (GroundContacts.step)
     X, Jw, F = stack_empty((4, 4)), stack_empty((6, nv)), stack_empty((12,))
+    ps = new_poses(n)                          # every body's pose, once for all contacts
+    if not root_and_bodies(Pk, ps, q, nqb, n):
+        return NOT_FINITE
     rows = scratch((k, 3, nv), 3 * k * nv)
     phi, near = stack_empty((k,)), stack_empty((k,))
     m = 0
@@ -305,9 +309,8 @@ def ground_step(crba, rnea, frame_pose_one, frame_jacobian_one, floating, Pd, Pk
         body = int(spec[c, BODY])
         for j in range(12):
             F[j] = spec[c, FRAME + j]
-        if (frame_pose_one(Pk, q, body, F, X) != OK
-                or frame_jacobian_one(Pk, q, body, F, Jw) != OK):
-            return NOT_FINITE
+        pose_at(ps, body, F, X)
+        jacobian_at(Pk, ps, nqb, body, F, Jw)
         for i in range(3):
             for j in range(nv):
                 rows[c, i, j] = (num[B + 3 * i] * Jw[0, j] + num[B + 3 * i + 1] * Jw[1, j]
@@ -431,30 +434,28 @@ def ground_run(step, Pd, Pk, q0, v0, TAU, joints, spec, num, lam, flags, Q, V, F
 # reads a global when it compiles), and the run calls the kind's step.
 chain_crba = chain_rnea = tree_crba = tree_rnea = None
 floating_crba = floating_rnea = floating_tree_crba = floating_tree_rnea = None
-pose_kernel = jacobian_kernel = None
 chain_step_kernel = tree_step_kernel = floating_step_kernel = floating_tree_step_kernel = None
 
 
 def chain_step(Pd, Pk, q, v, tau, joints, spec, num, lam, flags, q1, v1, forces, out):
-    return ground_step(chain_crba, chain_rnea, pose_kernel, jacobian_kernel, False, Pd, Pk, q,
-                       v, tau, joints, spec, num, lam, flags, q1, v1, forces, out)
+    return ground_step(chain_crba, chain_rnea, False, Pd, Pk, q, v, tau, joints, spec, num,
+                       lam, flags, q1, v1, forces, out)
 
 
 def tree_step(Pd, Pk, q, v, tau, joints, spec, num, lam, flags, q1, v1, forces, out):
-    return ground_step(tree_crba, tree_rnea, pose_kernel, jacobian_kernel, False, Pd, Pk, q,
-                       v, tau, joints, spec, num, lam, flags, q1, v1, forces, out)
+    return ground_step(tree_crba, tree_rnea, False, Pd, Pk, q, v, tau, joints, spec, num,
+                       lam, flags, q1, v1, forces, out)
 
 
 def floating_step(Pd, Pk, q, v, tau, joints, spec, num, lam, flags, q1, v1, forces, out):
-    return ground_step(floating_crba, floating_rnea, pose_kernel, jacobian_kernel, True, Pd,
-                       Pk, q, v, tau, joints, spec, num, lam, flags, q1, v1, forces, out)
+    return ground_step(floating_crba, floating_rnea, True, Pd, Pk, q, v, tau, joints, spec,
+                       num, lam, flags, q1, v1, forces, out)
 
 
 def floating_tree_step(Pd, Pk, q, v, tau, joints, spec, num, lam, flags, q1, v1, forces,
                        out):
-    return ground_step(floating_tree_crba, floating_tree_rnea, pose_kernel, jacobian_kernel,
-                       True, Pd, Pk, q, v, tau, joints, spec, num, lam, flags, q1, v1, forces,
-                       out)
+    return ground_step(floating_tree_crba, floating_tree_rnea, True, Pd, Pk, q, v, tau,
+                       joints, spec, num, lam, flags, q1, v1, forces, out)
 
 
 def chain_run(Pd, Pk, q0, v0, TAU, joints, spec, num, lam, flags, Q, V, F, OUT):
@@ -502,8 +503,6 @@ def kernel(name):
             crba, rnea = compiled.KINDS[kind]
             g[f"{kind}_crba"] = getattr(K, crba).kernel
             g[f"{kind}_rnea"] = getattr(K, rnea).kernel
-            g["pose_kernel"] = K.frame_pose_one.kernel
-            g["jacobian_kernel"] = K.frame_jacobian_one.kernel
             compile_internal(("cholesky_factor", "cholesky_solve_factored"))
         _KERNELS[name] = entry(name, (_RUNS if what == "run" else _STEPS)[kind],
                                RUN_SIGNATURE if what == "run" else STEP_SIGNATURE,

@@ -21,7 +21,10 @@ Each entry point takes a batch (N, width) -- one state is N = 1 -- and computes 
 row with nothing carried between rows, so a row's bits are those of the same state alone.
 A frame's pose and Jacobian also have single-state entry points (``frame_pose_one``,
 ``frame_jacobian_one``: a vector q, a matrix out, the batch's per-state steps ``pose_of``,
-``jacobian_of``), which save a call the two views a batch of one needs.
+``jacobian_of``), which save a call the two views a batch of one needs. Each per-state step
+is the poses (``root_and_bodies``) then ``pose_at``, ``jacobian_at`` or ``acceleration_at``
+on them, which compiled code that needs several frames of one state (the contacts' rows)
+calls on poses it computed once.
 Status codes (``status.py``): BAD_LENGTH, NOT_FINITE (a NaN or Inf anywhere in the states,
 or a quaternion of zero length), OK.
 """
@@ -111,12 +114,10 @@ def rotate_t(R, x, y, z):
 
 
 @njit(cache=True, inline="always")
-def pose_of(P, ps, q, nb, body, F, X):
-    """X (4 x 4) of one state q: the pose in the world of the frame F = [R_f row-major, p_f]
-    fixed on joint frame ``body`` (-1: the base): R = R0_b R_f, x = o_b + R0_b p_f. False
-    for a quaternion of zero length."""
-    if not root_and_bodies(P, ps, q, nb, body + 1):
-        return False
+def pose_at(ps, body, F, X):
+    """X (4 x 4): the pose in the world of the frame F = [R_f row-major, p_f] fixed on joint
+    frame ``body`` (-1: the base), from the poses ``ps`` (``root_and_bodies``'s, up to
+    ``body`` at least): R = R0_b R_f, x = o_b + R0_b p_f."""
     Ri, oi = frame_of(ps.Rb, ps.pb, ps.R0, ps.o, body)
     x = rotate(Ri, F[9], F[10], F[11])
     for r in range(3):
@@ -125,6 +126,15 @@ def pose_of(P, ps, q, nb, body, F, X):
         X[r, 3] = oi[r] + x[r]
         X[3, r] = 0.0
     X[3, 3] = 1.0
+
+
+@njit(cache=True, inline="always")
+def pose_of(P, ps, q, nb, body, F, X):
+    """X (4 x 4) of one state q: ``pose_at`` on the poses of q. False for a quaternion of
+    zero length."""
+    if not root_and_bodies(P, ps, q, nb, body + 1):
+        return False
+    pose_at(ps, body, F, X)
     return True
 
 
@@ -156,16 +166,15 @@ def frame_pose_one(P, q, body, F, X):
 
 
 @njit(cache=True, inline="always")
-def jacobian_of(P, ps, q, nb, body, F, J):
-    """J (6 x nv) of one state q: the geometric Jacobian of frame F's origin x, [linear;
-    angular], world axes. Column j of an ancestor of ``body`` (the joints that move it),
-    z_j = R0_j e_z: revolute [z_j x (x - o_j); z_j], prismatic [z_j; 0]; zero for the
-    others. A free-flyer root's six columns, for v = [v_O; omega] in base axes: [R_b,
-    -[x - p_b]x R_b; 0, R_b]. False for a quaternion of zero length."""
+def jacobian_at(P, ps, nb, body, F, J):
+    """J (6 x nv): the geometric Jacobian of frame F's origin x, [linear; angular], world
+    axes, from the poses ``ps`` (``root_and_bodies``'s, up to ``body`` at least; nb = 0 a
+    fixed base, 7 a free-flyer root). Column j of an ancestor of ``body`` (the joints that
+    move it), z_j = R0_j e_z: revolute [z_j x (x - o_j); z_j], prismatic [z_j; 0]; zero for
+    the others. A free-flyer root's six columns, for v = [v_O; omega] in base axes: [R_b,
+    -[x - p_b]x R_b; 0, R_b]."""
     n, nv = P.shape[0] - 1, J.shape[1]
     jv = nv - n               # the first joint's column
-    if not root_and_bodies(P, ps, q, nb, body + 1):
-        return False
     R0, o, Rb, pb = ps.R0, ps.o, ps.Rb, ps.pb
     Ri, oi = frame_of(Rb, pb, R0, o, body)
     fx, fy, fz = rotate(Ri, F[9], F[10], F[11])
@@ -185,6 +194,15 @@ def jacobian_of(P, ps, q, nb, body, F, J):
          J[5, jv + j]) = world_column(P[j, KIND], R0[j, 0, 2], R0[j, 1, 2], R0[j, 2, 2],
                                       x[0] - o[j, 0], x[1] - o[j, 1], x[2] - o[j, 2])
         j = int(P[j, PARENT])
+
+
+@njit(cache=True, inline="always")
+def jacobian_of(P, ps, q, nb, body, F, J):
+    """J (6 x nv) of one state q: ``jacobian_at`` on the poses of q. False for a quaternion
+    of zero length."""
+    if not root_and_bodies(P, ps, q, nb, body + 1):
+        return False
+    jacobian_at(P, ps, nb, body, F, J)
     return True
 
 
@@ -240,6 +258,54 @@ def mass_moment(P, q, base, mc):
     return OK
 
 
+@njit(cache=True, inline="always")
+def ancestors(P, body, path):
+    """The joints from ``body`` to the root into path; their number."""
+    k = 0
+    j = body
+    while j >= 0:
+        path[k] = j
+        k += 1
+        j = int(P[j, PARENT])
+    return k
+
+
+@njit(cache=True, inline="always")
+def acceleration_at(P, ps, nb, path, k, u, du, body, F, out):
+    """out (6,) = [a; alpha] of one state (``frame_acceleration``) from the poses ``ps``
+    (``root_and_bodies``'s), the rates u = qd, du = qdd and ``body``'s ``k`` ancestors in
+    ``path`` (``ancestors``)."""
+    n, nv = P.shape[0] - 1, u.shape[0]
+    jv = nv - n
+    R0, o, Rb, pb = ps.R0, ps.o, ps.Rb, ps.pb
+    wx = wy = wz = bx = by = bz = ax = ay = az = 0.0
+    if nb:
+        wx, wy, wz = rotate(Rb, u[3], u[4], u[5])
+        bx, by, bz = rotate(Rb, du[3], du[4], du[5])
+        cx, cy, cz = cross(u[3], u[4], u[5], u[0], u[1], u[2])
+        ax, ay, az = rotate(Rb, du[0] + cx, du[1] + cy, du[2] + cz)
+    ox, oy, oz = pb[0], pb[1], pb[2]
+    for m in range(k - 1, -1, -1):
+        j = int(path[m])
+        dx, dy, dz = o[j, 0] - ox, o[j, 1] - oy, o[j, 2] - oz
+        ex, ey, ez = cross(bx, by, bz, dx, dy, dz)
+        fx, fy, fz = cross(wx, wy, wz, dx, dy, dz)
+        gx, gy, gz = cross(wx, wy, wz, fx, fy, fz)
+        ax, ay, az = ax + ex + gx, ay + ey + gy, az + ez + gz
+        zx, zy, zz, c, dc = R0[j, 0, 2], R0[j, 1, 2], R0[j, 2, 2], u[jv + j], du[jv + j]
+        hx, hy, hz = cross(wx, wy, wz, zx, zy, zz)
+        wx, wy, wz, bx, by, bz, ax, ay, az = world_joint_rate(
+            P[j, KIND], wx, wy, wz, bx, by, bz, ax, ay, az, zx, zy, zz, hx, hy, hz, c, dc)
+        ox, oy, oz = o[j, 0], o[j, 1], o[j, 2]
+    Ri = Rb if body < 0 else R0[body]
+    fx, fy, fz = rotate(Ri, F[9], F[10], F[11])     # the frame's origin from its body's
+    ex, ey, ez = cross(bx, by, bz, fx, fy, fz)
+    gx, gy, gz = cross(wx, wy, wz, fx, fy, fz)
+    hx, hy, hz = cross(wx, wy, wz, gx, gy, gz)
+    out[0], out[1], out[2] = ax + ex + hx, ay + ey + hy, az + ez + hz
+    out[3], out[4], out[5] = bx, by, bz
+
+
 def frame_acceleration(P, q, qd, qdd, body, F, out):
     """out[s] = [a; alpha]: the classical acceleration of frame F's origin and the angular
     acceleration of its body, world axes (J qdd + J-dot qd; ``algorithms/task_space.py``).
@@ -259,45 +325,12 @@ def frame_acceleration(P, q, qd, qdd, body, F, out):
     if not_finite(q) or not_finite(qd) or not_finite(qdd):
         return NOT_FINITE
     ps = new_poses(n)
-    R0, o, Rb, pb = ps.R0, ps.o, ps.Rb, ps.pb
     path = stack_empty((n,))              # the ancestors of body, from it to the root
-    k = 0
-    j = body
-    while j >= 0:
-        path[k] = j
-        k += 1
-        j = int(P[j, PARENT])
-    jv = nv - n
+    k = ancestors(P, body, path)
     for s in range(N):
         if not root_and_bodies(P, ps, q[s], nb, body + 1):
             return NOT_FINITE
-        u, du = row(qd, s), row(qdd, s)
-        wx = wy = wz = bx = by = bz = ax = ay = az = 0.0
-        if nb:
-            wx, wy, wz = rotate(Rb, u[3], u[4], u[5])
-            bx, by, bz = rotate(Rb, du[3], du[4], du[5])
-            cx, cy, cz = cross(u[3], u[4], u[5], u[0], u[1], u[2])
-            ax, ay, az = rotate(Rb, du[0] + cx, du[1] + cy, du[2] + cz)
-        ox, oy, oz = pb[0], pb[1], pb[2]
-        for m in range(k - 1, -1, -1):
-            j = int(path[m])
-            dx, dy, dz = o[j, 0] - ox, o[j, 1] - oy, o[j, 2] - oz
-            ex, ey, ez = cross(bx, by, bz, dx, dy, dz)
-            fx, fy, fz = cross(wx, wy, wz, dx, dy, dz)
-            gx, gy, gz = cross(wx, wy, wz, fx, fy, fz)
-            ax, ay, az = ax + ex + gx, ay + ey + gy, az + ez + gz
-            zx, zy, zz, c, dc = R0[j, 0, 2], R0[j, 1, 2], R0[j, 2, 2], u[jv + j], du[jv + j]
-            hx, hy, hz = cross(wx, wy, wz, zx, zy, zz)
-            wx, wy, wz, bx, by, bz, ax, ay, az = world_joint_rate(
-                P[j, KIND], wx, wy, wz, bx, by, bz, ax, ay, az, zx, zy, zz, hx, hy, hz, c, dc)
-            ox, oy, oz = o[j, 0], o[j, 1], o[j, 2]
-        Ri = Rb if body < 0 else R0[body]
-        fx, fy, fz = rotate(Ri, F[9], F[10], F[11])     # the frame's origin from its body's
-        ex, ey, ez = cross(bx, by, bz, fx, fy, fz)
-        gx, gy, gz = cross(wx, wy, wz, fx, fy, fz)
-        hx, hy, hz = cross(wx, wy, wz, gx, gy, gz)
-        out[s, 0], out[s, 1], out[s, 2] = ax + ex + hx, ay + ey + hy, az + ez + hz
-        out[s, 3], out[s, 4], out[s, 5] = bx, by, bz
+        acceleration_at(P, ps, nb, path, k, row(qd, s), row(qdd, s), body, F, out[s])
     return OK
 
 

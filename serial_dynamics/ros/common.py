@@ -329,6 +329,13 @@ def stamp_seconds(stamp) -> float:
 SPIN_PERIOD = 0.1   # s; the longest a stop request waits for the spin loop to see it
 
 
+# s from a signal to the exit at the latest: the orderly stop below takes tens of ms, but
+# rclpy's teardown (the executor's shutdown, destroy_node, try_shutdown) has been seen to
+# hang for over 10 s once in a run of the whole suite (a busy controller, eight nodes and two
+# compiles on two cores); a launch file or systemd would then escalate to SIGKILL.
+STOP_DEADLINE = 1.5
+
+
 class _StopRequest:
     """SIGINT and SIGTERM handler of ``run``: it only notes the signal. rclpy's own handler
     (not installed: SignalHandlerOptions.NO) shuts the context down at once, under the
@@ -336,15 +343,42 @@ class _StopRequest:
     "the given context is not valid" in the executor's wait set and the errors of
     ``take_message``. Noted here, the spin loop ends between two callbacks and the node is
     taken down in order (its threads, its timers and publishers, then the context).
-    Before the node spins (loading the robot, compiling), a signal stops the start-up."""
+    Before the node spins (loading the robot, compiling), a signal stops the start-up.
 
-    def __init__(self):
-        self.signal, self.spinning = None, False
+    The first signal also starts a deadline: ``deadline`` s later the process exits with
+    status 0 whatever the teardown is doing, after the ``stopped`` line if the stop had not
+    said it yet (``said_stopped``: once, from either thread); the step it cut short is
+    logged at DEBUG (``--log-level debug``)."""
+
+    def __init__(self, deadline: float = STOP_DEADLINE, exit=None):
+        self.signal, self.spinning, self.logger = None, False, None
+        self.step = "spinning"                  # the teardown step under way
+        self.deadline, self.exit = deadline, exit or _exit_now
+        self._said, self._lock = False, threading.Lock()
 
     def __call__(self, signum, frame):
-        self.signal = signal.Signals(signum).name
+        if self.signal is None:                 # the first signal: its name, the deadline
+            self.signal = signal.Signals(signum).name
+            timer = threading.Timer(self.deadline, self.expire)
+            timer.daemon = True
+            timer.start()
         if not self.spinning:
             raise KeyboardInterrupt
+
+    def said_stopped(self):
+        """Log ``stopped (SIGINT)`` (or the signal's name, or shutdown) unless it was."""
+        with self._lock:
+            if not self._said and self.logger is not None:
+                self.logger.info(f"stopped ({self.signal or 'shutdown'})")
+            self._said = True
+
+    def expire(self):
+        """The deadline: say what the stop was doing, say ``stopped``, exit."""
+        if self.logger is not None:
+            self.logger.debug(f"the stop was still {self.step} {self.deadline} s after "
+                              f"{self.signal}: exiting without it")
+        self.said_stopped()
+        self.exit(0)
 
     def install(self):
         if threading.current_thread() is threading.main_thread():   # signal's own rule
@@ -382,6 +416,7 @@ def run(node_class, args=None, events: bool = False) -> int:
     node = spinner = None
     try:
         node = node_class()
+        stop.logger = node.get_logger()
         node.get_logger().info("ready")
         spinner = executor(events)
         stop.install()                         # again: the events executor took the signals
@@ -399,11 +434,15 @@ def run(node_class, args=None, events: bool = False) -> int:
     finally:
         stop.spinning = True                   # a second signal no longer interrupts
         if node is not None:
+            stop.step = "closing the node's threads"
             node.close()                       # the node's own threads first
-            node.get_logger().info(f"stopped ({stop.signal or 'shutdown'})")
+            stop.said_stopped()
+            stop.step = "shutting the executor down"
             if spinner is not None:            # lets go of the node's entities: the events
                 spinner.shutdown()             # executor holds them in use until then
+            stop.step = "destroying the node"
             node.destroy_node()                # timers, publishers, subscriptions
+        stop.step = "shutting rclpy down"
         rclpy.try_shutdown()
     if stop.signal is not None:
         _exit_now(0)

@@ -10,11 +10,15 @@ that hangs in its spin.
 import signal
 import time
 
+import pytest
+
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 import serial_dynamics as sd
+
+from serial_dynamics.ros import common
 
 from conftest import HOME, Latest, wait_for_log
 
@@ -96,3 +100,52 @@ def test_every_node_stops_cleanly_on_a_signal(ros):
         for bad in ("Traceback", "internal error", "Error", "context is invalid"):
             assert bad not in out, f"{name} printed {bad!r} on {sig.name}:\n{out}"
         assert out.rstrip().splitlines()[-1].endswith(f"stopped ({sig.name})"), out
+
+
+class _Log:
+    def __init__(self):
+        self.lines = []
+
+    def info(self, text):
+        self.lines.append(("info", text))
+
+    def debug(self, text):
+        self.lines.append(("debug", text))
+
+
+def _signalled(*signals, said=False):
+    """A stop request (a 50 ms deadline, its exit recorded) sent ``signals`` while spinning."""
+    exits = []
+    stop = common._StopRequest(deadline=0.05, exit=exits.append)
+    stop.logger, stop.spinning = _Log(), True
+    for sig in signals:
+        stop(sig, None)
+    if said:
+        stop.said_stopped()
+    time.sleep(0.5)
+    return stop, exits
+
+
+def test_a_teardown_that_hangs_is_cut_short_after_saying_stopped():
+    """The deadline (rclpy's teardown once hung over 10 s in a run of this file): exit 0,
+    the first signal's name in the last line, said once, what was cut short at DEBUG."""
+    stop, exits = _signalled(signal.SIGTERM, signal.SIGINT)   # the second starts no deadline
+    assert exits == [0]
+    assert stop.logger.lines == [
+        ("debug", "the stop was still spinning 0.05 s after SIGTERM: exiting without it"),
+        ("info", "stopped (SIGTERM)")]
+
+
+def test_a_stop_that_said_stopped_is_not_said_again_by_the_deadline():
+    stop, exits = _signalled(signal.SIGINT, said=True)
+    assert exits == [0]
+    assert [x for x in stop.logger.lines if x[0] == "info"] == [("info", "stopped (SIGINT)")]
+
+
+def test_a_signal_before_the_spin_interrupts_the_start_up():
+    exits = []
+    stop = common._StopRequest(deadline=0.05, exit=exits.append)
+    with pytest.raises(KeyboardInterrupt):
+        stop(signal.SIGINT, None)
+    time.sleep(0.5)
+    assert exits == [0] and stop.signal == "SIGINT"

@@ -55,7 +55,7 @@ TINY = 2.2250738585072014e-308      # np.finfo(float).tiny
 
 # ------------------------------------------------------------------ linear algebra
 @njit(inline="always")
-def _factor(L):
+def factor(L):
     """L L^T = L's lower triangle in place; False where a pivot is not positive (LAPACK
     dpotrf's info != 0: G singular, or not positive definite). Unlike core's
     ``cholesky_factor`` it stops at such a pivot instead of dividing by it."""
@@ -78,8 +78,8 @@ def _factor(L):
 
 
 @njit(inline="always")
-def _firm_factor(G, L, pivot):
-    """L L^T = G (L a copy of G factored by ``_factor``) where G is firm: every squared
+def firm_factor(G, L, pivot):
+    """L L^T = G (L a copy of G factored by ``factor``) where G is firm: every squared
     pivot at least ``pivot`` of G's largest diagonal entry (``dense.firm_factor``'s test).
     False where the factor fails or a pivot is below that."""
     m = G.shape[0]
@@ -88,7 +88,7 @@ def _firm_factor(G, L, pivot):
         g_max = max(g_max, G[i, i])
         for j in range(m):
             L[i, j] = G[i, j]
-    if not _factor(L):
+    if not factor(L):
         return False
     for i in range(m):
         if L[i, i] ** 2 < pivot * g_max:
@@ -97,7 +97,7 @@ def _firm_factor(G, L, pivot):
 
 
 @njit(inline="always")
-def _lower_solve(L, B, Y):
+def lower_solve(L, B, Y):
     """Y = L^-1 B^T (L lower triangular (n, n), B (m, n)): forward substitution, a row of
     Y at a time (its columns contiguous)."""
     n, m = L.shape[0], B.shape[0]
@@ -114,7 +114,7 @@ def _lower_solve(L, B, Y):
 
 
 @njit(inline="always")
-def _upper_solve(L, x):
+def upper_solve(L, x):
     """x <- L^-T x (L lower triangular): back substitution."""
     n = x.shape[0]
     for i in range(n - 1, -1, -1):
@@ -147,7 +147,7 @@ def _proximal(G, r, mu, tolerance, max_iterations, direct, L, f, x, info):
     for i in range(m):
         scale, g_max = max(scale, abs(r[i])), max(g_max, G[i, i])
     info[1] = 0.0
-    if _firm_factor(G, L, direct):
+    if firm_factor(G, L, direct):
         for i in range(m):
             f[i] = r[i]
         cholesky_solve_factored(L, f)
@@ -158,7 +158,7 @@ def _proximal(G, r, mu, tolerance, max_iterations, direct, L, f, x, info):
     for i in range(m):
         for j in range(m):
             L[i, j] = G[i, j] + (mu_abs if i == j else 0.0)
-    if not _factor(L):
+    if not factor(L):
         return NOT_FINITE
     residual = 0.0
     for i in range(m):
@@ -220,7 +220,7 @@ def constrained_one(crba, rnea, floating, Pd, Pk, q, v, tau, spec, num, flags, a
         return NOT_FINITE
     # 3. Y = L^-1 J^T, G = Y^T Y = J M^-1 J^T, r = -J-dot v - kd J v - kp e - J a0
     Y = scratch((nv, m), nv * m)
-    _lower_solve(M, Jc, Y)
+    lower_solve(M, Jc, Y)
     G, r = scratch((m, m), m * m), stack_empty((m,))
     for i in range(m):
         Jv, Ja = 0.0, 0.0
@@ -249,7 +249,7 @@ def constrained_one(crba, rnea, floating, Pd, Pk, q, v, tau, spec, num, flags, a
         for j in range(m):
             s += Y[i, j] * f[j]
         b[i] = s
-    _upper_solve(M, b)
+    upper_solve(M, b)
     for i in range(nv):
         a[i] += b[i]
     i = 0

@@ -17,41 +17,22 @@ from numba import njit
 
 from ..algorithms.kinematics import frame_of
 from ..core.data import new_poses, stack_empty
+from ..core.joint import cross
 from ..core.kinematics import (acceleration_at, ancestors, jacobian_at, pose_at,
-                               root_and_bodies)
+                               root_and_bodies, rotate, rotate_t)
 
 # the table's columns (F1, F2, ANCHOR: 12 each; POINT: 3) and its width
 BODY, FRAME, OTHER, BODY2, ANCHORED, F1, POINT, F2, ANCHOR = 0, 1, 2, 3, 4, 5, 17, 20, 32
 WIDTH = 44
 
 
-# ------------------------------------------------------------------ small vector steps
-@njit(inline="always")
-def _cross(ax, ay, az, bx, by, bz):
-    return ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
-
-
-@njit(inline="always")
-def _rotate(X, x, y, z):
-    """X[:3, :3] (x, y, z)."""
-    return (X[0, 0] * x + X[0, 1] * y + X[0, 2] * z, X[1, 0] * x + X[1, 1] * y + X[1, 2] * z,
-            X[2, 0] * x + X[2, 1] * y + X[2, 2] * z)
-
-
-@njit(inline="always")
-def _rotate_t(X, x, y, z):
-    """X[:3, :3]^T (x, y, z)."""
-    return (X[0, 0] * x + X[1, 0] * y + X[2, 0] * z, X[0, 1] * x + X[1, 1] * y + X[2, 1] * z,
-            X[0, 2] * x + X[1, 2] * y + X[2, 2] * z)
-
-
 @njit(inline="always")
 def _classical(S, rx, ry, rz):
     """A body point's classical acceleration at zero joint acceleration, r from the origin:
     a_o + alpha x r + w x (w x r) (S rows: a_o, alpha, v_o, w)."""
-    ex, ey, ez = _cross(S[1, 0], S[1, 1], S[1, 2], rx, ry, rz)
-    fx, fy, fz = _cross(S[3, 0], S[3, 1], S[3, 2], rx, ry, rz)
-    gx, gy, gz = _cross(S[3, 0], S[3, 1], S[3, 2], fx, fy, fz)
+    ex, ey, ez = cross(S[1, 0], S[1, 1], S[1, 2], rx, ry, rz)
+    fx, fy, fz = cross(S[3, 0], S[3, 1], S[3, 2], rx, ry, rz)
+    gx, gy, gz = cross(S[3, 0], S[3, 1], S[3, 2], fx, fy, fz)
     return S[0, 0] + ex + gx, S[0, 1] + ey + gy, S[0, 2] + ez + gz
 
 
@@ -59,8 +40,8 @@ def _classical(S, rx, ry, rz):
 def _spatial(S, rx, ry, rz):
     """The linear part of the body's spatial acceleration at the point r from the origin:
     a_o + alpha x r - w x v_o (Featherstone 2008, Sec. 2.11); its angular part is alpha."""
-    ex, ey, ez = _cross(S[1, 0], S[1, 1], S[1, 2], rx, ry, rz)
-    fx, fy, fz = _cross(S[3, 0], S[3, 1], S[3, 2], S[2, 0], S[2, 1], S[2, 2])
+    ex, ey, ez = cross(S[1, 0], S[1, 1], S[1, 2], rx, ry, rz)
+    fx, fy, fz = cross(S[3, 0], S[3, 1], S[3, 2], S[2, 0], S[2, 1], S[2, 2])
     return S[0, 0] + ex - fx, S[0, 1] + ey - fy, S[0, 2] + ez - fz
 
 
@@ -69,7 +50,7 @@ def _point_rows(J, rx, ry, rz, sign, out, i):
     """out[i:i+3] += sign (J_v - [r]x J_w): the rows of the body point at r from the origin
     of the frame whose Jacobian is J (v_P = v_o + w x r)."""
     for j in range(J.shape[1]):
-        cx, cy, cz = _cross(rx, ry, rz, J[3, j], J[4, j], J[5, j])
+        cx, cy, cz = cross(rx, ry, rz, J[3, j], J[4, j], J[5, j])
         out[i, j] += sign * (J[0, j] - cx)
         out[i + 1, j] += sign * (J[1, j] - cy)
         out[i + 2, j] += sign * (J[2, j] - cz)
@@ -114,8 +95,8 @@ def _se3_log(R, px, py, pz):
     # V^-1 = 1 - [phi]x / 2 + c [phi]x^2, c = (1 - t sin t / (2 (1 - cos t))) / t^2
     c = (1.0 / 12.0 + t * t / 720.0 if t < 1e-4
          else (1.0 - t * math.sin(t) / (2.0 * (1.0 - math.cos(t)))) / (t * t))
-    ax, ay, az = _cross(fx, fy, fz, px, py, pz)
-    bx, by, bz = _cross(fx, fy, fz, ax, ay, az)
+    ax, ay, az = cross(fx, fy, fz, px, py, pz)
+    bx, by, bz = cross(fx, fy, fz, ax, ay, az)
     return px - 0.5 * ax + c * bx, py - 0.5 * ay + c * by, pz - 0.5 * az + c * bz, fx, fy, fz
 
 
@@ -153,7 +134,7 @@ def _frame_error(row, X1, X2, other, Px, Py, Pz, err, i):
         for r in range(3):
             for c in range(3):
                 R2[r, c] = X2[r, 0] * A[0, c] + X2[r, 1] * A[1, c] + X2[r, 2] * A[2, c]
-        bx, by, bz = _rotate(X2, ax, ay, az)
+        bx, by, bz = rotate(X2, ax, ay, az)
         ax, ay, az = X2[0, 3] + bx, X2[1, 3] + by, X2[2, 3] + bz
     else:
         for r in range(3):
@@ -162,10 +143,10 @@ def _frame_error(row, X1, X2, other, Px, Py, Pz, err, i):
     for r in range(3):   # R2^T R1
         for c in range(3):
             Rr[r, c] = R2[0, r] * X1[0, c] + R2[1, r] * X1[1, c] + R2[2, r] * X1[2, c]
-    px, py, pz = _rotate_t(R2, Px - ax, Py - ay, Pz - az)
+    px, py, pz = rotate_t(R2, Px - ax, Py - ay, Pz - az)
     e0, e1, e2, e3, e4, e5 = _se3_log(Rr, px, py, pz)
-    err[i], err[i + 1], err[i + 2] = _rotate(X1, e0, e1, e2)
-    err[i + 3], err[i + 4], err[i + 5] = _rotate(X1, e3, e4, e5)
+    err[i], err[i + 1], err[i + 2] = rotate(X1, e0, e1, e2)
+    err[i + 3], err[i + 4], err[i + 5] = rotate(X1, e3, e4, e5)
 
 
 @njit(inline="always")
@@ -198,7 +179,7 @@ def contact_rows(Pk, q, v, spec, kp, Jc, drift, err):
         for k in range(12):
             F[k] = row[F1 + k]
         _link(Pk, ps, nb, v, z, int(row[BODY]), F, pose, pose or frame, X1, J1, A, S1, path)
-        rx, ry, rz = _rotate(X1, ux, uy, uz) if pose else (0.0, 0.0, 0.0)
+        rx, ry, rz = rotate(X1, ux, uy, uz) if pose else (0.0, 0.0, 0.0)
         Px, Py, Pz = X1[0, 3] + rx, X1[1, 3] + ry, X1[2, 3] + rz     # the point (if pose)
         if other:
             for k in range(12):
@@ -208,7 +189,7 @@ def contact_rows(Pk, q, v, spec, kp, Jc, drift, err):
         if not frame:                  # p1'' - p2'' (classical accelerations)
             drift[i], drift[i + 1], drift[i + 2] = _classical(S1, rx, ry, rz)
             if other:                  # link 2's anchor point, r2 = R2 anchor
-                sx, sy, sz = _rotate(X2, row[ANCHOR + 9], row[ANCHOR + 10], row[ANCHOR + 11])
+                sx, sy, sz = rotate(X2, row[ANCHOR + 9], row[ANCHOR + 10], row[ANCHOR + 11])
                 _point_rows(J2, sx, sy, sz, -1.0, Jc, i)
                 bx, by, bz = _classical(S2, sx, sy, sz)
                 drift[i], drift[i + 1] = drift[i] - bx, drift[i + 1] - by
@@ -235,15 +216,15 @@ def contact_rows(Pk, q, v, spec, kp, Jc, drift, err):
             cx, cy, cz = _spatial(S2, sx, sy, sz)
             w1x, w1y, w1z = S1[3, 0], S1[3, 1], S1[3, 2]
             w2x, w2y, w2z = S2[3, 0], S2[3, 1], S2[3, 2]
-            ex, ey, ez = _cross(w1x, w1y, w1z, rx, ry, rz)           # v1 = v_o1 + w1 x r1
+            ex, ey, ez = cross(w1x, w1y, w1z, rx, ry, rz)           # v1 = v_o1 + w1 x r1
             v1x, v1y, v1z = S1[2, 0] + ex, S1[2, 1] + ey, S1[2, 2] + ez
-            ex, ey, ez = _cross(w2x, w2y, w2z, sx, sy, sz)           # v2 = v_o2 + w2 x r2
+            ex, ey, ez = cross(w2x, w2y, w2z, sx, sy, sz)           # v2 = v_o2 + w2 x r2
             v2x, v2y, v2z = S2[2, 0] + ex, S2[2, 1] + ey, S2[2, 2] + ez
             # d/dt of the relative twist in link's frame: A1 - A2 + V1 x V2 (the motion
             # cross product [w1 x v2 + v1 x w2; w1 x w2]; Featherstone 2008, Sec. 2.9)
-            gx, gy, gz = _cross(w1x, w1y, w1z, v2x, v2y, v2z)
-            hx, hy, hz = _cross(w2x, w2y, w2z, v1x, v1y, v1z)
-            kx, ky, kz = _cross(w1x, w1y, w1z, w2x, w2y, w2z)
+            gx, gy, gz = cross(w1x, w1y, w1z, v2x, v2y, v2z)
+            hx, hy, hz = cross(w2x, w2y, w2z, v1x, v1y, v1z)
+            kx, ky, kz = cross(w1x, w1y, w1z, w2x, w2y, w2z)
             ax, ay, az = ax - cx + (gx - hx), ay - cy + (gy - hy), az - cz + (gz - hz)
             bx, by, bz = bx - S2[1, 0] + kx, by - S2[1, 1] + ky, bz - S2[1, 2] + kz
         drift[i], drift[i + 1], drift[i + 2] = ax, ay, az

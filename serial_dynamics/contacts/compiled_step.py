@@ -42,7 +42,7 @@ from ..core.signatures import Mat, Pm, Vec, compile_internal, f8, i8
 from ..core.status import BAD_LENGTH, NOT_FINITE
 from ..sim.equations import PRISMATIC_BOUND
 from . import compiled
-from .compiled import _firm_factor, _lower_solve, _upper_solve
+from .compiled import firm_factor, lower_solve, upper_solve
 from .stepping import ERP, MARGIN, MAX_ITERATIONS, STICK_PIVOT, TOLERANCE
 
 DIVERGED = 5                 # a status: the new state fails GroupRates.check's bounds
@@ -112,7 +112,7 @@ def _sticking(G, u0, target, mu, pivot, L, lam):
     contact) where G is firm (every pivot^2 >= ``pivot`` of its largest diagonal entry) and
     every lam in its cone. True where it holds (lam then the answer)."""
     m = u0.shape[0]
-    if not _firm_factor(G, L, pivot):
+    if not firm_factor(G, L, pivot):
         return False
     for i in range(m):
         lam[i] = (target[i // 3] if i % 3 == 0 else 0.0) - u0[i]
@@ -347,7 +347,7 @@ def ground_step(crba, rnea, floating, Pd, Pk, q, v, tau, joints, spec, num, lam,
         i += 3
     sweeps, unconverged = 0, 0
     if m > 0:
-        _lower_solve(L, J, Y)
+        lower_solve(L, J, Y)
         for r in range(m):
             for s in range(r + 1):
                 g = 0.0
@@ -373,7 +373,7 @@ def ground_step(crba, rnea, floating, Pd, Pk, q, v, tau, joints, spec, num, lam,
             s += Y[l, r] * u[r]
         h[l] = s
     if m > 0:
-        _upper_solve(L, h)
+        upper_solve(L, h)
     for i in range(nv):
         v1[i] = vf[i] + h[i] if m > 0 else vf[i]
     work, i = 0.0, 0

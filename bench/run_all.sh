@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Regenerate bench/BENCHMARKS.md and the plots, one benchmark after the other (about
-# 25 minutes on 2 cores, the ROS soak 5 of them). Run on a quiet machine: other load moves
+# 45 minutes on 2 cores: the ROS soak 5 of them, bench_compile 17). Run on a quiet machine: other load moves
 # the absolute times.
 #   bash bench/run_all.sh            (uses .venv/bin/python, or $PYTHON)
 set -euo pipefail
@@ -26,3 +26,4 @@ PY=${PYTHON:-.venv/bin/python}
 "$PY" bench/bench_contacts.py                # needs the mujoco wheel (the bench extra)
 "$PY" bench/bench_gpu.py                    # GPU rows only where a card is
 "$PY" bench/bench_first_run.py              # empty caches of its own
+"$PY" bench/bench_compile.py                # each kernel alone, empty caches (about 15 min)
